@@ -1,0 +1,64 @@
+"""granflow: the onset of dense granular flow (the aging-rejuvenation model of Farain & Bonn).
+
+Model evaluation, simulation of rheometer protocols, fits with uncertainties, instrument
+readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
+"""
+
+from granflow.errors import (
+    ConvergenceWarning,
+    FileFormatError,
+    FitError,
+    GranflowError,
+    InvalidDataError,
+    InvalidParameterError,
+    InvalidProtocolError,
+)
+from granflow.geometry import Annulus
+from granflow.model import (
+    NoPeakError,
+    Peak,
+    friction_aging,
+    friction_asymptote,
+    friction_slip,
+    friction_slip_jacobian,
+    friction_time,
+    has_peak,
+    initial_force,
+    peak,
+    rhs_slip,
+    rhs_time,
+    steady_state,
+)
+from granflow.params import MaterialConstants, Params
+from granflow.special import scaled_ei, scaled_ei_diff
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Annulus",
+    "ConvergenceWarning",
+    "FileFormatError",
+    "FitError",
+    "GranflowError",
+    "InvalidDataError",
+    "InvalidParameterError",
+    "InvalidProtocolError",
+    "MaterialConstants",
+    "NoPeakError",
+    "Params",
+    "Peak",
+    "__version__",
+    "friction_aging",
+    "friction_asymptote",
+    "friction_slip",
+    "friction_slip_jacobian",
+    "friction_time",
+    "has_peak",
+    "initial_force",
+    "peak",
+    "rhs_slip",
+    "rhs_time",
+    "scaled_ei",
+    "scaled_ei_diff",
+    "steady_state",
+]

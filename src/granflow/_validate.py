@@ -1,0 +1,84 @@
+"""Checks at the door: every public function validates its input here and names the culprit."""
+
+import math
+import numbers
+
+import numpy as np
+
+from granflow.errors import InvalidParameterError
+
+
+def _fmt_unit(unit):
+    return f" {unit}" if unit else ""
+
+
+def real_scalar(value, name, unit=""):
+    """Return ``value`` as a finite float or raise InvalidParameterError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real | np.floating | np.integer):
+        if isinstance(value, np.ndarray) and value.ndim == 0:
+            return real_scalar(value.item(), name, unit)
+        in_unit = f" in {unit}" if unit else ""
+        raise InvalidParameterError(f"{name} must be a real number{in_unit}, got {value!r}")
+    number = float(value)
+    if not math.isfinite(number):
+        raise InvalidParameterError(f"{name} must be finite, got {number}{_fmt_unit(unit)}")
+    return number
+
+
+def positive(value, name, unit=""):
+    number = real_scalar(value, name, unit)
+    if number <= 0:
+        raise InvalidParameterError(f"{name} must be positive, got {number:g}{_fmt_unit(unit)}")
+    return number
+
+
+def non_negative(value, name, unit=""):
+    number = real_scalar(value, name, unit)
+    if number < 0:
+        raise InvalidParameterError(f"{name} must be non-negative, got {number:g}{_fmt_unit(unit)}")
+    return number
+
+
+def float_array(value, name, unit=""):
+    """``value`` as a float64 array (no copy when it already is one; never modified here)."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidParameterError(f"{name} must be an array of real numbers: {exc}") from None
+
+
+def finite_at(number, index, shape, name, unit=""):
+    """Raise InvalidParameterError if ``number`` (flat ``index`` of an array) is not finite."""
+    if not np.isfinite(number):
+        where = f" at index {index_text(np.unravel_index(index, shape))}" if len(shape) else ""
+        raise InvalidParameterError(f"{name} must be finite, got {number}{_fmt_unit(unit)}{where}")
+
+
+def index_text(index):
+    """A numpy index tuple as plain ints: (3,) -> '3', (1, 2) -> '(1, 2)'."""
+    index = tuple(int(i) for i in index)
+    return str(index[0]) if len(index) == 1 else str(index)
+
+
+def real_array(value, name, unit=""):
+    """Return ``value`` as a float64 array of finite numbers (a new array, never a view)."""
+    try:
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidParameterError(f"{name} must be an array of real numbers: {exc}") from None
+    bad = ~np.isfinite(array)
+    if bad.any():
+        index = np.argwhere(bad)[0]
+        where = f" at index {index_text(index)}" if array.ndim else ""
+        raise InvalidParameterError(
+            f"{name} must be finite, got {array[tuple(index)]}{_fmt_unit(unit)}{where}"
+        )
+    return array
+
+
+def same_shape(arrays, names):
+    """Raise InvalidParameterError unless all arrays have one shape."""
+    shapes = [np.shape(a) for a in arrays]
+    if len(set(shapes)) > 1:
+        listed = ", ".join(f"{n} {s}" for n, s in zip(names, shapes, strict=False))
+        raise InvalidParameterError(f"arrays must have the same shape, got {listed}")

@@ -1,0 +1,154 @@
+"""Annular contact of a rotating tube on a granular layer: torque, angle and speed to SI."""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow import _validate as check
+from granflow.errors import InvalidParameterError
+
+__all__ = ["SPEED_UNITS", "Annulus"]
+
+#: Factors from a rotational speed in each unit to rev/s.
+SPEED_UNITS = {
+    "rev/s": 1.0,
+    "1/s": 1.0,
+    "1/min": 1.0 / 60.0,
+    "rpm": 1.0 / 60.0,
+    "rad/s": 0.5 / math.pi,
+}
+_TORQUE_RADII = ("uniform", "mean")
+
+
+def _speed_factor(unit):
+    try:
+        return SPEED_UNITS[unit]
+    except KeyError:
+        known = ", ".join(SPEED_UNITS)
+        raise InvalidParameterError(f"unit must be one of {known}, got {unit!r}") from None
+
+
+def _scale(value, factor, name, unit):
+    """value * factor, keeping scalars as floats and arrays as new arrays."""
+    if np.ndim(value) == 0:
+        return check.real_scalar(value, name, unit) * factor
+    return check.real_array(value, name, unit) * factor
+
+
+@dataclass(frozen=True, slots=True)
+class Annulus:
+    """The annular contact between the end of a tube and the granular layer.
+
+    Parameters
+    ----------
+    outer_diameter : float
+        Outer diameter of the tube [m]; positive.
+    wall_thickness : float
+        Wall thickness [m]; positive and less than the outer radius.
+    torque_radius : {"uniform", "mean"}
+        Radius that turns torque into friction force: ``"uniform"`` (default) assumes a
+        uniform shear stress on the annulus, r_eff = (2/3)(Ro^3 - Ri^3)/(Ro^2 - Ri^2);
+        ``"mean"`` uses the mean radius (Ro + Ri)/2.
+
+    Examples
+    --------
+    >>> from granflow import Annulus
+    >>> tube = Annulus.paper()
+    >>> round(tube.velocity_from_speed(1e-5) * 1e6, 3)  # 1e-5 rev/s in um/s
+    0.861
+    >>> round(tube.effective_radius * 1e3, 2)  # mm
+    13.73
+    """
+
+    outer_diameter: float
+    wall_thickness: float
+    torque_radius: str = "uniform"
+
+    def __post_init__(self):
+        diameter = check.positive(self.outer_diameter, "outer_diameter", "m")
+        wall = check.positive(self.wall_thickness, "wall_thickness", "m")
+        if wall >= diameter / 2:
+            raise InvalidParameterError(
+                f"wall_thickness must be less than the outer radius {diameter / 2:g} m, "
+                f"got {wall:g} m"
+            )
+        if self.torque_radius not in _TORQUE_RADII:
+            raise InvalidParameterError(
+                f"torque_radius must be 'uniform' or 'mean', got {self.torque_radius!r}"
+            )
+        object.__setattr__(self, "outer_diameter", diameter)
+        object.__setattr__(self, "wall_thickness", wall)
+
+    @classmethod
+    def paper(cls, torque_radius="uniform"):
+        """The aluminium tube of Farain & Bonn: outer diameter 29.7 mm, wall 2.3 mm."""
+        return cls(outer_diameter=29.7e-3, wall_thickness=2.3e-3, torque_radius=torque_radius)
+
+    @property
+    def outer_radius(self):
+        """R_o [m]."""
+        return self.outer_diameter / 2
+
+    @property
+    def inner_radius(self):
+        """R_i [m]."""
+        return self.outer_radius - self.wall_thickness
+
+    @property
+    def mean_radius(self):
+        """Mean radius (R_o + R_i)/2 [m]: the radius at which slip and velocity are measured."""
+        return (self.outer_radius + self.inner_radius) / 2
+
+    @property
+    def uniform_stress_radius(self):
+        """(2/3)(R_o^3 - R_i^3)/(R_o^2 - R_i^2) [m]: torque/force for uniform shear stress."""
+        ro, ri = self.outer_radius, self.inner_radius
+        return 2.0 / 3.0 * (ro**3 - ri**3) / (ro**2 - ri**2)
+
+    @property
+    def effective_radius(self):
+        """Radius [m] that converts torque to friction force, as chosen by ``torque_radius``."""
+        return self.uniform_stress_radius if self.torque_radius == "uniform" else self.mean_radius
+
+    @property
+    def area(self):
+        """Contact area pi (R_o^2 - R_i^2) [m^2]."""
+        return math.pi * (self.outer_radius**2 - self.inner_radius**2)
+
+    def force_from_torque(self, torque):
+        """Friction force [N] from torque [N m]."""
+        return _scale(torque, 1.0 / self.effective_radius, "torque", "N m")
+
+    def torque_from_force(self, force):
+        """Torque [N m] from friction force [N]."""
+        return _scale(force, self.effective_radius, "force", "N")
+
+    def slip_from_angle(self, angle):
+        """Slip [m] at the mean radius from deflection angle [rad]."""
+        return _scale(angle, self.mean_radius, "angle", "rad")
+
+    def angle_from_slip(self, slip):
+        """Deflection angle [rad] from slip at the mean radius [m]."""
+        return _scale(slip, 1.0 / self.mean_radius, "slip", "m")
+
+    def velocity_from_speed(self, speed, unit="rev/s"):
+        """Sliding velocity [m/s] at the mean radius from rotational speed.
+
+        Parameters
+        ----------
+        speed : float or array_like
+            Rotational speed in ``unit``.
+        unit : {"rev/s", "1/s", "1/min", "rpm", "rad/s"}
+            Unit of ``speed``; "1/s" and "1/min" are revolutions, as rheometers print them.
+        """
+        return _scale(speed, _speed_factor(unit) * 2.0 * math.pi * self.mean_radius, "speed", unit)
+
+    def speed_from_velocity(self, velocity, unit="rev/s"):
+        """Rotational speed in ``unit`` from sliding velocity [m/s] at the mean radius."""
+        return _scale(
+            velocity,
+            1.0 / (_speed_factor(unit) * 2.0 * math.pi * self.mean_radius),
+            "velocity",
+            "m/s",
+        )
