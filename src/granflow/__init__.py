@@ -30,6 +30,7 @@ from granflow.model import (
     steady_state,
 )
 from granflow.params import MaterialConstants, Params
+from granflow.run import Run
 from granflow.special import scaled_ei, scaled_ei_diff
 
 __version__ = "0.1.0"
@@ -47,6 +48,7 @@ __all__ = [
     "NoPeakError",
     "Params",
     "Peak",
+    "Run",
     "__version__",
     "friction_aging",
     "friction_asymptote",

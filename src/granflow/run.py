@@ -1,0 +1,160 @@
+"""One measured (or simulated) run: time, slip, velocity and friction force in SI units."""
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+
+import numpy as np
+
+from granflow import _validate as check
+from granflow.errors import InvalidDataError
+
+__all__ = ["CONTROL_MODES", "Run"]
+
+CONTROL_MODES = ("rate", "stress")
+_COLUMNS = ("t", "slip", "velocity", "force")
+_UNITS = {"t": "s", "slip": "m", "velocity": "m/s", "force": "N"}
+
+
+def _column(values, name, length):
+    """A read-only float64 copy of one column (NaN allowed: missing values)."""
+    try:
+        array = np.array(values, dtype=np.float64).ravel()
+    except (TypeError, ValueError) as exc:
+        raise InvalidDataError(f"Run column {name!r} must be numeric: {exc}") from None
+    if length is not None and array.shape[0] != length:
+        raise InvalidDataError(
+            f"Run column {name!r} has {array.shape[0]} values, but t has {length}"
+        )
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class Run:
+    """One interval of an experiment, in SI units.
+
+    Parameters
+    ----------
+    t : array_like
+        Time since the start of the interval [s].
+    slip : array_like
+        Measured slip at the mean contact radius [m], zero at the start of the interval;
+        NaN where unknown.
+    velocity : array_like
+        Sliding velocity [m/s]; NaN where unknown.
+    force : array_like
+        Friction force [N]; NaN where unknown.
+    control : {"rate", "stress"}
+        Whether the velocity (rate) or the force (stress) was imposed.
+    meta : mapping
+        Metadata: ``source`` (file), ``interval``, ``normal_load`` [N], ``velocity`` (nominal,
+        [m/s]), ``preparation``, ``rest_time`` [s], ``sample``, and anything else found.
+
+    Arrays are stored as read-only copies, so a Run never shares memory with the caller.
+    """
+
+    t: np.ndarray
+    slip: np.ndarray
+    velocity: np.ndarray
+    force: np.ndarray
+    control: str = "rate"
+    meta: MappingProxyType = field(default_factory=dict)
+
+    def __post_init__(self):
+        time = _column(self.t, "t", None)
+        object.__setattr__(self, "t", time)
+        for name in ("slip", "velocity", "force"):
+            object.__setattr__(self, name, _column(getattr(self, name), name, time.shape[0]))
+        if self.control not in CONTROL_MODES:
+            raise InvalidDataError(f"Run control must be 'rate' or 'stress', got {self.control!r}")
+        object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+
+    def __len__(self):
+        return self.t.shape[0]
+
+    def __repr__(self):
+        source = self.meta.get("source", "?")
+        interval = self.meta.get("interval", "?")
+        return f"Run({len(self)} points, control={self.control!r}, source={source!r}, interval={interval!r})"
+
+    @property
+    def name(self):
+        """A short label: ``source#interval`` when known."""
+        if "name" in self.meta:
+            return str(self.meta["name"])
+        return f"{self.meta.get('source', 'run')}#{self.meta.get('interval', 0)}"
+
+    @property
+    def normal_load(self):
+        """Normal load [N] from the metadata, or None."""
+        value = self.meta.get("normal_load")
+        return None if value is None else float(value)
+
+    @property
+    def nominal_velocity(self):
+        """Imposed velocity [m/s]: the metadata value, else the median measured velocity."""
+        value = self.meta.get("velocity")
+        if value is not None:
+            return float(value)
+        finite = self.velocity[np.isfinite(self.velocity)]
+        return float(np.median(finite)) if finite.size else None
+
+    def to_frame(self):
+        """A tidy pandas DataFrame: columns t, slip, velocity, force (SI), control, and the
+        scalar metadata as constant columns; ``frame.attrs['meta']`` keeps the full metadata."""
+        import pandas as pd
+
+        frame = pd.DataFrame({name: getattr(self, name) for name in _COLUMNS})
+        frame["control"] = self.control
+        for key, value in self.meta.items():
+            if isinstance(value, str | int | float | bool) or value is None:
+                frame[key] = value
+        frame.attrs["meta"] = dict(self.meta)
+        frame.attrs["units"] = dict(_UNITS)
+        return frame
+
+    @classmethod
+    def from_frame(cls, frame, meta=None):
+        """Build a Run from a frame with columns t, slip, velocity, force (missing -> NaN).
+
+        ``meta`` defaults to ``frame.attrs['meta']``; the ``control`` column (if any) gives the
+        control mode.
+        """
+        if "t" not in frame:
+            raise InvalidDataError("a Run frame needs a 't' column [s]")
+        length = len(frame)
+        columns = {
+            name: frame[name].to_numpy(dtype=float) if name in frame else np.full(length, np.nan)
+            for name in _COLUMNS
+        }
+        control = str(frame["control"].iloc[0]) if "control" in frame and length else "rate"
+        if meta is None:
+            meta = dict(frame.attrs.get("meta", {}))
+        return cls(control=control, meta=meta, **columns)
+
+    def select(self, mask):
+        """A new Run with only the points where ``mask`` is true (same metadata)."""
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != self.t.shape:
+            raise InvalidDataError(f"mask has shape {mask.shape}, the run has {self.t.shape}")
+        return Run(
+            t=self.t[mask],
+            slip=self.slip[mask],
+            velocity=self.velocity[mask],
+            force=self.force[mask],
+            control=self.control,
+            meta=dict(self.meta),
+        )
+
+
+def check_finite_times(run):
+    """Raise InvalidDataError unless the run's times are finite and increasing."""
+    time = check.float_array(run.t, "t", "s")
+    if not np.all(np.isfinite(time)):
+        raise InvalidDataError(f"{run.name}: times must be finite")
+    if time.size > 1 and np.any(np.diff(time) <= 0):
+        index = int(np.argmax(np.diff(time) <= 0))
+        raise InvalidDataError(
+            f"{run.name}: times must increase, but t[{index + 1}] = {time[index + 1]:g} s "
+            f"follows t[{index}] = {time[index]:g} s"
+        )
