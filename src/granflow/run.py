@@ -75,7 +75,10 @@ class Run:
     def __repr__(self):
         source = self.meta.get("source", "?")
         interval = self.meta.get("interval", "?")
-        return f"Run({len(self)} points, control={self.control!r}, source={source!r}, interval={interval!r})"
+        return (
+            f"Run({len(self)} points, control={self.control!r}, "
+            f"source={source!r}, interval={interval!r})"
+        )
 
     @property
     def name(self):

@@ -1,0 +1,7 @@
+"""Figures in the manner of the paper: each ``plot_*(result, ax=None) -> Axes``.
+
+matplotlib is imported inside the functions, so importing granflow stays light. Quantities
+are plotted in display units (mN, µm, s) with the unit on every axis.
+"""
+
+__all__: list[str] = []
