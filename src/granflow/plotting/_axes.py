@@ -8,10 +8,6 @@ def new_axes(ax=None, *, figsize=(6.0, 4.0)):
     """Return ``ax``, or a fresh Axes on a new figure when ``ax`` is None."""
     if ax is not None:
         return ax
-    import matplotlib
-
-    if matplotlib.get_backend().lower() not in {"agg", "module://matplotlib_inline.backend_inline"}:
-        matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     _, ax = plt.subplots(figsize=figsize, layout="constrained")
