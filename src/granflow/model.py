@@ -23,10 +23,19 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+from granflow import _ei_tables as _t
 from granflow import _validate as check
 from granflow.errors import GranflowError, InvalidParameterError
 from granflow.params import Params
-from granflow.special import _jit, _scaled_ei_diff_scalar, _scaled_ei_scalar
+from granflow.special import (
+    _ROOT_TAYLOR,
+    _SERIES,
+    _horner,
+    _inline,
+    _jit,
+    _scaled_ei_diff_scalar,
+    _scaled_ei_scalar,
+)
 
 __all__ = [
     "NoPeakError",
@@ -45,11 +54,20 @@ __all__ = [
 ]
 
 _BELOW_X0_TOLERANCE = 1e-12
-_SMALL_S = 0.5  # below this, 1 - exp(-s) is computed as -expm1(-s)
+_EXPM1_LIMIT = 1e-3  # below this s, 1 - exp(-s) cancels: use its Taylor series instead
 
 
 class NoPeakError(GranflowError, ValueError):
     """The friction curve has no maximum: it decreases monotonically from the initial state."""
+
+
+@_inline
+def _small_ei(s):
+    """Ei(s) for 0 < s < 0.5 (unscaled; the caller multiplies by exp(-s) it already has)."""
+    h = (s - _t.EI_ROOT_HI) - _t.EI_ROOT_LO
+    if abs(h) < _t.ROOT_HALF_WIDTH:
+        return h * _horner(_ROOT_TAYLOR, h)
+    return _t.EULER_GAMMA + math.log(s) + s * _horner(_SERIES, s)
 
 
 @_jit
@@ -59,17 +77,34 @@ def _friction_loop(z, scale, alpha, s0, lowest, a, Fd, offset, paper, out):
     The dimensionless slip is ``s = alpha * (scale * z)``; the state starts at s0. With
     ``paper`` the initial condition is Fd (1 - exp(-s0)); otherwise F_init = Fd + offset.
     Returns the index of the first z that is not finite or lies below ``lowest``, or -1.
+
+    For s < 0.5 one exp(-s) serves both the aging term, as exp(-s) (Ei(s) - Ei(s0)), and
+    the approach to Fd, which saves two of the four transcendental calls per point.
     """
     scaled_ei_s0 = _scaled_ei_scalar(s0)
+    small_start = s0 < _t.SMALL_LIMIT
+    ei_s0 = _small_ei(s0) if small_start else 0.0
+    exp_s0 = math.exp(s0) if small_start else 0.0
     exp_minus_s0 = math.exp(-s0)
     for i in range(z.shape[0]):
         if not (z[i] >= lowest and z[i] < math.inf):
             return i
         si = alpha * (scale * z[i])
-        decay = math.exp(s0 - si)
-        aging = a * _scaled_ei_diff_scalar(si, s0, scaled_ei_s0, decay)
+        if si < _t.SMALL_LIMIT and abs(si - s0) >= 0.5 * si:
+            exp_minus_s = math.exp(-si)
+            decay = exp_minus_s * exp_s0
+            aging = a * exp_minus_s * (_small_ei(si) - ei_s0)
+            if si > _EXPM1_LIMIT:
+                approach = 1.0 - exp_minus_s
+            else:  # 1 - exp(-s) = s - s^2/2 + s^3/6 - s^4/24 + s^5/120 to 1e-19 relative
+                approach = si * (
+                    1.0 - si * (0.5 - si * (1.0 / 6.0 - si * (1.0 / 24.0 - si / 120.0)))
+                )
+        else:
+            decay = math.exp(s0 - si)
+            aging = a * _scaled_ei_diff_scalar(si, s0, scaled_ei_s0, decay)
+            approach = -math.expm1(-si) if si < _t.SMALL_LIMIT else 1.0 - decay * exp_minus_s0
         if paper:
-            approach = -math.expm1(-si) if si < _SMALL_S else 1.0 - decay * exp_minus_s0
             out[i] = aging + Fd * approach
         else:
             out[i] = Fd + offset * decay + aging
