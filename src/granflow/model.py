@@ -28,10 +28,8 @@ from granflow import _validate as check
 from granflow.errors import GranflowError, InvalidParameterError
 from granflow.params import Params
 from granflow.special import (
-    _ROOT_TAYLOR,
     _SERIES,
     _horner,
-    _inline,
     _jit,
     _scaled_ei_diff_scalar,
     _scaled_ei_scalar,
@@ -61,15 +59,6 @@ class NoPeakError(GranflowError, ValueError):
     """The friction curve has no maximum: it decreases monotonically from the initial state."""
 
 
-@_inline
-def _small_ei(s):
-    """Ei(s) for 0 < s < 0.5 (unscaled; the caller multiplies by exp(-s) it already has)."""
-    h = (s - _t.EI_ROOT_HI) - _t.EI_ROOT_LO
-    if abs(h) < _t.ROOT_HALF_WIDTH:
-        return h * _horner(_ROOT_TAYLOR, h)
-    return _t.EULER_GAMMA + math.log(s) + s * _horner(_SERIES, s)
-
-
 @_jit
 def _friction_loop(z, scale, alpha, s0, lowest, a, Fd, offset, paper, out):
     """F at the points z (slip, or time with scale = velocity) into out, in one pass.
@@ -78,22 +67,38 @@ def _friction_loop(z, scale, alpha, s0, lowest, a, Fd, offset, paper, out):
     ``paper`` the initial condition is Fd (1 - exp(-s0)); otherwise F_init = Fd + offset.
     Returns the index of the first z that is not finite or lies below ``lowest``, or -1.
 
-    For s < 0.5 one exp(-s) serves both the aging term, as exp(-s) (Ei(s) - Ei(s0)), and
-    the approach to Fd, which saves two of the four transcendental calls per point.
+    Where s0 and s are both below 0.5, Ei(s) - Ei(s0) = log1p(h/s0) + S(s) - S(s0) with
+    h = s - s0 and the power series S; the series difference is summed as h times the divided
+    difference of S (a Horner recurrence on the Horner values at s0), so nothing cancels
+    however close s is to s0, and one exp(-s) serves the aging and the approach terms.
     """
     scaled_ei_s0 = _scaled_ei_scalar(s0)
-    small_start = s0 < _t.SMALL_LIMIT
-    ei_s0 = _small_ei(s0) if small_start else 0.0
-    exp_s0 = math.exp(s0) if small_start else 0.0
     exp_minus_s0 = math.exp(-s0)
+    small_start = s0 < _t.SMALL_LIMIT
+    exp_s0 = math.exp(s0) if small_start else 0.0
+    # Horner values of S at s0: horner_s0[k] = sum of the k+1 highest terms, as in _horner
+    horner_s0 = np.empty(_SERIES.shape[0])
+    acc = 0.0
+    for k in range(_SERIES.shape[0]):
+        acc = acc * s0 + _SERIES[k]
+        horner_s0[k] = acc
+    log_s0_and_series = math.log(s0) + s0 * acc if small_start else 0.0
     for i in range(z.shape[0]):
         if not (z[i] >= lowest and z[i] < math.inf):
             return i
         si = alpha * (scale * z[i])
-        if si < _t.SMALL_LIMIT and abs(si - s0) >= 0.5 * si:
+        if si < _t.SMALL_LIMIT and small_start:
+            h = si - s0
+            if abs(h) < 0.5 * si:
+                divided = 0.0  # (S(si) - S(s0)) / h, where S(x) = x * horner(_SERIES, x)
+                for k in range(_SERIES.shape[0]):
+                    divided = divided * si + horner_s0[k]
+                ei_diff = math.log1p(h / s0) + h * divided
+            else:
+                ei_diff = math.log(si) + si * _horner(_SERIES, si) - log_s0_and_series
             exp_minus_s = math.exp(-si)
-            decay = exp_minus_s * exp_s0
-            aging = a * exp_minus_s * (_small_ei(si) - ei_s0)
+            decay = exp_minus_s * exp_s0 if h != 0.0 else 1.0
+            aging = a * exp_minus_s * ei_diff
             if si > _EXPM1_LIMIT:
                 approach = 1.0 - exp_minus_s
             else:  # 1 - exp(-s) = s - s^2/2 + s^3/6 - s^4/24 + s^5/120 to 1e-19 relative
