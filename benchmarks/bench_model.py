@@ -13,6 +13,7 @@ import scipy
 import scipy.special as sc
 
 import granflow as gf
+from granflow._threads import get_num_threads, set_num_threads
 
 POINTS = 1_000_000
 REPEATS = 7
@@ -58,6 +59,10 @@ def main():
     for label, t in times.items():
         naive = best_time(naive_eq3, t)
         fast = best_time(gf.friction_time, t, params, VELOCITY)
+        threads = get_num_threads()
+        set_num_threads(1)
+        serial = best_time(gf.friction_time, t, params, VELOCITY)
+        set_num_threads(threads)
         exp_only = best_time(np.exp, t)
         worst = np.max(np.abs(gf.friction_time(t, params, VELOCITY) / naive_eq3(t) - 1))
         print(f"\n{label}, {POINTS:.0e} points, best of {REPEATS}:")

@@ -235,3 +235,24 @@ def test_shapes_and_inputs_are_preserved(blue):
     assert np.array_equal(x, before)
     assert isinstance(gf.friction_slip(1e-6, blue), float)
     assert gf.friction_slip(np.array([]), blue).shape == (0,)
+
+
+def test_threaded_evaluation_equals_serial(blue):
+    from granflow import _threads
+
+    t = np.linspace(blue.t0(PAPER_VELOCITY), 3000.0, 3 * _threads.MIN_CHUNK + 17)
+    threads = _threads.get_num_threads()
+    try:
+        _threads.set_num_threads(3)
+        threaded = gf.friction_time(t, blue, PAPER_VELOCITY)
+        t[-5] = np.nan  # a bad point in the last chunk is found and named
+        with pytest.raises(gf.InvalidParameterError, match=f"at index {t.size - 5}"):
+            gf.friction_time(t, blue, PAPER_VELOCITY)
+        _threads.set_num_threads(1)
+        t[-5] = t[-6] + 1e-3
+        serial = gf.friction_time(t, blue, PAPER_VELOCITY)
+    finally:
+        _threads.set_num_threads(threads)
+    assert np.array_equal(threaded[:-5], serial[:-5])
+    with pytest.raises(ValueError, match="at least 1"):
+        _threads.set_num_threads(0)

@@ -24,6 +24,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from granflow import _ei_tables as _t
+from granflow import _threads
 from granflow import _validate as check
 from granflow.errors import GranflowError, InvalidParameterError
 from granflow.params import Params
@@ -122,10 +123,20 @@ def _friction_loop(z, s, decay_all, s0, lowest, a, Fd, offset, paper, out):
     return -1
 
 
+def _evaluate_chunk(flat, out, scale, s0, lowest, params, offset, paper):
+    """Fill ``out`` with F at ``flat``; returns the index of the first bad point, or -1."""
+    with np.errstate(over="ignore", invalid="ignore"):  # bad points are reported by the caller
+        s = params.alpha * (scale * flat)
+        decay = np.subtract(s0, s)
+        np.exp(decay, out=decay)
+    return _friction_loop(flat, s, decay, s0, lowest, params.a, params.Fd, offset, paper, out)
+
+
 def _evaluate(values, params, F_init, *, scale=1.0, name="x", unit="m"):
     """Friction [N] at slips (or times, with scale = velocity) given as any array_like.
 
-    Validates in the same pass: every value must be finite and at least x0 / scale.
+    Validates in the same pass: every value must be finite and at least x0 / scale. Large
+    arrays are split over threads (the compiled loop and NumPy release the GIL).
     """
     array = check.float_array(values, name, unit)
     flat = np.ascontiguousarray(array).ravel()
@@ -135,10 +146,17 @@ def _evaluate(values, params, F_init, *, scale=1.0, name="x", unit="m"):
     offset = 0.0 if paper else F_init - params.Fd
     s0 = params.alpha * params.x0
     lowest = start * (1.0 - _BELOW_X0_TOLERANCE)
-    with np.errstate(over="ignore", invalid="ignore"):  # bad points are reported below
-        s = params.alpha * (scale * flat)
-        decay = np.exp(s0 - s)
-    bad = _friction_loop(flat, s, decay, s0, lowest, params.a, params.Fd, offset, paper, out)
+    bounds = _threads.chunks(flat.shape[0])
+    if len(bounds) == 1:
+        bad = _evaluate_chunk(flat, out, scale, s0, lowest, params, offset, paper)
+    else:
+        results = _threads.map_chunks(
+            lambda lo, hi: _evaluate_chunk(
+                flat[lo:hi], out[lo:hi], scale, s0, lowest, params, offset, paper
+            ),
+            bounds,
+        )
+        bad = next((lo + r for (lo, _), r in zip(bounds, results, strict=True) if r >= 0), -1)
     if bad >= 0:
         check.finite_at(flat[bad], bad, array.shape, name, unit)
         _check_from_start(array, start, name, unit)
