@@ -68,9 +68,11 @@ def main():
         print(f"\n{label}, {POINTS:.0e} points, best of {REPEATS}:")
         print(f"  np.exp alone                     {exp_only * 1e3:8.2f} ms")
         print(f"  Eq. 3 with scipy.special.expi    {naive * 1e3:8.2f} ms")
-        print(f"  granflow.friction_time           {fast * 1e3:8.2f} ms")
+        print(f"  granflow.friction_time, 1 thread {serial * 1e3:8.2f} ms")
+        print(f"  granflow.friction_time, {threads} threads{fast * 1e3:8.2f} ms")
         print(
-            f"  speed-up {naive / fast:6.1f}x;  cost {fast / exp_only:4.1f}x np.exp;  "
+            f"  speed-up {naive / fast:6.1f}x ({naive / serial:.1f}x on one thread);  "
+            f"cost per thread {serial / exp_only:4.1f}x np.exp;  "
             f"largest relative difference {worst:.1e}"
         )
 
