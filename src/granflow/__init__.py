@@ -14,6 +14,7 @@ from granflow.errors import (
     InvalidProtocolError,
 )
 from granflow.geometry import Annulus
+from granflow.io import read, read_runs
 from granflow.model import (
     NoPeakError,
     Peak,
@@ -59,6 +60,8 @@ __all__ = [
     "initial_force",
     "peak",
     "rhs_slip",
+    "read",
+    "read_runs",
     "rhs_time",
     "scaled_ei",
     "scaled_ei_diff",
