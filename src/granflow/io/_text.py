@@ -30,6 +30,10 @@ _BOMS = (
 )
 
 
+def _is_marker(cell):
+    return isinstance(cell, str) and (not cell.strip() or bool(_ASTERISKS.match(cell.strip())))
+
+
 def fail(source, line, message):
     """A FileFormatError that names the file and the line (1-based)."""
     return FileFormatError(f"{source}, line {line}: {message}")
@@ -245,7 +249,7 @@ def read_block(
             na_values=list(MISSING_MARKERS),
             keep_default_na=False,
             skip_blank_lines=False,
-            quoting=csv.QUOTE_MINIMAL if delimiter == "," else csv.QUOTE_NONE,
+            quoting=csv.QUOTE_MINIMAL,
             engine="c",
             low_memory=False,
         )
@@ -273,23 +277,14 @@ def read_block(
             missing = np.isnan(array)
             invalid = np.zeros_like(missing)
         else:
-            raw = column.astype(object)
-            missing = column.isna().to_numpy()
-            marker = raw.map(
-                lambda cell: (
-                    (isinstance(cell, str) and bool(_ASTERISKS.match(cell.strip())))
-                    or (isinstance(cell, str) and not cell.strip())
-                )
-            )
-            missing |= marker.to_numpy(dtype=bool)
-            parsed = raw.map(lambda cell: numbers.parse(cell) if isinstance(cell, str) else None)
-            array = parsed.to_numpy(dtype=object)
-            invalid = np.array([value is None for value in array]) & ~missing
-            array = np.array(
-                [np.nan if value is None else value for value in array], dtype=np.float64
-            )
+            raw = column.astype(object).tolist()
+            missing = np.array(column.isna(), dtype=bool)
+            missing |= np.array([_is_marker(cell) for cell in raw], dtype=bool)
+            parsed = [numbers.parse(cell) if isinstance(cell, str) else None for cell in raw]
+            invalid = np.array([value is None for value in parsed], dtype=bool) & ~missing
+            array = np.array([np.nan if v is None else v for v in parsed], dtype=np.float64)
             if invalid.sum() > invalid.size // 2:
-                text[position] = raw.fillna("").to_numpy(dtype=object)
+                text[position] = column.fillna("").to_numpy(dtype=object)
                 continue
         if line_numbers is None:
             line_numbers = np.arange(first_line, first_line + len(lines))
