@@ -236,6 +236,14 @@ def read_block(
 
     offset = 1 if skip_first else 0
     count = len(names)
+    if not lines:
+        empty = np.empty(0, dtype=np.float64)
+        return Block(
+            values={i: empty for i in range(count) if i not in text_columns},
+            text={i: np.empty(0, dtype=object) for i in text_columns},
+            rows=0,
+            problems=[],
+        )
     try:
         frame = pd.read_csv(
             io.StringIO("\n".join(lines)),
@@ -259,7 +267,7 @@ def read_block(
         found = re.search(r"saw (\d+)", str(exc))
         detail = f"{int(found.group(1)) - offset} cells" if found else "a malformed row"
         raise fail(source, line, f"{detail} where the header has {count} columns") from None
-    except (ValueError, pd.errors.EmptyDataError) as exc:
+    except (ValueError, IndexError, pd.errors.EmptyDataError) as exc:
         raise fail(source, first_line, f"cannot parse the data rows ({exc})") from None
     if len(frame) != len(lines):
         raise fail(source, first_line, f"{len(lines)} data lines gave {len(frame)} rows")
