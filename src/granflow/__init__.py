@@ -4,6 +4,7 @@ Model evaluation, simulation of rheometer protocols, fits with uncertainties, in
 readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
 """
 
+from granflow.campaign import Campaign
 from granflow.errors import (
     ConvergenceWarning,
     FileFormatError,
@@ -38,6 +39,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Annulus",
+    "Campaign",
     "ConvergenceWarning",
     "FileFormatError",
     "FitError",
