@@ -118,6 +118,7 @@ def read(path, format=None, **options):
     except OSError as exc:
         raise FileFormatError(f"{path}: cannot read the file ({exc.strerror})") from None
     text, encoding, problems = decode(raw, str(path))
+    del raw  # a million-row export: do not hold the bytes and the text at once
     if not text.strip():
         raise fail(str(path), 1, "the file is empty")
     parsed = parse(text, source=str(path), format=format, encoding=encoding, **options)
@@ -150,7 +151,7 @@ def read_runs(path, geometry=None, format=None, **options):
     >>> _ = path.write_text("Time [s],Torque [mN m],Deflection Angle [mrad]\\n"
     ...                     "0,0.1,1\\n1,0.2,2\\n", encoding="utf-8")
     >>> run = granflow.read_runs(path)[0]
-    >>> [round(value * 1e6, 6) for value in run.slip]  # um
+    >>> [round(float(value) * 1e6, 6) for value in run.slip]  # um
     [0.0, 13.7]
     """
     from granflow.geometry import Annulus

@@ -44,7 +44,7 @@ def _line_of_offset(text, offset):
 
 
 def decode(raw, source):
-    """Decode an export: (text with \\n line ends, encoding name, problems).
+    """Decode an export: (text, encoding name, problems); readers split it with splitlines().
 
     BOMs decide UTF-32/UTF-16/UTF-8-sig; without one, a file with many NUL bytes is UTF-16
     (LE or BE from where the NULs sit), else strict UTF-8, else cp1252.
@@ -87,7 +87,6 @@ def decode(raw, source):
             _line_of_offset(text, offset),
             f"NUL character in {encoding} text: the file is binary or has the wrong encoding",
         )
-    text = text.replace("\r\n", "\n").replace("\r", "\n")
     return text, encoding, problems
 
 

@@ -43,7 +43,7 @@ def parse_csv(text, source="<text>", encoding="str", column_map=None, units=None
     >>> parsed.intervals[0].si("torque")
     array([0.0015, 0.0025])
     """
-    lines = text.split("\n")
+    lines = text.splitlines()
     column_map = dict(column_map or {})
     units = dict(units or {})
     first = next((i for i, line in enumerate(lines) if line.strip()), None)

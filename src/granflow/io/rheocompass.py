@@ -152,7 +152,7 @@ def parse_rheocompass(text, source="<text>", encoding="str"):
     >>> parsed.intervals[0].si("torque")
     array([0.0005, 0.0006])
     """
-    lines = text.split("\n")
+    lines = text.splitlines()
     problems = []
     delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
     metadata, specs = _scan(lines, delimiter, source, problems)

@@ -100,10 +100,10 @@ def parse_rheoplus(text, source="<text>", encoding="str"):
     >>> from granflow.io import parse_rheoplus
     >>> text = ("Data Series Information\\nName:\\t\\t\\tdemo\\n\\n"
     ...         "Meas. Pts.\\tTime\\tTorque\\n\\t[s]\\t[µNm]\\n1\\t1E0\\t******\\n2\\t2E0\\t5E0\\n")
-    >>> parse_rheoplus(text).intervals[0].si("torque")
-    array([  nan, 5.e-06])
+    >>> parse_rheoplus(text).intervals[0].si("torque").tolist()
+    [nan, 5e-06]
     """
-    lines = text.split("\n")
+    lines = text.splitlines()
     delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
     metadata, specs = _scan(lines, delimiter)
     return finish(source, "rheoplus", encoding, delimiter, lines, specs, metadata, [])

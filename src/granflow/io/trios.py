@@ -78,7 +78,7 @@ def parse_trios(text, source="<text>", encoding="str"):
     >>> parse_trios(text).intervals[0].si("torque")
     array([2.5e-06, 3.5e-06])
     """
-    lines = text.split("\n")
+    lines = text.splitlines()
     delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
     metadata, specs = _scan(lines, delimiter)
     return finish(source, "trios", encoding, delimiter, lines, specs, metadata, [])
