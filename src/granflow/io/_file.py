@@ -82,7 +82,12 @@ class Interval:
         index = self.find(quantity)
         if index is None:
             return None
-        return self.values[index] * self.columns[index].factor
+        factor = self.columns[index].factor
+        inverse = round(1.0 / factor)
+        if inverse > 1 and abs(1.0 / factor - inverse) < 1e-9 * inverse:
+            # decimal prefixes (µ, m): dividing by 1e6 is correctly rounded, * 1e-6 is not
+            return self.values[index] / inverse
+        return self.values[index] * factor
 
     def frame(self):
         """The interval as a pandas DataFrame in file units, columns named ``name [unit]``."""
