@@ -4,6 +4,7 @@ Model evaluation, simulation of rheometer protocols, fits with uncertainties, in
 readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
 """
 
+from granflow.campaign import Campaign
 from granflow.errors import (
     ConvergenceWarning,
     FileFormatError,
@@ -14,6 +15,7 @@ from granflow.errors import (
     InvalidProtocolError,
 )
 from granflow.geometry import Annulus
+from granflow.io import read, read_runs
 from granflow.model import (
     NoPeakError,
     Peak,
@@ -37,6 +39,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Annulus",
+    "Campaign",
     "ConvergenceWarning",
     "FileFormatError",
     "FitError",
@@ -58,6 +61,8 @@ __all__ = [
     "has_peak",
     "initial_force",
     "peak",
+    "read",
+    "read_runs",
     "rhs_slip",
     "rhs_time",
     "scaled_ei",

@@ -116,6 +116,86 @@ def _run_curve(args):
     return 0
 
 
+def _add_inspect(subparsers):
+    parser = subparsers.add_parser(
+        "inspect",
+        help="show what an instrument export holds (format, tests, columns, units, problems)",
+        description="Read an instrument export and print its format, encoding, number format, "
+        "tests and intervals, columns with units, control mode, row counts and problems.",
+        epilog="example:\n  granflow inspect run1.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("file", help="the export (RheoCompass, Rheoplus, TRIOS or CSV)")
+    parser.add_argument("--format", choices=("rheocompass", "rheoplus", "trios", "csv"))
+    parser.set_defaults(run=_run_inspect)
+
+
+def _run_inspect(args):
+    parsed = granflow.read(args.file, format=args.format)
+    print(parsed.report())
+    return 0
+
+
+def _geometry(text):
+    if text == "paper":
+        return granflow.Annulus.paper()
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise _UsageError(
+            f"--geometry must be 'paper' or OUTER_DIAMETER:WALL (e.g. 29.7mm:2.3mm), got {text!r}"
+        )
+    return granflow.Annulus(
+        outer_diameter=parse_quantity(parts[0], "m", "--geometry outer diameter"),
+        wall_thickness=parse_quantity(parts[1], "m", "--geometry wall thickness"),
+    )
+
+
+def _add_convert(subparsers):
+    parser = subparsers.add_parser(
+        "convert",
+        help="convert instrument exports to one tidy Parquet or CSV table of runs",
+        description="Read instrument exports (or a campaign manifest), turn every interval into "
+        "a run (time, slip, velocity, friction force in SI units) and save them as one tidy "
+        "table. A file that fails is reported and the others are converted (exit code 1).",
+        epilog="examples:\n  granflow convert run1.csv run2.txt -o tidy.parquet --geometry paper\n"
+        "  granflow convert --manifest campaign.yaml -o tidy.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("files", nargs="*", help="export files")
+    parser.add_argument("--manifest", help="a campaign manifest (.yaml or .csv)")
+    parser.add_argument("-o", "--output", required=True, help="output .parquet or .csv")
+    parser.add_argument(
+        "--geometry",
+        default="paper",
+        help="'paper' (29.7 mm tube, 2.3 mm wall; default) or OUTER_DIAMETER:WALL",
+    )
+    parser.set_defaults(run=_run_convert)
+
+
+def _run_convert(args):
+    geometry = _geometry(args.geometry)
+    if not args.files and not args.manifest:
+        raise _UsageError("give export files or --manifest")
+    runs, problems = [], []
+    if args.manifest:
+        campaign = granflow.Campaign.from_manifest(args.manifest, geometry=geometry)
+        runs += list(campaign)
+        problems += list(campaign.problems)
+    for file in args.files:
+        try:
+            runs += granflow.read_runs(file, geometry=geometry)
+        except GranflowError as exc:
+            problems.append(str(exc))
+    campaign = granflow.Campaign(runs, problems)
+    for problem in problems:
+        print(f"granflow convert: failed: {problem}", file=sys.stderr)
+    if runs:
+        path = campaign.save(args.output)
+        points = sum(len(run) for run in runs)
+        print(f"wrote {len(runs)} runs ({points} points) to {path}")
+    return 1 if problems else 0
+
+
 def build_parser():
     """The argument parser of the ``granflow`` command (one subparser per command)."""
     parser = argparse.ArgumentParser(
@@ -130,6 +210,8 @@ def build_parser():
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     _add_curve(subparsers)
+    _add_inspect(subparsers)
+    _add_convert(subparsers)
     return parser
 
 
