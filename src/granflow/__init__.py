@@ -13,6 +13,7 @@ from granflow.errors import (
     InvalidParameterError,
     InvalidProtocolError,
 )
+from granflow.fitting import FitResult, fit, fit_many
 from granflow.geometry import Annulus
 from granflow.model import (
     NoPeakError,
@@ -40,6 +41,7 @@ __all__ = [
     "ConvergenceWarning",
     "FileFormatError",
     "FitError",
+    "FitResult",
     "GranflowError",
     "InvalidDataError",
     "InvalidParameterError",
@@ -50,6 +52,8 @@ __all__ = [
     "Peak",
     "Run",
     "__version__",
+    "fit",
+    "fit_many",
     "friction_aging",
     "friction_asymptote",
     "friction_slip",
