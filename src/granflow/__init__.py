@@ -15,6 +15,16 @@ from granflow.errors import (
 )
 from granflow.fitting import FitResult, fit, fit_many
 from granflow.geometry import Annulus
+from granflow.joint import (
+    AmontonsResult,
+    CollapseResult,
+    JointFitResult,
+    PreparationSpread,
+    fit_amontons,
+    fit_joint,
+    preparation_spread,
+    velocity_collapse,
+)
 from granflow.model import (
     NoPeakError,
     Peak,
@@ -37,7 +47,9 @@ from granflow.special import scaled_ei, scaled_ei_diff
 __version__ = "0.1.0"
 
 __all__ = [
+    "AmontonsResult",
     "Annulus",
+    "CollapseResult",
     "ConvergenceWarning",
     "FileFormatError",
     "FitError",
@@ -46,13 +58,17 @@ __all__ = [
     "InvalidDataError",
     "InvalidParameterError",
     "InvalidProtocolError",
+    "JointFitResult",
     "MaterialConstants",
     "NoPeakError",
     "Params",
     "Peak",
+    "PreparationSpread",
     "Run",
     "__version__",
     "fit",
+    "fit_amontons",
+    "fit_joint",
     "fit_many",
     "friction_aging",
     "friction_asymptote",
@@ -62,9 +78,11 @@ __all__ = [
     "has_peak",
     "initial_force",
     "peak",
+    "preparation_spread",
     "rhs_slip",
     "rhs_time",
     "scaled_ei",
     "scaled_ei_diff",
     "steady_state",
+    "velocity_collapse",
 ]
