@@ -4,6 +4,8 @@ Model evaluation, simulation of rheometer protocols, fits with uncertainties, in
 readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
 """
 
+from granflow.compare import ModelComparison, compare_models
+from granflow.creep import CurveFitResult, fit_creep
 from granflow.errors import (
     ConvergenceWarning,
     FileFormatError,
@@ -51,6 +53,7 @@ __all__ = [
     "Annulus",
     "CollapseResult",
     "ConvergenceWarning",
+    "CurveFitResult",
     "FileFormatError",
     "FitError",
     "FitResult",
@@ -60,14 +63,17 @@ __all__ = [
     "InvalidProtocolError",
     "JointFitResult",
     "MaterialConstants",
+    "ModelComparison",
     "NoPeakError",
     "Params",
     "Peak",
     "PreparationSpread",
     "Run",
     "__version__",
+    "compare_models",
     "fit",
     "fit_amontons",
+    "fit_creep",
     "fit_joint",
     "fit_many",
     "friction_aging",

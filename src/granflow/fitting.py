@@ -23,7 +23,6 @@ import math
 import warnings
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from types import MappingProxyType
 
 import numpy as np
 from scipy.optimize import brentq
@@ -33,6 +32,7 @@ from granflow._fitcore import (
     SLOTS,
     WALD_Z,
     Curve,
+    FrozenMap,
     GlobalParameter,
     Problem,
     covariance,
@@ -278,7 +278,7 @@ def _starts(z, y, fixed, features):
 
 
 def _frozen(mapping):
-    return MappingProxyType(dict(mapping))
+    return FrozenMap(dict(mapping))
 
 
 def _read_only(array):
@@ -332,14 +332,14 @@ class FitResult:
 
     domain: str
     names: tuple
-    params: MappingProxyType
-    stderr: MappingProxyType
-    ci95: MappingProxyType
-    ci_method: MappingProxyType
-    covar: MappingProxyType
-    correl: MappingProxyType
+    params: FrozenMap
+    stderr: FrozenMap
+    ci95: FrozenMap
+    ci_method: FrozenMap
+    covar: FrozenMap
+    correl: FrozenMap
     fixed: tuple
-    at_bound: MappingProxyType
+    at_bound: FrozenMap
     success: bool
     message: str
     nfev: int
@@ -763,9 +763,22 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
 # --------------------------------------------------------------------------- batches
 
 
+def _portable(data):
+    """A Run as a picklable tuple (its metadata mapping cannot cross a process boundary)."""
+    if isinstance(data, Run):
+        columns = {
+            name: np.asarray(getattr(data, name)) for name in ("t", "slip", "velocity", "force")
+        }
+        return ("run", columns, data.control, dict(data.meta))
+    return data
+
+
 def _fit_item(item):
     """Fit one (data, options) item; returns the FitResult or the GranflowError raised."""
     data, options = item
+    if isinstance(data, tuple) and len(data) == 4 and data[0] == "run":
+        _, columns, control, meta = data
+        data = Run(control=control, meta=meta, **columns)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)
@@ -806,7 +819,7 @@ def fit_many(datasets, *, jobs=2, errors="raise", **options):
         raise InvalidParameterError(f"errors must be 'raise' or 'return', got {errors!r}")
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InvalidParameterError(f"jobs must be a positive integer, got {jobs!r}")
-    items = [(data, options) for data in datasets]
+    items = [(_portable(data), options) for data in datasets]
     if jobs == 1 or len(items) <= 1:
         results = [_fit_item(item) for item in items]
     else:

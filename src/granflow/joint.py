@@ -15,13 +15,12 @@ Every run is fitted alone first (no initial guess needed); those fits start the 
 import math
 import warnings
 from dataclasses import dataclass
-from types import MappingProxyType
 
 import numpy as np
 from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
 
-from granflow._fitcore import WALD_Z, Curve, GlobalParameter, Problem, covariance
+from granflow._fitcore import WALD_Z, Curve, FrozenMap, GlobalParameter, Problem, covariance
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
 from granflow.fitting import FitResult, _json_safe, _prepare, fit, parameter_names
 from granflow.model import peak
@@ -68,11 +67,11 @@ class JointFitResult:
 
     domain: str
     names: tuple
-    params: MappingProxyType
-    stderr: MappingProxyType
-    ci95: MappingProxyType
-    covar: MappingProxyType
-    correl: MappingProxyType
+    params: FrozenMap
+    stderr: FrozenMap
+    ci95: FrozenMap
+    covar: FrozenMap
+    correl: FrozenMap
     fixed: tuple
     run_params: tuple
     run_names: tuple
@@ -212,11 +211,11 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
         for name in names_order
     }
     covar = {
-        p: MappingProxyType({q: float(covar_free[i, j]) for j, q in enumerate(free_names)})
+        p: FrozenMap({q: float(covar_free[i, j]) for j, q in enumerate(free_names)})
         for i, p in enumerate(free_names)
     }
     correl = {
-        p: MappingProxyType(
+        p: FrozenMap(
             {
                 q: covar[p][q] / (stderr[p] * stderr[q]) if stderr[p] * stderr[q] > 0 else 0.0
                 for q in free_names
@@ -226,9 +225,7 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
     }
     model_names = parameter_names(domain)
     run_params = tuple(
-        MappingProxyType(
-            {model_names[slot]: factor * params[g] for slot, (g, factor) in enumerate(links)}
-        )
+        FrozenMap({model_names[slot]: factor * params[g] for slot, (g, factor) in enumerate(links)})
         for links in spec.links
     )
     messages = [solution.message]
@@ -238,11 +235,11 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
     return dict(
         domain=domain,
         names=tuple(names_order),
-        params=MappingProxyType(params),
-        stderr=MappingProxyType(stderr),
-        ci95=MappingProxyType(ci95),
-        covar=MappingProxyType(covar),
-        correl=MappingProxyType(correl),
+        params=FrozenMap(params),
+        stderr=FrozenMap(stderr),
+        ci95=FrozenMap(ci95),
+        covar=FrozenMap(covar),
+        correl=FrozenMap(correl),
         fixed=tuple(n_ for n_ in names_order if n_ in fixed),
         run_params=run_params,
         individual=tuple(fits),
@@ -512,7 +509,7 @@ class AmontonsResult:
 
     joint: JointFitResult
     per_load: tuple
-    lines: MappingProxyType
+    lines: FrozenMap
 
     def report(self):
         """The per-load table and the lines through the origin."""
@@ -629,7 +626,7 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
             )
         else:
             row["alpha_v"] = None
-        per_load.append(MappingProxyType(row))
+        per_load.append(FrozenMap(row))
     lines = {}
     for key in ("a", "Fd"):
         lines[key] = _line_through_origin(
@@ -637,7 +634,7 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
             [row[key][0] for row in per_load],
             [row[key][1] for row in per_load],
         )
-    return AmontonsResult(joint=joint, per_load=tuple(per_load), lines=MappingProxyType(lines))
+    return AmontonsResult(joint=joint, per_load=tuple(per_load), lines=FrozenMap(lines))
 
 
 # --------------------------------------------------------------------------- preparation
@@ -666,8 +663,8 @@ class PreparationSpread:
 
     domain: str
     repeats: int
-    start: MappingProxyType
-    Fd: MappingProxyType
+    start: FrozenMap
+    Fd: FrozenMap
     peak_force: tuple
     correlation: float
     p_value: float
@@ -706,7 +703,7 @@ def _spread(values):
     values = np.asarray(values, dtype=float)
     mean = float(values.mean())
     std = float(values.std(ddof=1)) if values.size > 1 else 0.0
-    return MappingProxyType(
+    return FrozenMap(
         {
             "mean": mean,
             "std": std,
