@@ -27,6 +27,7 @@ from granflow.joint import (
     preparation_spread,
     velocity_collapse,
 )
+from granflow.mcmc import PosteriorResult, sample_posterior
 from granflow.model import (
     NoPeakError,
     Peak,
@@ -67,6 +68,7 @@ __all__ = [
     "NoPeakError",
     "Params",
     "Peak",
+    "PosteriorResult",
     "PreparationSpread",
     "Run",
     "__version__",
@@ -87,6 +89,7 @@ __all__ = [
     "preparation_spread",
     "rhs_slip",
     "rhs_time",
+    "sample_posterior",
     "scaled_ei",
     "scaled_ei_diff",
     "steady_state",

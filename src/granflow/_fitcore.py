@@ -91,6 +91,31 @@ def _model_and_jacobian(z, a, alpha, Fd, x0, F, J):
         J[i, 3] = -a * decay / x0
 
 
+@_jit
+def _model_only(z, a, alpha, Fd, x0, F):
+    """Eq. 3 alone (no derivatives) with the same rule below x0 as _model_and_jacobian."""
+    s0 = alpha * x0
+    scaled_ei_s0 = _scaled_ei_scalar(s0)
+    exp_minus_s0 = math.exp(-s0)
+    start = -Fd * math.expm1(-s0)
+    for i in range(z.shape[0]):
+        zi = z[i]
+        if zi <= x0:
+            F[i] = start
+            continue
+        s = alpha * zi
+        decay = math.exp(s0 - s)
+        rise_s = -math.expm1(-s) if s < _SMALL_S else 1.0 - decay * exp_minus_s0
+        F[i] = a * _scaled_ei_diff_scalar(s, s0, scaled_ei_s0, decay) + Fd * rise_s
+
+
+def model_only(z, a, alpha, Fd, x0):
+    """F [N] of one curve at the points z (held at the initial force below x0)."""
+    F = np.empty(z.shape[0])
+    _model_only(z, a, alpha, Fd, x0, F)
+    return F
+
+
 def model_and_jacobian(z, a, alpha, Fd, x0):
     """(F, J) for one curve: F [N] of shape (n,), J of shape (n, 4) in SLOTS order."""
     F = np.empty(z.shape[0])
