@@ -195,11 +195,12 @@ def _check_mapping(mapping, names, what, domain):
 
 
 def _smooth(y, width):
+    """Running mean over ``width`` points (edges padded with the end values)."""
     if width < 2:
         return y.copy()
-    kernel = np.ones(width) / width
     padded = np.concatenate([np.full(width // 2, y[0]), y, np.full(width - 1 - width // 2, y[-1])])
-    return np.convolve(padded, kernel, mode="valid")
+    total = np.concatenate([[0.0], np.cumsum(padded)])
+    return (total[width:] - total[:-width]) / width
 
 
 def _noise_level(y):
@@ -641,25 +642,48 @@ def fit(
     parameters = _global_parameters(names, starts[0], fixed, bounds, z)
     curve = Curve(z, y, prepared.w, tuple((slot, 1.0) for slot in range(4)))
     problem = Problem([curve], parameters)
-    solution = _multistart(problem, starts)
+    solution = _multistart(problem, starts, _noise_level(prepared.w * y))
     return _result(problem, solution, prepared, domain, names, fixed, profile)
 
 
-def _multistart(problem, starts):
-    """Rank the starts by chi-square, refine the two best, keep the better optimum."""
+@dataclass
+class _Solution:
+    x: np.ndarray
+    status: int
+    message: str
+    nfev: int
+
+
+def _multistart(problem, starts, noise):
+    """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
+
+    When the converged fit leaves a residual variance above twice the point-to-point noise
+    (``noise``, from the data's second differences), the other starts are tried as well and
+    the best optimum is kept. If LM does not converge, scipy's least_squares (trust-region
+    reflective) takes over.
+    """
     ranked = []
     for start in starts:
         u = problem.internal(list(start))
-        values = problem.values(u)
-        cost = problem.chisqr(values)
+        cost = problem.chisqr(problem.values(u))
         ranked.append((cost if math.isfinite(cost) else math.inf, u))
     ranked.sort(key=lambda item: item[0])
-    best = None
-    for _, u in ranked[:2]:
-        solution = problem.solve(u)
-        if best is None or solution.cost < best.cost:
-            best = solution
-    return best
+    expected = 2.0 * noise**2 * max(problem.ndata - len(problem.free), 1)
+    best, nfev = None, len(starts)
+    for count, (_, u_start) in enumerate(ranked, start=1):
+        u, cost, converged, steps = problem.lm(u_start, max_iter=200)
+        nfev += steps
+        if best is None or cost < best[1]:
+            best = (u, cost, converged, count)
+        if noise > 0 and best[1] <= expected:
+            break
+    u, cost, converged, tried = best
+    if converged:
+        return _Solution(
+            u, 1, f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)", nfev
+        )
+    solution = problem.solve(u)
+    return _Solution(solution.x, solution.status, solution.message, nfev + solution.nfev)
 
 
 def _result(problem, solution, prepared, domain, names, fixed, profile):

@@ -22,7 +22,7 @@ from scipy.stats import pearsonr
 
 from granflow._fitcore import WALD_Z, Curve, FrozenMap, GlobalParameter, Problem, covariance
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
-from granflow.fitting import FitResult, _json_safe, _prepare, fit, parameter_names
+from granflow.fitting import FitResult, _json_safe, _prepare, _Solution, fit, parameter_names
 from granflow.model import peak
 from granflow.run import Run
 
@@ -195,7 +195,11 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
         for data, links in zip(prepared, spec.links, strict=True)
     ]
     problem = Problem(curves, parameters)
-    solution = problem.solve(problem.internal(), max_nfev=400)
+    u, _, converged, steps = problem.lm(problem.internal(), max_iter=300)
+    if converged:
+        solution = _Solution(u, 1, "converged (Levenberg-Marquardt)", steps)
+    else:
+        solution = problem.solve(u, max_nfev=400)
     values = problem.values(solution.x)
     chisqr = problem.chisqr(values)
     n, nfree = problem.ndata, len(problem.free)
