@@ -373,10 +373,11 @@ class Problem:
         H = hessian[np.ix_(order, order)] * np.outer(chain, chain)
         return cost, g, H
 
-    def lm(self, u_start, order=None, pinned=None, max_iter=100, rtol=1e-11):
+    def lm(self, u_start, order=None, pinned=None, max_iter=100, rtol=1e-10, damping=1e-2):
         """Levenberg-Marquardt on the normal equations (one fused kernel pass per step).
 
-        Steps are clipped to the search range. Returns (u, chi-square, converged, steps).
+        Steps are clipped to the search range. Returns (u, chi-square, converged, steps,
+        J^T J in internal coordinates at u).
         """
         order = list(self.free if order is None else order)
         bounds = np.array([self.parameters[i].internal_bounds() for i in order]).reshape(-1, 2).T
@@ -386,7 +387,6 @@ class Problem:
             return self.state(u, order, pinned)
 
         cost, g, H = state(u)
-        damping = 1e-4
         converged = False
         steps = 0
         while steps < max_iter:
@@ -401,13 +401,17 @@ class Problem:
                     damping *= 10.0
                     continue
                 trial = np.clip(u + step, bounds[0], bounds[1])
+                moved = trial - u
+                predicted = -float(g @ moved) - 0.5 * float(moved @ H @ moved)
+                if 0.0 <= predicted <= 0.1 * rtol * cost:
+                    break  # the quadratic model promises nothing worth a pass over the data
                 trial_cost, trial_g, trial_H = state(trial)
                 if trial_cost <= cost and math.isfinite(trial_cost):
                     accepted = True
                     break
                 damping *= 10.0
             if not accepted:
-                converged = True  # no descent direction left at this precision
+                converged = True  # no descent left at this precision
                 break
             decrease = cost - trial_cost
             moved = float(np.max(np.abs(trial - u))) if trial.size else 0.0
@@ -416,20 +420,38 @@ class Problem:
             if decrease <= rtol * cost or moved < 1e-10:
                 converged = True
                 break
-        return u, float(cost), converged, steps
+        return u, float(cost), converged, steps, H
 
-    def chisqr(self, values):
+    def chisqr(self, values, stride=1):
+        """Weighted sum of squared residuals (every ``stride``-th point only, for ranking)."""
+        if stride > 1:
+            total = 0.0
+            for curve, (index, factor) in zip(self.curves, self._links, strict=True):
+                z = np.ascontiguousarray(curve.z[::stride])
+                F = model_only(z, *(values[index] * factor))
+                total += float(np.sum((curve.w[::stride] * (F - curve.y[::stride])) ** 2))
+            return total
+        return self._chisqr(values)
+
+    def _chisqr(self, values):
         residuals, _ = self.evaluate(values, with_jacobian=False)
         return float(residuals @ residuals) * self.force_scale**2
 
 
-def covariance(problem, values, variance):
+def covariance(problem, values, variance, internal_hessian=None):
     """Covariance of the free global parameter values: variance * (J^T J)^-1 (natural units).
 
-    Returns (covariance, ok); the pseudo-inverse is used when J^T J is singular (ok False).
+    ``internal_hessian`` (J^T J in the optimiser's coordinates at ``values``, as returned by
+    :meth:`Problem.lm`) saves a pass over the data. Returns (covariance, ok); the
+    pseudo-inverse is used when J^T J is singular (ok False).
     """
-    _, _, hessian = problem.normal(values)
-    hessian = hessian[np.ix_(problem.free, problem.free)]
+    if internal_hessian is None:
+        _, _, hessian = problem.normal(values)
+        hessian = hessian[np.ix_(problem.free, problem.free)]
+    else:
+        u = problem.internal(values)
+        _, chain = problem.natural(u, problem.free)
+        hessian = internal_hessian / np.outer(chain, chain)
     norms = np.sqrt(np.abs(np.diag(hessian)))
     norms[norms == 0] = 1.0
     scaled = hessian / np.outer(norms, norms)
@@ -488,7 +510,7 @@ def profile_interval(problem, values, index, variance, chisqr_min, wald_halfwidt
                     # gives the conditional minimum to far better than 1e-3 of 3.84 variance
                     u_found, chisqr = predicted + step, cost - decrease
                 else:
-                    u_found, chisqr, _, _ = problem.lm(
+                    u_found, chisqr, *_ = problem.lm(
                         predicted, others, pinned, max_iter=30, rtol=1e-9
                     )
             else:

@@ -25,7 +25,6 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from granflow import _validate as check
 from granflow._fitcore import (
@@ -37,6 +36,7 @@ from granflow._fitcore import (
     Problem,
     covariance,
     model_and_jacobian,
+    model_only,
     profile_interval,
 )
 from granflow.errors import (
@@ -48,6 +48,7 @@ from granflow.errors import (
 )
 from granflow.params import Params
 from granflow.run import Run
+from granflow.special import scaled_ei_diff
 
 __all__ = ["FitResult", "fit", "fit_many", "parameter_names"]
 
@@ -240,23 +241,25 @@ def curve_features(z, y):
 
 
 def _x0_from_rise(z, smooth, index, a, alpha, Fd):
-    """x0 such that the model passes through the smoothed curve half-way up the rise."""
+    """x0 such that the model passes through the smoothed curve half-way up the rise.
+
+    F at that point decreases monotonically with x0; it is evaluated for 64 trial values of
+    x0 in one vectorised call and the crossing is interpolated in log x0.
+    """
     half = 0.5 * smooth[index]
     rising = np.nonzero(smooth[: index + 1] >= half)[0]
     point = int(rising[0]) if rising.size else index
     z_rise, f_rise = float(z[point]), float(smooth[point])
-
-    def gap(log_x0):
-        F, _ = model_and_jacobian(np.array([z_rise]), a, alpha, Fd, math.exp(log_x0))
-        return F[0] - f_rise
-
-    lower, upper = math.log(z_rise) - 60.0, math.log(z_rise) - 1e-9
-    try:
-        if gap(lower) * gap(upper) < 0:
-            return math.exp(brentq(gap, lower, upper, xtol=1e-6))
-    except (ValueError, FloatingPointError):
-        pass
-    return z_rise * 0.01
+    trial = z_rise * np.exp(-np.linspace(26.0, 1e-6, 64))  # x0 from 5e-12 z_rise to z_rise
+    s, s0 = alpha * z_rise, alpha * trial
+    force = a * scaled_ei_diff(s, s0) - Fd * math.expm1(-s)
+    above = np.nonzero(force <= f_rise)[0]
+    if not np.all(np.isfinite(force)) or above.size == 0 or above[0] == 0:
+        return z_rise * 0.01
+    k = int(above[0])
+    log_x0 = np.log(trial[k - 1 : k + 1])
+    weight = (force[k - 1] - f_rise) / (force[k - 1] - force[k])
+    return float(math.exp(log_x0[0] + weight * (log_x0[1] - log_x0[0])))
 
 
 def _starts(z, y, fixed, features):
@@ -642,7 +645,9 @@ def fit(
     parameters = _global_parameters(names, starts[0], fixed, bounds, z)
     curve = Curve(z, y, prepared.w, tuple((slot, 1.0) for slot in range(4)))
     problem = Problem([curve], parameters)
-    solution = _multistart(problem, starts, _noise_level(prepared.w * y))
+    unweighted = bool(np.all(prepared.w == 1.0))
+    noise = features["noise"] if unweighted else _noise_level(prepared.w * y)
+    solution = _multistart(problem, starts, noise)
     return _result(problem, solution, prepared, domain, names, fixed, profile)
 
 
@@ -652,6 +657,7 @@ class _Solution:
     status: int
     message: str
     nfev: int
+    hessian: np.ndarray | None = None  # J^T J in internal coordinates at x, when known
 
 
 def _multistart(problem, starts, noise):
@@ -665,23 +671,22 @@ def _multistart(problem, starts, noise):
     ranked = []
     for start in starts:
         u = problem.internal(list(start))
-        cost = problem.chisqr(problem.values(u))
+        cost = problem.chisqr(problem.values(u), stride=8)
         ranked.append((cost if math.isfinite(cost) else math.inf, u))
     ranked.sort(key=lambda item: item[0])
     expected = 2.0 * noise**2 * max(problem.ndata - len(problem.free), 1)
     best, nfev = None, len(starts)
     for count, (_, u_start) in enumerate(ranked, start=1):
-        u, cost, converged, steps = problem.lm(u_start, max_iter=200)
+        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=1e-12)
         nfev += steps
         if best is None or cost < best[1]:
-            best = (u, cost, converged, count)
+            best = (u, cost, converged, count, hessian)
         if noise > 0 and best[1] <= expected:
             break
-    u, cost, converged, tried = best
+    u, cost, converged, tried, hessian = best
     if converged:
-        return _Solution(
-            u, 1, f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)", nfev
-        )
+        message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
+        return _Solution(u, 1, message, nfev, hessian)
     solution = problem.solve(u)
     return _Solution(solution.x, solution.status, solution.message, nfev + solution.nfev)
 
@@ -693,7 +698,7 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     dof = max(n - nfree, 1)
     redchi = chisqr / dof
     variance = 1.0 if prepared.sigma_known else redchi
-    covar_free, invertible = covariance(problem, values, variance)
+    covar_free, invertible = covariance(problem, values, variance, solution.hessian)
     free_names = [names[i] for i in problem.free]
     stderr = dict.fromkeys(names, 0.0)
     for k, name in enumerate(free_names):
@@ -744,7 +749,7 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     bound_names = [n_ for n_, flag in at_bound.items() if flag]
     if bound_names:
         messages.append(f"at a bound of the search range: {', '.join(bound_names)}")
-    best_fit, _ = model_and_jacobian(prepared.z, *values)
+    best_fit = model_only(prepared.z, *values)
     residuals = prepared.y - best_fit
     total = float(np.sum((prepared.y - np.mean(prepared.y)) ** 2))
     rsquared = 1.0 - float(residuals @ residuals) / total if total > 0 else math.nan

@@ -195,7 +195,7 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
         for data, links in zip(prepared, spec.links, strict=True)
     ]
     problem = Problem(curves, parameters)
-    u, _, converged, steps = problem.lm(problem.internal(), max_iter=300)
+    u, _, converged, steps, _ = problem.lm(problem.internal(), max_iter=300)
     if converged:
         solution = _Solution(u, 1, "converged (Levenberg-Marquardt)", steps)
     else:
