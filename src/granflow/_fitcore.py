@@ -464,7 +464,9 @@ def covariance(problem, values, variance, internal_hessian=None):
     return variance * inverse / np.outer(norms, norms), ok
 
 
-def profile_interval(problem, values, index, variance, chisqr_min, wald_halfwidth_u):
+def profile_interval(
+    problem, values, index, variance, chisqr_min, wald_halfwidth_u, internal_hessian=None
+):
     """95 % profile-likelihood interval of the global parameter ``index`` (free).
 
     The boundary is where min over the other parameters of chi-square exceeds its minimum by
@@ -479,11 +481,12 @@ def profile_interval(problem, values, index, variance, chisqr_min, wald_halfwidt
     target = math.sqrt(PROFILE_LEVEL)
     u_others_hat = np.array([problem.parameters[i].to_internal(values[i]) for i in others])
     # how the other parameters follow this one near the optimum: -H_oo^-1 H_oj (internal)
-    _, _, hessian = problem.normal(values)
-    u_all = {i: problem.parameters[i].to_internal(values[i]) for i in problem.free}
-    chain = {i: problem.parameters[i].derivative(u_all[i]) for i in problem.free}
-    H_oo = np.array([[hessian[i, k] * chain[i] * chain[k] for k in others] for i in others])
-    H_oj = np.array([hessian[i, index] * chain[i] * chain[index] for i in others])
+    if internal_hessian is None:
+        _, _, internal_hessian = problem.state(problem.internal(values), problem.free)
+    position = {i: k for k, i in enumerate(problem.free)}
+    rows = [position[i] for i in others]
+    H_oo = internal_hessian[np.ix_(rows, rows)]
+    H_oj = internal_hessian[rows, position[index]]
     try:
         follow = -np.linalg.solve(H_oo, H_oj) if others else np.zeros(0)
     except np.linalg.LinAlgError:

@@ -733,7 +733,7 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         if parameter.log and profile and invertible:
             sd_u = stderr[name] / parameter.derivative(u)
             interval, exact = profile_interval(
-                problem, values, index, variance, chisqr, WALD_Z * sd_u
+                problem, values, index, variance, chisqr, WALD_Z * sd_u, solution.hessian
             )
             ci95[name] = interval
             ci_method[name] = "profile"
