@@ -5,6 +5,8 @@ readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
 """
 
 from granflow.campaign import Campaign
+from granflow.compare import ModelComparison, compare_models
+from granflow.creep import CurveFitResult, fit_creep
 from granflow.errors import (
     ConvergenceWarning,
     FileFormatError,
@@ -14,8 +16,20 @@ from granflow.errors import (
     InvalidParameterError,
     InvalidProtocolError,
 )
+from granflow.fitting import FitResult, fit, fit_many
 from granflow.geometry import Annulus
 from granflow.io import read, read_runs
+from granflow.joint import (
+    AmontonsResult,
+    CollapseResult,
+    JointFitResult,
+    PreparationSpread,
+    fit_amontons,
+    fit_joint,
+    preparation_spread,
+    velocity_collapse,
+)
+from granflow.mcmc import PosteriorResult, sample_posterior
 from granflow.model import (
     NoPeakError,
     Peak,
@@ -38,21 +52,35 @@ from granflow.special import scaled_ei, scaled_ei_diff
 __version__ = "0.1.0"
 
 __all__ = [
+    "AmontonsResult",
     "Annulus",
     "Campaign",
+    "CollapseResult",
     "ConvergenceWarning",
+    "CurveFitResult",
     "FileFormatError",
     "FitError",
+    "FitResult",
     "GranflowError",
     "InvalidDataError",
     "InvalidParameterError",
     "InvalidProtocolError",
+    "JointFitResult",
     "MaterialConstants",
+    "ModelComparison",
     "NoPeakError",
     "Params",
     "Peak",
+    "PosteriorResult",
+    "PreparationSpread",
     "Run",
     "__version__",
+    "compare_models",
+    "fit",
+    "fit_amontons",
+    "fit_creep",
+    "fit_joint",
+    "fit_many",
     "friction_aging",
     "friction_asymptote",
     "friction_slip",
@@ -61,11 +89,14 @@ __all__ = [
     "has_peak",
     "initial_force",
     "peak",
+    "preparation_spread",
     "read",
     "read_runs",
     "rhs_slip",
     "rhs_time",
+    "sample_posterior",
     "scaled_ei",
     "scaled_ei_diff",
     "steady_state",
+    "velocity_collapse",
 ]

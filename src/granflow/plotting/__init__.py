@@ -4,4 +4,6 @@ matplotlib is imported inside the functions, so importing granflow stays light. 
 are plotted in display units (mN, µm, s) with the unit on every axis.
 """
 
-__all__: list[str] = []
+from granflow.plotting.fits import plot_corner, plot_fit
+
+__all__ = ["plot_corner", "plot_fit"]
