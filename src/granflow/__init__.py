@@ -30,17 +30,38 @@ from granflow.model import (
     steady_state,
 )
 from granflow.params import MaterialConstants, Params
+from granflow.protocol import (
+    Force,
+    ForceRamp,
+    ForceSteps,
+    ForceTable,
+    Hold,
+    Protocol,
+    SwitchToForce,
+    Velocity,
+    VelocitySteps,
+    VelocityTable,
+)
 from granflow.run import Run
+from granflow.simulate import DirectEffect, Event, SimulationResult, simulate
 from granflow.special import scaled_ei, scaled_ei_diff
+from granflow.stability import StabilityMap, stability_map
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Annulus",
     "ConvergenceWarning",
+    "DirectEffect",
+    "Event",
     "FileFormatError",
     "FitError",
+    "Force",
+    "ForceRamp",
+    "ForceSteps",
+    "ForceTable",
     "GranflowError",
+    "Hold",
     "InvalidDataError",
     "InvalidParameterError",
     "InvalidProtocolError",
@@ -48,7 +69,14 @@ __all__ = [
     "NoPeakError",
     "Params",
     "Peak",
+    "Protocol",
     "Run",
+    "SimulationResult",
+    "StabilityMap",
+    "SwitchToForce",
+    "Velocity",
+    "VelocitySteps",
+    "VelocityTable",
     "__version__",
     "friction_aging",
     "friction_asymptote",
@@ -62,5 +90,7 @@ __all__ = [
     "rhs_time",
     "scaled_ei",
     "scaled_ei_diff",
+    "simulate",
+    "stability_map",
     "steady_state",
 ]

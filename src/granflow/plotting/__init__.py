@@ -4,4 +4,16 @@ matplotlib is imported inside the functions, so importing granflow stays light. 
 are plotted in display units (mN, µm, s) with the unit on every axis.
 """
 
-__all__: list[str] = []
+from granflow.plotting.simulation import (
+    plot_simulation,
+    plot_simulation_force,
+    plot_simulation_slip,
+    plot_stability_map,
+)
+
+__all__ = [
+    "plot_simulation",
+    "plot_simulation_force",
+    "plot_simulation_slip",
+    "plot_stability_map",
+]
