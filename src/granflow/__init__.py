@@ -46,8 +46,22 @@ from granflow.model import (
     steady_state,
 )
 from granflow.params import MaterialConstants, Params
+from granflow.protocol import (
+    Force,
+    ForceRamp,
+    ForceSteps,
+    ForceTable,
+    Hold,
+    Protocol,
+    SwitchToForce,
+    Velocity,
+    VelocitySteps,
+    VelocityTable,
+)
 from granflow.run import Run
+from granflow.simulate import DirectEffect, Event, SimulationResult, simulate
 from granflow.special import scaled_ei, scaled_ei_diff
+from granflow.stability import StabilityMap, stability_map
 
 __version__ = "0.1.0"
 
@@ -58,10 +72,17 @@ __all__ = [
     "CollapseResult",
     "ConvergenceWarning",
     "CurveFitResult",
+    "DirectEffect",
+    "Event",
     "FileFormatError",
     "FitError",
     "FitResult",
+    "Force",
+    "ForceRamp",
+    "ForceSteps",
+    "ForceTable",
     "GranflowError",
+    "Hold",
     "InvalidDataError",
     "InvalidParameterError",
     "InvalidProtocolError",
@@ -73,7 +94,14 @@ __all__ = [
     "Peak",
     "PosteriorResult",
     "PreparationSpread",
+    "Protocol",
     "Run",
+    "SimulationResult",
+    "StabilityMap",
+    "SwitchToForce",
+    "Velocity",
+    "VelocitySteps",
+    "VelocityTable",
     "__version__",
     "compare_models",
     "fit",
@@ -97,6 +125,8 @@ __all__ = [
     "sample_posterior",
     "scaled_ei",
     "scaled_ei_diff",
+    "simulate",
+    "stability_map",
     "steady_state",
     "velocity_collapse",
 ]

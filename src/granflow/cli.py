@@ -6,6 +6,7 @@ with ``main([...])``. Exit codes: 0 success, 1 some work failed, 2 usage or inpu
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -352,6 +353,206 @@ def _run_fit(args):
     return 0 if result.success else 1
 
 
+_EPILOG_SIMULATE = """examples:
+  granflow simulate switch.yaml --params blue.yaml --plot switch.png
+  granflow simulate ramp.yaml --params blue.yaml --method dynamic -o ramp.csv
+PROTOCOL.yaml lists the segments, e.g.
+  segments:
+    - velocity: {velocity: 0.86 um/s, duration: 80 s}
+    - switch_to_force: {duration: 60 s, factor: 1.01}
+PARAMS.yaml gives a, alpha, Fd, x0 (or a, k, t0, Fd, velocity), as SI numbers or with units."""
+
+_EPILOG_MAP = """examples:
+  granflow stability-map --params blue.yaml --velocity 0.86um/s \\
+      --switch-points 2:100:50 --ratios 0.95:1.2:50 --jobs 2 -o map.csv --plot map.png
+A range START:STOP:COUNT is evenly spaced; a list is comma-separated."""
+
+_PARAM_KEYS = {
+    "a": "N",
+    "alpha": "1/m",
+    "Fd": "N",
+    "x0": "m",
+    "k": "1/s",
+    "t0": "s",
+    "velocity": "m/s",
+}
+
+
+def _load_params(path):
+    """Params from a YAML mapping (slip domain a, alpha, Fd, x0 or time domain a, k, t0, Fd,
+    velocity); values are SI numbers or strings with units."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise _UsageError(f"{path}: cannot read the parameters ({exc})") from None
+    except yaml.YAMLError as exc:
+        raise _UsageError(f"{path}: not valid YAML ({exc})") from None
+    if isinstance(data, dict) and isinstance(data.get("params"), dict):
+        data = data["params"]
+    if not isinstance(data, dict):
+        raise _UsageError(f"{path}: expected a mapping of parameters (a, alpha, Fd, x0)")
+    unknown = sorted(set(data) - set(_PARAM_KEYS))
+    if unknown:
+        raise _UsageError(f"{path}: unknown parameter(s) {', '.join(unknown)}")
+    values = {
+        key: parse_quantity(value, _PARAM_KEYS[key], f"{path}: {key}")
+        for key, value in data.items()
+    }
+    try:
+        if {"k", "t0"} <= set(values):
+            return granflow.Params.from_time_domain(
+                a=values["a"],
+                k=values["k"],
+                t0=values["t0"],
+                Fd=values["Fd"],
+                velocity=values["velocity"],
+            )
+        return granflow.Params(
+            a=values["a"], alpha=values["alpha"], Fd=values["Fd"], x0=values["x0"]
+        )
+    except KeyError as exc:
+        raise _UsageError(
+            f"{path}: missing parameter {exc.args[0]} (give a, alpha, Fd, x0 or a, k, t0, Fd, "
+            "velocity)"
+        ) from None
+
+
+def _add_dynamic_options(parser):
+    parser.add_argument(
+        "--clock",
+        choices=("slip", "time"),
+        default="slip",
+        help="aging along the slip (default) or in time",
+    )
+    parser.add_argument(
+        "--method",
+        choices=("quasistatic", "dynamic"),
+        default="quasistatic",
+        help="neglect inertia (default) or integrate it",
+    )
+    parser.add_argument("--mass", help="effective mass at the contact, e.g. 0.05kg (dynamic)")
+    parser.add_argument("--damping", help="damping of the drive [N s/m] (dynamic)")
+    parser.add_argument("--stiffness", help="machine stiffness, e.g. 1e4N/m (dynamic)")
+    parser.add_argument("--v-fail", help="failure velocity threshold, e.g. 1mm/s [m/s]")
+    parser.add_argument("--direct-effect", help="direct-effect amplitude A, e.g. 0.05mN [N]")
+
+
+def _dynamic_options(args):
+    options = {"clock": args.clock, "method": args.method}
+    for name, unit in (
+        ("mass", "kg"),
+        ("damping", "N*s/m"),
+        ("stiffness", "N/m"),
+        ("v_fail", "m/s"),
+        ("direct_effect", "N"),
+    ):
+        text = getattr(args, name)
+        if text is not None:
+            options[name] = parse_quantity(text, unit, "--" + name.replace("_", "-"))
+    return options
+
+
+def _add_simulate(subparsers):
+    parser = subparsers.add_parser(
+        "simulate",
+        help="run a protocol (velocity, hold, force, ramps, switches) through the model",
+        description="Simulate a protocol: stick, slide, stop and fail under imposed velocities "
+        "and forces. Prints the report; optionally writes the time series and a figure.",
+        epilog=_EPILOG_SIMULATE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("protocol", help="protocol YAML file")
+    parser.add_argument("--params", required=True, help="parameters YAML file")
+    _add_dynamic_options(parser)
+    parser.add_argument("-o", "--output", help="write the time series to this CSV file")
+    parser.add_argument("--plot", help="write force and slip against time to this image")
+    parser.set_defaults(run=_run_simulate)
+
+
+def _run_simulate(args):
+    params = _load_params(args.params)
+    protocol = granflow.Protocol.load(args.protocol)
+    result = granflow.simulate(params, protocol, **_dynamic_options(args))
+    print(result.report())
+    if args.output:
+        result.to_frame().to_csv(args.output, index=False, float_format="%.17g")
+        print(f"wrote {len(result.t)} points to {args.output}")
+    if args.plot:
+        from granflow.plotting import plot_simulation
+
+        axes = plot_simulation(result)
+        axes[0].figure.savefig(args.plot, dpi=120)
+        print(f"wrote {args.plot}")
+    return 0 if result.success else 1
+
+
+def _grid(text, unit, name):
+    """'START:STOP:COUNT' (evenly spaced) or 'a,b,c' as a float array."""
+    if ":" in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise _UsageError(f"{name}: give START:STOP:COUNT, got {text!r}")
+        try:
+            count = int(parts[2])
+        except ValueError:
+            raise _UsageError(f"{name}: COUNT must be an integer, got {parts[2]!r}") from None
+        if count < 1:
+            raise _UsageError(f"{name}: COUNT must be at least 1, got {count}")
+        start, stop = (parse_quantity(part, unit, name) for part in parts[:2])
+        return np.linspace(start, stop, count)
+    return np.array([parse_quantity(part, unit, name) for part in text.split(",")])
+
+
+def _add_stability_map(subparsers):
+    parser = subparsers.add_parser(
+        "stability-map",
+        help="fail or stop after switching a start-up to force control",
+        description="For each switch point of a constant-velocity start-up and each ratio of "
+        "imposed to current force: does the layer fail or stop, after which slip, how fast?",
+        epilog=_EPILOG_MAP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--params", required=True, help="parameters YAML file")
+    parser.add_argument("--velocity", default="0.86um/s", help="start-up velocity [m/s]")
+    parser.add_argument("--switch-points", required=True, help="switch times [s]")
+    parser.add_argument("--ratios", required=True, help="imposed / current force ratios")
+    parser.add_argument("--hold", default="60s", help="time under force control (default 60s)")
+    parser.add_argument("--ramp", default="0s", help="time to apply the force (default 0s)")
+    parser.add_argument("--jobs", type=int, default=1, help="local processes (default 1)")
+    _add_dynamic_options(parser)
+    parser.add_argument("-o", "--output", help="write one row per cell to this CSV file")
+    parser.add_argument("--plot", help="write the map to this image")
+    parser.set_defaults(run=_run_stability_map)
+
+
+def _run_stability_map(args):
+    params = _load_params(args.params)
+    options = _dynamic_options(args)
+    stability = granflow.stability_map(
+        params,
+        _grid(args.switch_points, "s", "--switch-points"),
+        _grid(args.ratios, "", "--ratios"),
+        velocity=parse_quantity(args.velocity, "m/s", "--velocity"),
+        hold=parse_quantity(args.hold, "s", "--hold"),
+        ramp=parse_quantity(args.ramp, "s", "--ramp"),
+        jobs=args.jobs,
+        **options,
+    )
+    print(stability.report())
+    if args.output:
+        stability.to_frame().to_csv(args.output, index=False, float_format="%.17g")
+        print(f"wrote {stability.outcome.size} cells to {args.output}")
+    if args.plot:
+        from granflow.plotting import plot_stability_map
+
+        ax = plot_stability_map(stability)
+        ax.figure.savefig(args.plot, dpi=120)
+        print(f"wrote {args.plot}")
+    return 1 if np.any(stability.outcome == "error") else 0
+
+
 def build_parser():
     """The argument parser of the ``granflow`` command (one subparser per command)."""
     parser = argparse.ArgumentParser(
@@ -369,6 +570,8 @@ def build_parser():
     _add_inspect(subparsers)
     _add_convert(subparsers)
     _add_fit(subparsers)
+    _add_simulate(subparsers)
+    _add_stability_map(subparsers)
     return parser
 
 

@@ -1,0 +1,129 @@
+"""Figures of simulations: force and slip against time (Fig. 3), and stability maps."""
+
+import numpy as np
+
+from granflow.plotting._axes import MICRO, MILLI, new_axes
+
+__all__ = [
+    "plot_simulation",
+    "plot_simulation_force",
+    "plot_simulation_slip",
+    "plot_stability_map",
+]
+
+_EVENT_STYLES = {
+    "failure": ("X", "C3"),
+    "stop": ("o", "C1"),
+    "slide": (">", "C4"),
+    "peak": ("^", "C5"),
+    "reset": ("s", "C7"),
+}
+
+
+def _mark_events(ax, result, quantity):
+    for kind, (marker, color) in _EVENT_STYLES.items():
+        events = result.events_of(kind)
+        if not events:
+            continue
+        times = [event.time for event in events]
+        if quantity == "force":
+            values = [event.force * MILLI for event in events]
+        else:
+            values = np.interp(times, result.t, result.displacement) * MICRO
+        ax.plot(times, values, marker, color=color, linestyle="none", label=kind, zorder=3)
+
+
+def plot_simulation_force(result, ax=None, *, events=True):
+    """Force exerted by the drive and the friction state against time [mN vs s].
+
+    Parameters
+    ----------
+    result : SimulationResult
+    ax : matplotlib.axes.Axes, optional
+        Where to draw; a new figure when None.
+    events : bool
+        Mark failure, stop, slide, peak and reset events.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax)
+    ax.plot(result.t, result.force * MILLI, label="force")
+    if np.any(result.state != result.force):
+        ax.plot(result.t, result.state * MILLI, "--", linewidth=1, label="strength F (state)")
+    if events:
+        _mark_events(ax, result, "force")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("force [mN]")
+    ax.legend(loc="best", fontsize="small")
+    return ax
+
+
+def plot_simulation_slip(result, ax=None, *, events=True):
+    """Displacement (total slip since the start) against time [µm vs s]."""
+    ax = new_axes(ax)
+    ax.plot(result.t, result.displacement * MICRO, color="C2", label="slip")
+    if events:
+        _mark_events(ax, result, "slip")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("slip [µm]")
+    return ax
+
+
+def plot_simulation(result, axes=None):
+    """Force (top) and slip (bottom) against time, as in Fig. 3 of the paper.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    axes : sequence of two Axes, optional
+        Where to draw; a new two-panel figure when None.
+
+    Returns
+    -------
+    numpy.ndarray of matplotlib.axes.Axes
+        The force and slip axes.
+    """
+    if axes is None:
+        import matplotlib.pyplot as plt
+
+        _, axes = plt.subplots(2, 1, sharex=True, figsize=(6.0, 6.0), layout="constrained")
+    force_ax, slip_ax = axes
+    plot_simulation_force(result, force_ax)
+    force_ax.set_xlabel("")
+    plot_simulation_slip(result, slip_ax)
+    opts = result.options
+    force_ax.set_title(f"{opts['method']}, {opts['clock']} clock", fontsize="medium")
+    return np.asarray(axes)
+
+
+def plot_stability_map(stability, ax=None):
+    """Fail or stop over switch time and force ratio; colour is the stop slip [µm].
+
+    Failing cells are hatched grey; the method that made the map is in the title.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax)
+    slip = np.where(stability.stopped, stability.stop_slip * MICRO, np.nan).T
+    mesh = ax.pcolormesh(
+        stability.switch_points, stability.stress_ratios, slip, shading="nearest", cmap="viridis"
+    )
+    failed = np.where(stability.failed, 1.0, np.nan).T
+    ax.pcolormesh(
+        stability.switch_points,
+        stability.stress_ratios,
+        failed,
+        shading="nearest",
+        cmap="Greys",
+        vmin=0.0,
+        vmax=2.0,
+    )
+    ax.figure.colorbar(mesh, ax=ax, label="slip to stop [µm]")
+    ax.set_xlabel("switch time [s]")
+    ax.set_ylabel("imposed / current force [-]")
+    ax.set_title(f"grey: failure ({stability.method}, {stability.clock} clock)", fontsize="medium")
+    return ax
