@@ -263,10 +263,10 @@ class Problem:
         """Global values with the parameters ``order`` set from internal coordinates ``u``,
         and d value / d u for them."""
         values = self._base.copy()
-        scale = self._scale[order]
-        grow = np.exp(u)
-        derivative = np.where(self._log[order], scale * grow, scale)
-        values[order] = np.where(self._log[order], scale * grow, scale * u)
+        scale, log = self._scale[order], self._log[order]
+        grow = np.exp(np.where(log, u, 0.0))
+        derivative = np.where(log, scale * grow, scale)
+        values[order] = np.where(log, scale * grow, scale * u)
         return values, derivative
 
     def values(self, u_free, pinned=None):

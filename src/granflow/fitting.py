@@ -218,7 +218,9 @@ def curve_features(z, y):
     Returns a dict with ``plateau``, ``peak_z``, ``peak_force``, ``overshoot`` and ``noise``.
     """
     n = z.size
-    width = max(1, n // 50)
+    # smooth over at most a quarter of the rise, so that a narrow overshoot survives
+    rough_peak = int(np.argmax(_smooth(y, max(1, min(5, n // 50)))))
+    width = max(1, min(n // 50, rough_peak // 4))
     smooth = _smooth(y, width)
     tail = y[int(0.9 * n) :]
     plateau = float(np.mean(tail))
@@ -240,7 +242,7 @@ def curve_features(z, y):
     }
 
 
-def _x0_from_rise(z, smooth, index, a, alpha, Fd):
+def _x0_from_rise(z, y, smooth, index, a, alpha, Fd):
     """x0 such that the model passes through the smoothed curve half-way up the rise.
 
     F at that point decreases monotonically with x0; it is evaluated for 64 trial values of
@@ -249,7 +251,8 @@ def _x0_from_rise(z, smooth, index, a, alpha, Fd):
     half = 0.5 * smooth[index]
     rising = np.nonzero(smooth[: index + 1] >= half)[0]
     point = int(rising[0]) if rising.size else index
-    z_rise, f_rise = float(z[point]), float(smooth[point])
+    # the raw data near the point: a running mean is biased upwards on a steep rise
+    z_rise, f_rise = float(z[point]), float(np.mean(y[max(point - 1, 0) : point + 2]))
     trial = z_rise * np.exp(-np.linspace(26.0, 1e-6, 64))  # x0 from 5e-12 z_rise to z_rise
     s, s0 = alpha * z_rise, alpha * trial
     force = a * scaled_ei_diff(s, s0) - Fd * math.expm1(-s)
@@ -271,10 +274,10 @@ def _starts(z, y, fixed, features):
     for peak_slip in _START_PEAK_SLIPS:
         alpha = fixed.get("alpha", peak_slip / z_peak)
         a = fixed.get("a", overshoot * alpha * z_peak)
-        x0 = fixed.get(
-            "x0", _x0_from_rise(z, features["smooth"], features["peak_index"], a, alpha, Fd)
-        )
-        candidates.append((a, alpha, Fd, x0))
+        rise = _x0_from_rise(z, y, features["smooth"], features["peak_index"], a, alpha, Fd)
+        # the initial state from the rise, or just before the first point
+        for x0 in (rise, 0.5 * z[0]):
+            candidates.append((a, alpha, Fd, fixed.get("x0", x0)))
     return candidates
 
 
@@ -660,6 +663,27 @@ class _Solution:
     hessian: np.ndarray | None = None  # J^T J in internal coordinates at x, when known
 
 
+def _held_restarts(problem, u):
+    """Restarts with x0 below the first point when the optimum holds some points at F(x0).
+
+    Each data point that x0 passes puts a kink into chi-square (the point changes from the
+    curve to the held initial force), which can trap the optimiser above the first points.
+    """
+    index = 3  # x0 (t0) is the fourth global parameter of a single-curve problem
+    if index not in problem.free:
+        return []
+    first = float(problem.curves[0].z[0])
+    values = problem.values(u)
+    if values[index] <= first:
+        return []
+    starts = []
+    for fraction in (0.9, 0.5):
+        trial = values.copy()
+        trial[index] = fraction * first
+        starts.append(problem.internal(trial))
+    return starts
+
+
 def _multistart(problem, starts, noise):
     """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
 
@@ -684,6 +708,14 @@ def _multistart(problem, starts, noise):
         if noise > 0 and best[1] <= expected:
             break
     u, cost, converged, tried, hessian = best
+    held = _held_restarts(problem, u)
+    for u_start in held:
+        u_new, cost_new, converged_new, steps, hessian_new = problem.lm(
+            u_start, max_iter=200, rtol=1e-12
+        )
+        nfev += steps
+        if cost_new < cost:
+            u, cost, converged, hessian = u_new, cost_new, converged_new, hessian_new
     if converged:
         message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
         return _Solution(u, 1, message, nfev, hessian)
@@ -754,7 +786,7 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     total = float(np.sum((prepared.y - np.mean(prepared.y)) ** 2))
     rsquared = 1.0 - float(residuals @ residuals) / total if total > 0 else math.nan
     log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf
-    if not success:
+    if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
         domain=domain,
