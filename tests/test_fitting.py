@@ -179,6 +179,10 @@ def test_report_and_json():
     assert abs(result.correl["a"]["alpha"]) <= 1.0
     assert 0.99 < result.rsquared <= 1.0
     np.testing.assert_allclose(result.residuals, result.data - result.best_fit)
+    np.testing.assert_allclose(result.model(result.x), result.best_fit, rtol=1e-14)
+    np.testing.assert_allclose(
+        result.best_fit, friction_slip(result.x, result.to_params()), rtol=1e-12
+    )
     with pytest.raises(ValueError):
         result.residuals[0] = 1.0
 

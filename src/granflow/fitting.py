@@ -35,7 +35,6 @@ from granflow._fitcore import (
     GlobalParameter,
     Problem,
     covariance,
-    model_and_jacobian,
     model_only,
     profile_interval,
 )
@@ -403,8 +402,7 @@ class FitResult:
     def model(self, x):
         """The fitted curve at abscissae ``x`` [m or s] (held at the initial force below x0)."""
         z = check.real_array(x, "x", _ABSCISSA[self.domain][1]).ravel()
-        F, _ = model_and_jacobian(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
-        return F
+        return model_only(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
 
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
