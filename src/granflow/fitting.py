@@ -745,6 +745,9 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         for p in free_names
     }
     ci95, ci_method, at_bound = {}, {}, {}
+    # data fitted to rounding error (synthetic, noise-free): chi-square has no scale left
+    # to profile against, so every interval is a Wald interval
+    exact_data = chisqr <= n * (1e-12 * problem.force_scale) ** 2
     messages = [solution.message]
     u_all = dict(zip(problem.free, solution.x, strict=True))
     for index, name in enumerate(names):
@@ -760,7 +763,7 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
             (math.isfinite(lower_u) and u - lower_u < 1e-6 * max(1.0, abs(lower_u)))
             or (math.isfinite(upper_u) and upper_u - u < 1e-6 * max(1.0, abs(upper_u)))
         )
-        if parameter.log and profile and invertible:
+        if parameter.log and profile and invertible and not exact_data:
             sd_u = stderr[name] / parameter.derivative(u)
             interval, exact = profile_interval(
                 problem, values, index, variance, chisqr, WALD_Z * sd_u, solution.hessian
