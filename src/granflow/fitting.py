@@ -675,7 +675,7 @@ def _held_restarts(problem, u):
     if values[index] <= first:
         return []
     starts = []
-    for fraction in (0.9, 0.5):
+    for fraction in (0.9,):
         trial = values.copy()
         trial[index] = fraction * first
         starts.append(problem.internal(trial))
@@ -699,7 +699,7 @@ def _multistart(problem, starts, noise):
     expected = 2.0 * noise**2 * max(problem.ndata - len(problem.free), 1)
     best, nfev = None, len(starts)
     for count, (_, u_start) in enumerate(ranked, start=1):
-        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=1e-12)
+        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=1e-10)
         nfev += steps
         if best is None or cost < best[1]:
             best = (u, cost, converged, count, hessian)
@@ -709,7 +709,7 @@ def _multistart(problem, starts, noise):
     held = _held_restarts(problem, u)
     for u_start in held:
         u_new, cost_new, converged_new, steps, hessian_new = problem.lm(
-            u_start, max_iter=200, rtol=1e-12
+            u_start, max_iter=200, rtol=1e-10
         )
         nfev += steps
         if cost_new < cost:
