@@ -60,6 +60,7 @@ _ABSCISSA = {"slip": ("x", "m"), "time": ("t", "s")}
 _LOG_SLOTS = (False, True, False, True)
 _MIN_POINTS = 10
 _START_PEAK_SLIPS = (0.9, 0.5, 1.6)  # trial alpha * x_peak for the starts
+_FEW_RISE_POINTS = 50  # below this many points up to the peak, always check x0 < x_first
 
 
 def parameter_names(domain="slip"):
@@ -648,7 +649,7 @@ def fit(
     problem = Problem([curve], parameters)
     unweighted = bool(np.all(prepared.w == 1.0))
     noise = features["noise"] if unweighted else _noise_level(prepared.w * y)
-    solution = _multistart(problem, starts, noise)
+    solution = _multistart(problem, starts, noise, features["peak_index"])
     return _result(problem, solution, prepared, domain, names, fixed, profile)
 
 
@@ -661,28 +662,26 @@ class _Solution:
     hessian: np.ndarray | None = None  # J^T J in internal coordinates at x, when known
 
 
-def _held_restarts(problem, u):
-    """Restarts with x0 below the first point when the optimum holds some points at F(x0).
+def _held_restart(problem, u):
+    """A restart with x0 below the first point when the optimum holds points at F(x0).
 
     Each data point that x0 passes puts a kink into chi-square (the point changes from the
     curve to the held initial force), which can trap the optimiser above the first points.
+    The restart puts x0 at 0.99 times the first point (see :func:`_multistart` for when it
+    is pursued). Returns the start in internal coordinates, or None.
     """
     index = 3  # x0 (t0) is the fourth global parameter of a single-curve problem
     if index not in problem.free:
-        return []
+        return None
     first = float(problem.curves[0].z[0])
     values = problem.values(u)
     if values[index] <= first:
-        return []
-    starts = []
-    for fraction in (0.9,):
-        trial = values.copy()
-        trial[index] = fraction * first
-        starts.append(problem.internal(trial))
-    return starts
+        return None
+    values[index] = 0.99 * first
+    return problem.internal(values)
 
 
-def _multistart(problem, starts, noise):
+def _multistart(problem, starts, noise, rise_points):
     """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
 
     When the converged fit leaves a residual variance above twice the point-to-point noise
@@ -706,14 +705,26 @@ def _multistart(problem, starts, noise):
         if noise > 0 and best[1] <= expected:
             break
     u, cost, converged, tried, hessian = best
-    held = _held_restarts(problem, u)
-    for u_start in held:
-        u_new, cost_new, converged_new, steps, hessian_new = problem.lm(
-            u_start, max_iter=200, rtol=1e-10
-        )
-        nfev += steps
-        if cost_new < cost:
-            u, cost, converged, hessian = u_new, cost_new, converged_new, hessian_new
+    start = _held_restart(problem, u)
+    if start is not None:
+        start_cost, g, H = problem.state(start, problem.free)
+        nfev += 1
+        try:
+            promised = start_cost + 0.5 * float(g @ np.linalg.solve(H, -g))
+        except np.linalg.LinAlgError:
+            promised = -math.inf
+        # pursue it when the step promises a gain, when chi-square exceeds what the noise
+        # allows (5 standard deviations of chi-square plus the error of the noise estimate),
+        # or when few points describe the rise, so that one held point weighs much
+        dof = max(problem.ndata - len(problem.free), 1)
+        implausible = noise <= 0 or cost > (1.0 + 10.0 / math.sqrt(dof)) * dof * noise**2
+        if promised < cost or implausible or rise_points < _FEW_RISE_POINTS:
+            u_new, cost_new, converged_new, steps, hessian_new = problem.lm(
+                start, max_iter=200, rtol=1e-10
+            )
+            nfev += steps
+            if cost_new < cost:
+                u, cost, converged, hessian = u_new, cost_new, converged_new, hessian_new
     if converged:
         message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
         return _Solution(u, 1, message, nfev, hessian)
