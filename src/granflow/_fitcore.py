@@ -555,7 +555,7 @@ def profile_interval(
                 value, u_others = gap(u, u_others, u_last)
             u_last = u
             points.append((u, value))
-            if abs(value) < 5e-3:
+            if abs(value) < 2e-2:
                 end = u
                 break
             (u1, g1), (u2, g2) = points[-2], points[-1]
