@@ -264,3 +264,40 @@ def test_recovery_over_random_parameter_sets():
         for name, value in truth.to_dict().items():
             assert abs(result.params[name] - value) < 5 * result.stderr[name], (name, truth)
         checked += 1
+
+
+def test_uniform_weights_change_nothing_and_bounds_are_flagged():
+    truth = paper_params("blue", 10e-3)
+    x, force = noisy_curve(truth, seed=6, points=1000)
+    plain = fit((x, force))
+    weighted = fit((x, force), weights=np.full(x.size, 3.0))
+    for name in plain.names:
+        assert weighted.params[name] == pytest.approx(plain.params[name], rel=1e-6)
+        assert weighted.stderr[name] == pytest.approx(plain.stderr[name], rel=1e-4)
+    assert weighted.chisqr == pytest.approx(9 * plain.chisqr, rel=1e-8)
+    with pytest.warns(granflow.ConvergenceWarning, match="at a bound"):
+        bounded = fit((x, force), bounds={"alpha": (1e3, 3e4)})  # truth 4.19e4 outside
+    assert bounded.at_bound["alpha"] and not bounded.at_bound["a"]
+    assert bounded.params["alpha"] == pytest.approx(3e4, rel=1e-6)
+    assert "alpha" in bounded.report()
+
+
+def test_joint_fit_in_the_time_domain():
+    truths = [paper_params("gray", 10e-3).replace(x0=x0) for x0 in (0.3e-6, 0.4e-6)]
+    runs = []
+    for seed, truth in enumerate(truths):
+        t = np.linspace(1.0, 500.0, 1000)
+        runs.append(
+            (
+                t,
+                friction_time(t, truth, VELOCITY)
+                + np.random.default_rng(seed).normal(0, NOISE, t.size),
+            )
+        )
+    joint = granflow.fit_joint(runs, domain="time")
+    assert joint.names == ("a", "k", "Fd", "t0_0", "t0_1")
+    low, high = joint.ci95["k"]
+    assert low <= 0.051 <= high
+    for i, truth in enumerate(truths):
+        low, high = joint.ci95[f"t0_{i}"]
+        assert low <= truth.x0 / VELOCITY <= high

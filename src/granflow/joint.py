@@ -38,6 +38,7 @@ __all__ = [
 ]
 
 _LOG_SLOTS = (False, True, False, True)
+_TIME_ALIASES = {"alpha": "k", "x0": "t0"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -281,7 +282,8 @@ def fit_joint(
     domain : {"slip", "time"}
         Parameter names ``a, alpha, Fd, x0`` or ``a, k, Fd, t0``.
     shared : sequence of str
-        Parameters common to every run (named as is: ``alpha``).
+        Parameters common to every run (named as is: ``alpha``). In the time domain ``alpha``
+        and ``x0`` may be written for ``k`` and ``t0``.
     per_run : sequence of str
         Parameters of each run (named with the run's index: ``x0_0``, ``x0_1``, ...).
     groups : sequence, optional
@@ -313,6 +315,11 @@ def fit_joint(
     datasets = list(datasets)
     if not datasets:
         raise InvalidParameterError("fit_joint needs at least one run")
+    if domain == "time":  # the slip names (the defaults) stand for their time-domain twins
+        shared, per_run, per_group = (
+            tuple(_TIME_ALIASES.get(name, name) for name in names)
+            for names in (shared, per_run, per_group)
+        )
     roles = {}
     for role, names in (("shared", shared), ("per_run", per_run), ("per_group", per_group)):
         for name in names:
