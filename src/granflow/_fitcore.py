@@ -401,6 +401,8 @@ class Problem:
             return self.state(u, order, pinned)
 
         cost, g, H = state(u)
+        if not (math.isfinite(cost) and np.all(np.isfinite(H))):
+            return u, float(cost), False, 1, H
         converged = False
         steps = 0
         while steps < max_iter:

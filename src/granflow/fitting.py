@@ -728,7 +728,10 @@ def _multistart(problem, starts, noise, rise_points):
     if converged:
         message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
         return _Solution(u, 1, message, nfev, hessian)
-    solution = problem.solve(u)
+    try:
+        solution = problem.solve(u)
+    except ValueError as exc:  # e.g. residuals that are not finite at the start
+        return _Solution(u, 0, f"the optimiser failed: {exc}", nfev)
     return _Solution(solution.x, solution.status, solution.message, nfev + solution.nfev)
 
 

@@ -200,7 +200,10 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
     if converged:
         solution = _Solution(u, 1, "converged (Levenberg-Marquardt)", steps)
     else:
-        solution = problem.solve(u, max_nfev=400)
+        try:
+            solution = problem.solve(u, max_nfev=400)
+        except ValueError as exc:  # e.g. residuals that are not finite at the start
+            solution = _Solution(u, 0, f"the optimiser failed: {exc}", steps)
     values = problem.values(solution.x)
     chisqr = problem.chisqr(values)
     n, nfree = problem.ndata, len(problem.free)
