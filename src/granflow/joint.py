@@ -61,7 +61,8 @@ class JointFitResult:
         The four model parameters of each run as the joint fit sets them.
     run_names : tuple of str
     individual : tuple of FitResult
-        The separate fit of each run that started the joint fit.
+        The separate fit of each run that started the joint fit (whose ``x`` and ``data``
+        hold the points each run contributed).
     success, message, nfev, ndata, nfree, chisqr, redchi, aic, bic, sigma_known
         As in :class:`granflow.FitResult`.
     """

@@ -4,6 +4,6 @@ matplotlib is imported inside the functions, so importing granflow stays light. 
 are plotted in display units (mN, µm, s) with the unit on every axis.
 """
 
-from granflow.plotting.fits import plot_corner, plot_fit
+from granflow.plotting.fits import plot_amontons, plot_collapse, plot_corner, plot_fit
 
-__all__ = ["plot_corner", "plot_fit"]
+__all__ = ["plot_amontons", "plot_collapse", "plot_corner", "plot_fit"]
