@@ -4,10 +4,10 @@ Run by hand from the repository root:
 
     PYTHONPATH=src python benchmarks/bench_fit.py [--batch 1000] [--jobs 2]
 
-1. One 4000-point curve (the paper's blue set, Fd = 10 mN, noise 0.05 mN): granflow.fit with
-   no initial guess (profile-likelihood intervals included, and without them), side by side with
-   ``scipy.optimize.curve_fit`` on Eq. 3 written with ``scipy.special.expi`` and started from a
-   good guess (each parameter 10 % off the truth). Median of repeated runs.
+1. 4000-point curves (the paper's blue set, Fd = 10 mN, noise 0.05 mN, 50 noise seeds):
+   granflow.fit with no initial guess (profile-likelihood intervals included, and without
+   them), side by side with ``scipy.optimize.curve_fit`` on Eq. 3 written with
+   ``scipy.special.expi`` and started from a good guess (each parameter 10 % off the truth).
 2. A batch of 1000 such curves (different seeds) fitted with granflow.fit_many over 2 processes.
 """
 
@@ -17,6 +17,7 @@ import platform
 import statistics
 import time
 import warnings
+from functools import partial
 
 import numpy as np
 from scipy.optimize import curve_fit
@@ -48,29 +49,46 @@ def best_of(function, repeats):
     return statistics.median(times), result
 
 
-def single(repeats):
-    t, force = curve(1)
-    granflow.fit((t, force), domain="time")  # compile and warm up
+def single(repeats, seeds=50):
+    """Median and mean time per fit over ``seeds`` different noisy curves (each the median of
+    ``repeats`` runs), for granflow with and without profile intervals and for curve_fit."""
     truth = np.array([3.31e-3, 0.036, 10e-3, 0.23])
     guess = truth * np.array([1.1, 0.9, 1.1, 0.9])
+    granflow.fit(curve(0), domain="time")  # compile and warm up
 
-    def baseline():
+    def baseline(t, force):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             popt, _ = curve_fit(eq3_expi, t, force, p0=guess, maxfev=20000)
         return popt
 
-    t_full, full = best_of(lambda: granflow.fit((t, force), domain="time"), repeats)
-    t_wald, _ = best_of(lambda: granflow.fit((t, force), domain="time", profile=False), repeats)
-    t_base, popt = best_of(baseline, repeats)
-    print(f"one 4000-point fit (median of {repeats}):")
-    print(f"  granflow.fit, no guess, profile intervals : {t_full * 1e3:8.2f} ms")
-    print(f"  granflow.fit, no guess, Wald intervals    : {t_wald * 1e3:8.2f} ms")
-    print(f"  curve_fit + expi, good guess             : {t_base * 1e3:8.2f} ms")
-    print(f"  speed-up (profile) : {t_base / t_full:6.1f} x")
-    print(f"  speed-up (Wald)    : {t_base / t_wald:6.1f} x")
+    methods = {
+        "granflow.fit, no guess, profile intervals": lambda c: granflow.fit(c, domain="time"),
+        "granflow.fit, no guess, Wald intervals   ": lambda c: granflow.fit(
+            c, domain="time", profile=False
+        ),
+        "curve_fit + expi, good guess            ": lambda c: baseline(*c),
+    }
+    times = {name: [] for name in methods}
+    for seed in range(seeds):
+        data = curve(seed)
+        for name, method in methods.items():
+            times[name].append(best_of(partial(method, data), repeats)[0])
+    print(f"one 4000-point fit, {seeds} curves (each the median of {repeats} runs):")
+    for name, values in times.items():
+        print(
+            f"  {name}: median {statistics.median(values) * 1e3:7.2f} ms, "
+            f"mean {statistics.fmean(values) * 1e3:7.2f} ms"
+        )
+    baseline_times = times["curve_fit + expi, good guess            "]
+    for name in list(methods)[:2]:
+        median = statistics.median(baseline_times) / statistics.median(times[name])
+        mean = statistics.fmean(baseline_times) / statistics.fmean(times[name])
+        print(f"  speed-up, {name.strip()}: median {median:5.1f} x, mean {mean:5.1f} x")
+    full = granflow.fit(curve(1), domain="time")
+    popt = baseline(*curve(1))
     print(
-        "  agreement: k {:.6g} vs {:.6g}, t0 {:.6g} vs {:.6g}".format(
+        "  agreement (seed 1): k {:.6g} vs {:.6g}, t0 {:.6g} vs {:.6g}".format(
             full.params["k"], popt[1], full.params["t0"], popt[3]
         )
     )
@@ -100,7 +118,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch", type=int, default=1000)
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--repeats", type=int, default=15)
+    parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     print(
         f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "

@@ -127,3 +127,28 @@ def test_preparation_spread():
     peaks = [granflow.peak(Params(3.1e-3, 5e4, 10e-3, x0)).force for x0 in x0s]
     assert np.sign(spread.correlation) == np.sign(np.corrcoef(x0s, peaks)[0, 1])
     assert "repeats" in spread.report()
+
+
+def test_collapse_and_amontons_plots():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from granflow.plotting import plot_amontons, plot_collapse
+
+    runs, velocities = campaign((5e4, 5e4, 5e4), seed=3)
+    runs = [(x[::4], f[::4]) for x, f in runs]
+    ax = plot_collapse(granflow.velocity_collapse(runs, velocities))
+    assert ax.get_xlabel() == "slip x [µm]" and "collapse" in ax.get_title()
+    assert len(ax.get_lines()) == 2 * len(runs)
+    constants = MaterialConstants(mu_a=0.06, mu_d=0.2, alpha=5e4)
+    amontons_runs, loads = [], []
+    for i, load in enumerate((0.03, 0.06)):
+        for repeat in range(2):
+            params = constants.params_at(load, x0=(1.5 + repeat) * 1e-7)
+            amontons_runs.append(slip_run(params, seed=40 + 10 * i + repeat, points=400))
+            loads.append(load)
+    axes = plot_amontons(granflow.fit_amontons(amontons_runs, loads))
+    assert [a.get_ylabel() for a in axes] == ["a [mN]", "α [1/m]", "F_d [mN]"]
+    plt.close("all")

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from granflow._fitcore import FrozenMap
 from granflow.creep import fit_curve
 from granflow.errors import GranflowError, InvalidParameterError
 from granflow.fitting import _json_safe, _prepare, fit
@@ -32,14 +33,14 @@ class ModelComparison:
     rows : tuple of dict
         Per model: ``model``, ``formula``, ``nfree``, ``chisqr``, ``aic``, ``bic``,
         ``delta_aic``, ``delta_bic`` (from the best), ``success``, ``message``.
-    fits : dict
+    fits : mapping
         The fit result of each model (None where it could not be fitted).
     best_aic, best_bic : str
         The model with the smallest AIC, BIC.
     """
 
     rows: tuple
-    fits: dict
+    fits: FrozenMap
     best_aic: str
     best_bic: str
 
@@ -204,5 +205,8 @@ def compare_models(data, *, domain="slip", velocity=None, window=None, sigma=Non
         row["delta_aic"] = None if row["aic"] is None else row["aic"] - best_aic["aic"]
         row["delta_bic"] = None if row["bic"] is None else row["bic"] - best_bic["bic"]
     return ModelComparison(
-        rows=tuple(rows), fits=fits, best_aic=best_aic["model"], best_bic=best_bic["model"]
+        rows=tuple(rows),
+        fits=FrozenMap(fits),
+        best_aic=best_aic["model"],
+        best_bic=best_bic["model"],
     )

@@ -35,7 +35,6 @@ from granflow._fitcore import (
     GlobalParameter,
     Problem,
     covariance,
-    model_and_jacobian,
     model_only,
     profile_interval,
 )
@@ -61,6 +60,7 @@ _ABSCISSA = {"slip": ("x", "m"), "time": ("t", "s")}
 _LOG_SLOTS = (False, True, False, True)
 _MIN_POINTS = 10
 _START_PEAK_SLIPS = (0.9, 0.5, 1.6)  # trial alpha * x_peak for the starts
+_FEW_RISE_POINTS = 50  # below this many points up to the peak, always check x0 < x_first
 
 
 def parameter_names(domain="slip"):
@@ -218,7 +218,9 @@ def curve_features(z, y):
     Returns a dict with ``plateau``, ``peak_z``, ``peak_force``, ``overshoot`` and ``noise``.
     """
     n = z.size
-    width = max(1, n // 50)
+    # smooth over at most a quarter of the rise, so that a narrow overshoot survives
+    rough_peak = int(np.argmax(_smooth(y, max(1, min(5, n // 50)))))
+    width = max(1, min(n // 50, rough_peak // 4))
     smooth = _smooth(y, width)
     tail = y[int(0.9 * n) :]
     plateau = float(np.mean(tail))
@@ -240,7 +242,7 @@ def curve_features(z, y):
     }
 
 
-def _x0_from_rise(z, smooth, index, a, alpha, Fd):
+def _x0_from_rise(z, y, smooth, index, a, alpha, Fd):
     """x0 such that the model passes through the smoothed curve half-way up the rise.
 
     F at that point decreases monotonically with x0; it is evaluated for 64 trial values of
@@ -249,7 +251,8 @@ def _x0_from_rise(z, smooth, index, a, alpha, Fd):
     half = 0.5 * smooth[index]
     rising = np.nonzero(smooth[: index + 1] >= half)[0]
     point = int(rising[0]) if rising.size else index
-    z_rise, f_rise = float(z[point]), float(smooth[point])
+    # the raw data near the point: a running mean is biased upwards on a steep rise
+    z_rise, f_rise = float(z[point]), float(np.mean(y[max(point - 1, 0) : point + 2]))
     trial = z_rise * np.exp(-np.linspace(26.0, 1e-6, 64))  # x0 from 5e-12 z_rise to z_rise
     s, s0 = alpha * z_rise, alpha * trial
     force = a * scaled_ei_diff(s, s0) - Fd * math.expm1(-s)
@@ -271,10 +274,10 @@ def _starts(z, y, fixed, features):
     for peak_slip in _START_PEAK_SLIPS:
         alpha = fixed.get("alpha", peak_slip / z_peak)
         a = fixed.get("a", overshoot * alpha * z_peak)
-        x0 = fixed.get(
-            "x0", _x0_from_rise(z, features["smooth"], features["peak_index"], a, alpha, Fd)
-        )
-        candidates.append((a, alpha, Fd, x0))
+        rise = _x0_from_rise(z, y, features["smooth"], features["peak_index"], a, alpha, Fd)
+        # the initial state from the rise, or just before the first point
+        for x0 in (rise, 0.5 * z[0]):
+            candidates.append((a, alpha, Fd, fixed.get("x0", x0)))
     return candidates
 
 
@@ -400,8 +403,7 @@ class FitResult:
     def model(self, x):
         """The fitted curve at abscissae ``x`` [m or s] (held at the initial force below x0)."""
         z = check.real_array(x, "x", _ABSCISSA[self.domain][1]).ravel()
-        F, _ = model_and_jacobian(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
-        return F
+        return model_only(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
 
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
@@ -647,7 +649,7 @@ def fit(
     problem = Problem([curve], parameters)
     unweighted = bool(np.all(prepared.w == 1.0))
     noise = features["noise"] if unweighted else _noise_level(prepared.w * y)
-    solution = _multistart(problem, starts, noise)
+    solution = _multistart(problem, starts, noise, features["peak_index"])
     return _result(problem, solution, prepared, domain, names, fixed, profile)
 
 
@@ -660,7 +662,26 @@ class _Solution:
     hessian: np.ndarray | None = None  # J^T J in internal coordinates at x, when known
 
 
-def _multistart(problem, starts, noise):
+def _held_restart(problem, u):
+    """A restart with x0 below the first point when the optimum holds points at F(x0).
+
+    Each data point that x0 passes puts a kink into chi-square (the point changes from the
+    curve to the held initial force), which can trap the optimiser above the first points.
+    The restart puts x0 at 0.99 times the first point (see :func:`_multistart` for when it
+    is pursued). Returns the start in internal coordinates, or None.
+    """
+    index = 3  # x0 (t0) is the fourth global parameter of a single-curve problem
+    if index not in problem.free:
+        return None
+    first = float(problem.curves[0].z[0])
+    values = problem.values(u)
+    if values[index] <= first:
+        return None
+    values[index] = 0.99 * first
+    return problem.internal(values)
+
+
+def _multistart(problem, starts, noise, rise_points):
     """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
 
     When the converged fit leaves a residual variance above twice the point-to-point noise
@@ -677,17 +698,40 @@ def _multistart(problem, starts, noise):
     expected = 2.0 * noise**2 * max(problem.ndata - len(problem.free), 1)
     best, nfev = None, len(starts)
     for count, (_, u_start) in enumerate(ranked, start=1):
-        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=1e-12)
+        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=1e-10)
         nfev += steps
         if best is None or cost < best[1]:
             best = (u, cost, converged, count, hessian)
         if noise > 0 and best[1] <= expected:
             break
     u, cost, converged, tried, hessian = best
+    start = _held_restart(problem, u)
+    if start is not None:
+        start_cost, g, H = problem.state(start, problem.free)
+        nfev += 1
+        try:
+            promised = start_cost + 0.5 * float(g @ np.linalg.solve(H, -g))
+        except np.linalg.LinAlgError:
+            promised = -math.inf
+        # pursue it when the step promises a gain, when chi-square exceeds what the noise
+        # allows (5 standard deviations of chi-square plus the error of the noise estimate),
+        # or when few points describe the rise, so that one held point weighs much
+        dof = max(problem.ndata - len(problem.free), 1)
+        implausible = noise <= 0 or cost > (1.0 + 10.0 / math.sqrt(dof)) * dof * noise**2
+        if promised < cost or implausible or rise_points < _FEW_RISE_POINTS:
+            u_new, cost_new, converged_new, steps, hessian_new = problem.lm(
+                start, max_iter=200, rtol=1e-10
+            )
+            nfev += steps
+            if cost_new < cost:
+                u, cost, converged, hessian = u_new, cost_new, converged_new, hessian_new
     if converged:
         message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
         return _Solution(u, 1, message, nfev, hessian)
-    solution = problem.solve(u)
+    try:
+        solution = problem.solve(u)
+    except ValueError as exc:  # e.g. residuals that are not finite at the start
+        return _Solution(u, 0, f"the optimiser failed: {exc}", nfev)
     return _Solution(solution.x, solution.status, solution.message, nfev + solution.nfev)
 
 
@@ -715,6 +759,9 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         for p in free_names
     }
     ci95, ci_method, at_bound = {}, {}, {}
+    # data fitted to rounding error (synthetic, noise-free): chi-square has no scale left
+    # to profile against, so every interval is a Wald interval
+    exact_data = chisqr <= n * (1e-12 * problem.force_scale) ** 2
     messages = [solution.message]
     u_all = dict(zip(problem.free, solution.x, strict=True))
     for index, name in enumerate(names):
@@ -730,7 +777,7 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
             (math.isfinite(lower_u) and u - lower_u < 1e-6 * max(1.0, abs(lower_u)))
             or (math.isfinite(upper_u) and upper_u - u < 1e-6 * max(1.0, abs(upper_u)))
         )
-        if parameter.log and profile and invertible:
+        if parameter.log and profile and invertible and not exact_data:
             sd_u = stderr[name] / parameter.derivative(u)
             interval, exact = profile_interval(
                 problem, values, index, variance, chisqr, WALD_Z * sd_u, solution.hessian
@@ -754,7 +801,7 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     total = float(np.sum((prepared.y - np.mean(prepared.y)) ** 2))
     rsquared = 1.0 - float(residuals @ residuals) / total if total > 0 else math.nan
     log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf
-    if not success:
+    if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
         domain=domain,

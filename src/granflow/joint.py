@@ -38,6 +38,7 @@ __all__ = [
 ]
 
 _LOG_SLOTS = (False, True, False, True)
+_TIME_ALIASES = {"alpha": "k", "x0": "t0"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,7 +61,8 @@ class JointFitResult:
         The four model parameters of each run as the joint fit sets them.
     run_names : tuple of str
     individual : tuple of FitResult
-        The separate fit of each run that started the joint fit.
+        The separate fit of each run that started the joint fit (whose ``x`` and ``data``
+        hold the points each run contributed).
     success, message, nfev, ndata, nfree, chisqr, redchi, aic, bic, sigma_known
         As in :class:`granflow.FitResult`.
     """
@@ -199,7 +201,10 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
     if converged:
         solution = _Solution(u, 1, "converged (Levenberg-Marquardt)", steps)
     else:
-        solution = problem.solve(u, max_nfev=400)
+        try:
+            solution = problem.solve(u, max_nfev=400)
+        except ValueError as exc:  # e.g. residuals that are not finite at the start
+            solution = _Solution(u, 0, f"the optimiser failed: {exc}", steps)
     values = problem.values(solution.x)
     chisqr = problem.chisqr(values)
     n, nfree = problem.ndata, len(problem.free)
@@ -281,7 +286,8 @@ def fit_joint(
     domain : {"slip", "time"}
         Parameter names ``a, alpha, Fd, x0`` or ``a, k, Fd, t0``.
     shared : sequence of str
-        Parameters common to every run (named as is: ``alpha``).
+        Parameters common to every run (named as is: ``alpha``). In the time domain ``alpha``
+        and ``x0`` may be written for ``k`` and ``t0``.
     per_run : sequence of str
         Parameters of each run (named with the run's index: ``x0_0``, ``x0_1``, ...).
     groups : sequence, optional
@@ -313,6 +319,11 @@ def fit_joint(
     datasets = list(datasets)
     if not datasets:
         raise InvalidParameterError("fit_joint needs at least one run")
+    if domain == "time":  # the slip names (the defaults) stand for their time-domain twins
+        shared, per_run, per_group = (
+            tuple(_TIME_ALIASES.get(name, name) for name in names)
+            for names in (shared, per_run, per_group)
+        )
     roles = {}
     for role, names in (("shared", shared), ("per_run", per_run), ("per_group", per_group)):
         for name in names:

@@ -1,8 +1,8 @@
-"""Figures of fits: data with the fitted curve and residuals; corner plots of posteriors."""
+"""Figures of fits: data, fit and residuals; velocity collapse; Amontons; posterior corners."""
 
 from granflow.plotting._axes import MICRO, MILLI, new_axes
 
-__all__ = ["plot_corner", "plot_fit"]
+__all__ = ["plot_amontons", "plot_collapse", "plot_corner", "plot_fit"]
 
 
 def plot_fit(result, ax=None, *, residual_ax=None):
@@ -81,3 +81,86 @@ def plot_corner(posterior, **kwargs):
     }
     options.update(kwargs)
     return corner.corner(posterior.samples, **options)
+
+
+def plot_collapse(result, ax=None):
+    """Velocity collapse (Fig. 2b): every run against slip with the shared curve.
+
+    Parameters
+    ----------
+    result : CollapseResult
+        From :func:`granflow.velocity_collapse`.
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    import numpy as np
+
+    from granflow.model import friction_slip
+    from granflow.params import Params
+
+    ax = new_axes(ax)
+    shared = result.shared
+    for index, (run, params) in enumerate(zip(shared.individual, shared.run_params, strict=True)):
+        color = f"C{index % 10}"
+        ax.plot(run.x * MICRO, run.data * MILLI, ".", ms=1.5, alpha=0.4, color=color)
+        model = Params(**dict(params))
+        slip = np.geomspace(model.x0 * (1 + 1e-9), run.x[-1], 300)
+        label = "shared a, α, F_d" if index == 0 else None
+        ax.plot(slip * MICRO, friction_slip(slip, model) * MILLI, "-", color=color, label=label)
+    ax.set_xlabel("slip x [µm]")
+    ax.set_ylabel("force F [mN]")
+    verdict = "collapse not rejected" if result.collapses else "collapse rejected"
+    ax.set_title(f"{verdict} (p = {result.p_value:.3g})", fontsize="medium")
+    ax.legend(frameon=False)
+    return ax
+
+
+def plot_amontons(result, axes=None):
+    """Amontons' law (Fig. 2c): a, alpha (or alpha v) and Fd against the normal load.
+
+    Per-load means with standard errors, and the lines through the origin for a and Fd.
+
+    Parameters
+    ----------
+    result : AmontonsResult
+        From :func:`granflow.fit_amontons`.
+    axes : sequence of three matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    list of matplotlib.axes.Axes
+    """
+    import numpy as np
+
+    if axes is None:
+        import matplotlib.pyplot as plt
+
+        _, axes = plt.subplots(1, 3, figsize=(10.0, 3.4), layout="constrained")
+    loads = np.array([row["normal_load"] for row in result.per_load])
+    use_rate = all(row["alpha_v"] is not None for row in result.per_load)
+    panels = (
+        ("a", MILLI, "a [mN]"),
+        ("alpha_v" if use_rate else "alpha", 1.0, "α v [1/s]" if use_rate else "α [1/m]"),
+        ("Fd", MILLI, "F_d [mN]"),
+    )
+    span = np.linspace(0.0, loads.max() * 1.1, 50)
+    for ax, (key, scale, label) in zip(axes, panels, strict=True):
+        means = np.array([row[key][0] for row in result.per_load]) * scale
+        errors = np.array([row[key][1] for row in result.per_load]) * scale
+        ax.errorbar(loads * MILLI, means, yerr=errors, fmt="o", capsize=3)
+        if key in result.lines:
+            slope, error = result.lines[key]
+            ax.plot(span * MILLI, slope * span * scale, "k-", lw=1)
+            ax.fill_between(
+                span * MILLI,
+                (slope - error) * span * scale,
+                (slope + error) * span * scale,
+                color="0.8",
+            )
+        ax.set_xlabel("normal load F_N [mN]")
+        ax.set_ylabel(label)
+        ax.set_xlim(left=0)
+    return list(axes)
