@@ -602,7 +602,6 @@ class _Run:
 
     def run(self):
         records = []
-        self.record_now()
         message = "completed"
         success = True
         for index, segment in enumerate(self.protocol):
@@ -1158,8 +1157,9 @@ class _Run:
             if t_end > t:
                 n = max(3, int(self.points * (t_end - t) / d) + 2)
                 times = np.linspace(t, t_end, n)
-                if sol.t.size <= 4 * self.points:
-                    times = np.union1d(times, sol.t)
+                # the solver's own steps crowd where the motion is fast: keep (some of) them
+                stride = max(1, sol.t.size // (4 * self.points))
+                times = np.union1d(times, sol.t[::stride])
                 ys = sol.sol(times)
                 ys[:, -1] = sol.y[:, -1]
                 force = K * ys[3] if rate else start + slope * (times - t_a)
