@@ -122,13 +122,17 @@ def test_slide_hold_slide_strengthens_with_the_time_clock_only(blue):
 
 @pytest.mark.parametrize("clock", ["slip", "time"])
 def test_reset_restores_the_first_overshoot_exactly(blue, clock):
-    protocol = gf.Protocol([gf.Velocity(V, 100.0), gf.Hold(60.0, reset=True), gf.Velocity(V, 100.0)])
+    protocol = gf.Protocol(
+        [gf.Velocity(V, 100.0), gf.Hold(60.0, reset=True), gf.Velocity(V, 100.0)]
+    )
     result = gf.simulate(blue, protocol, clock=clock)
     first, second = result.events_of("peak")
     assert second.force == first.force
     assert second.slip == first.slip
     assert second.time - first.time == pytest.approx(160.0, rel=1e-12)
-    np.testing.assert_array_equal(result.state[result.segment == 2], result.state[result.segment == 0])
+    np.testing.assert_array_equal(
+        result.state[result.segment == 2], result.state[result.segment == 0]
+    )
     (reset,) = result.events_of("reset")
     assert reset.slip == blue.x0 and reset.force == 0.0
     assert result.displacement[-1] == pytest.approx(2 * 100.0 * V, rel=1e-12)
@@ -217,7 +221,9 @@ def test_stop_and_failure_agree_with_root_finding_on_the_closed_form(blue):
         if sigma > top.force:
             assert result.failed
             continue
-        expected = brentq(lambda x: gf.friction_slip(x, blue) - sigma, start, top.slip, xtol=1e-22)
+        expected = brentq(
+            lambda x, s=sigma: gf.friction_slip(x, blue) - s, start, top.slip, xtol=1e-22
+        )
         assert result.events_of("stop")[0].slip == pytest.approx(expected, rel=1e-10)
 
 

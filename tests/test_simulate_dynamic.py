@@ -18,14 +18,12 @@ def blue():
 
 
 def _switch(duration, factor=1.01, hold=60.0, ramp=0.0):
-    return gf.Protocol(
-        [gf.Velocity(V, duration), gf.SwitchToForce(hold, factor=factor, ramp=ramp)]
-    )
+    return gf.Protocol([gf.Velocity(V, duration), gf.SwitchToForce(hold, factor=factor, ramp=ramp)])
 
 
 def test_default_mass_is_an_mcr_motor_at_the_contact_radius():
-    assert DEFAULT_MASS == pytest.approx(1e-5 / gf.Annulus.paper().mean_radius ** 2)
-    assert DEFAULT_MASS == pytest.approx(0.0533, rel=1e-3)
+    assert pytest.approx(1e-5 / gf.Annulus.paper().mean_radius ** 2) == DEFAULT_MASS
+    assert pytest.approx(0.0533, rel=1e-3) == DEFAULT_MASS
 
 
 @pytest.fixture(scope="module")
