@@ -193,6 +193,15 @@ def test_switch_before_the_peak_stops_after_half_a_micrometre(blue):
     assert result.slip[-1] == stop.slip
 
 
+def test_a_rising_force_after_the_peak_fails_at_once(blue):
+    protocol = gf.Protocol([gf.Velocity(V, 80.0), gf.ForceRamp(rate=1e-5, duration=10.0)])
+    result = gf.simulate(blue, protocol)
+    switch_force = gf.friction_time(80.0 + blue.t0(V), blue, V)
+    assert result.failed and result.failure.time == 80.0
+    assert result.failure.force == pytest.approx(switch_force, rel=1e-12)
+    assert np.all(result.velocity >= 0)
+
+
 def test_a_lower_force_after_the_switch_stops_at_once(blue):
     result = gf.simulate(blue, _switch(10.0, factor=0.9))
     (stop,) = result.events_of("stop")
