@@ -4,6 +4,9 @@ Model evaluation, simulation of rheometer protocols, fits with uncertainties, in
 readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
 """
 
+from granflow.campaign import Campaign
+from granflow.compare import ModelComparison, compare_models
+from granflow.creep import CurveFitResult, fit_creep
 from granflow.errors import (
     ConvergenceWarning,
     FileFormatError,
@@ -13,7 +16,20 @@ from granflow.errors import (
     InvalidParameterError,
     InvalidProtocolError,
 )
+from granflow.fitting import FitResult, fit, fit_many
 from granflow.geometry import Annulus
+from granflow.io import read, read_runs
+from granflow.joint import (
+    AmontonsResult,
+    CollapseResult,
+    JointFitResult,
+    PreparationSpread,
+    fit_amontons,
+    fit_joint,
+    preparation_spread,
+    velocity_collapse,
+)
+from granflow.mcmc import PosteriorResult, sample_posterior
 from granflow.model import (
     NoPeakError,
     Peak,
@@ -50,12 +66,17 @@ from granflow.stability import StabilityMap, stability_map
 __version__ = "0.1.0"
 
 __all__ = [
+    "AmontonsResult",
     "Annulus",
+    "Campaign",
+    "CollapseResult",
     "ConvergenceWarning",
+    "CurveFitResult",
     "DirectEffect",
     "Event",
     "FileFormatError",
     "FitError",
+    "FitResult",
     "Force",
     "ForceRamp",
     "ForceSteps",
@@ -65,10 +86,14 @@ __all__ = [
     "InvalidDataError",
     "InvalidParameterError",
     "InvalidProtocolError",
+    "JointFitResult",
     "MaterialConstants",
+    "ModelComparison",
     "NoPeakError",
     "Params",
     "Peak",
+    "PosteriorResult",
+    "PreparationSpread",
     "Protocol",
     "Run",
     "SimulationResult",
@@ -78,6 +103,12 @@ __all__ = [
     "VelocitySteps",
     "VelocityTable",
     "__version__",
+    "compare_models",
+    "fit",
+    "fit_amontons",
+    "fit_creep",
+    "fit_joint",
+    "fit_many",
     "friction_aging",
     "friction_asymptote",
     "friction_slip",
@@ -86,11 +117,16 @@ __all__ = [
     "has_peak",
     "initial_force",
     "peak",
+    "preparation_spread",
+    "read",
+    "read_runs",
     "rhs_slip",
     "rhs_time",
+    "sample_posterior",
     "scaled_ei",
     "scaled_ei_diff",
     "simulate",
     "stability_map",
     "steady_state",
+    "velocity_collapse",
 ]

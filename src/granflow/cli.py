@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 import granflow
+import granflow.units
 from granflow.errors import GranflowError
 from granflow.plotting import plot_simulation, plot_stability_map
 from granflow.units import parse_quantity
@@ -116,6 +117,241 @@ def _run_curve(args):
         for index in np.linspace(0, len(time) - 1, 9).astype(int):
             print(f"  t = {time[index]:12.6g} s   F = {force[index] * 1e3:10.6f} mN")
     return 0
+
+
+def _add_inspect(subparsers):
+    parser = subparsers.add_parser(
+        "inspect",
+        help="show what an instrument export holds (format, tests, columns, units, problems)",
+        description="Read an instrument export and print its format, encoding, number format, "
+        "tests and intervals, columns with units, control mode, row counts and problems.",
+        epilog="example:\n  granflow inspect run1.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("file", help="the export (RheoCompass, Rheoplus, TRIOS or CSV)")
+    parser.add_argument("--format", choices=("rheocompass", "rheoplus", "trios", "csv"))
+    parser.set_defaults(run=_run_inspect)
+
+
+def _run_inspect(args):
+    parsed = granflow.read(args.file, format=args.format)
+    print(parsed.report())
+    return 0
+
+
+def _geometry(text):
+    if text == "paper":
+        return granflow.Annulus.paper()
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise _UsageError(
+            f"--geometry must be 'paper' or OUTER_DIAMETER:WALL (e.g. 29.7mm:2.3mm), got {text!r}"
+        )
+    return granflow.Annulus(
+        outer_diameter=parse_quantity(parts[0], "m", "--geometry outer diameter"),
+        wall_thickness=parse_quantity(parts[1], "m", "--geometry wall thickness"),
+    )
+
+
+def _add_convert(subparsers):
+    parser = subparsers.add_parser(
+        "convert",
+        help="convert instrument exports to one tidy Parquet or CSV table of runs",
+        description="Read instrument exports (or a campaign manifest), turn every interval into "
+        "a run (time, slip, velocity, friction force in SI units) and save them as one tidy "
+        "table. A file that fails is reported and the others are converted (exit code 1).",
+        epilog="examples:\n  granflow convert run1.csv run2.txt -o tidy.parquet --geometry paper\n"
+        "  granflow convert --manifest campaign.yaml -o tidy.csv",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("files", nargs="*", help="export files")
+    parser.add_argument("--manifest", help="a campaign manifest (.yaml or .csv)")
+    parser.add_argument("-o", "--output", required=True, help="output .parquet or .csv")
+    parser.add_argument(
+        "--geometry",
+        default="paper",
+        help="'paper' (29.7 mm tube, 2.3 mm wall; default) or OUTER_DIAMETER:WALL",
+    )
+    parser.set_defaults(run=_run_convert)
+
+
+def _run_convert(args):
+    geometry = _geometry(args.geometry)
+    if not args.files and not args.manifest:
+        raise _UsageError("give export files or --manifest")
+    runs, problems = [], []
+    if args.manifest:
+        campaign = granflow.Campaign.from_manifest(args.manifest, geometry=geometry)
+        runs += list(campaign)
+        problems += list(campaign.problems)
+    for file in args.files:
+        try:
+            runs += granflow.read_runs(file, geometry=geometry)
+        except GranflowError as exc:
+            problems.append(str(exc))
+    campaign = granflow.Campaign(runs, problems)
+    for problem in problems:
+        print(f"granflow convert: failed: {problem}", file=sys.stderr)
+    if runs:
+        path = campaign.save(args.output)
+        points = sum(len(run) for run in runs)
+        print(f"wrote {len(runs)} runs ({points} points) to {path}")
+    return 1 if problems else 0
+
+
+_EPILOG_FIT = """examples:
+  granflow fit run1.csv                         (columns e.g. 'slip [um]', 'force [mN]')
+  granflow fit run1.csv --domain time --velocity 0.86um/s --fix Fd=10mN
+  granflow fit run1.csv --window 1s:600s --json
+The CSV needs a time or slip column and a force column, each with its unit in the header:
+'time [s]', 't (min)', 'slip [µm]', 'force [mN]', or granflow's own 'time_s', 'force_N'."""
+
+_COLUMN_KINDS = {
+    "time": ("time", "t"),
+    "slip": ("slip", "x", "displacement"),
+    "force": ("force", "f", "friction"),
+}
+_SI_UNITS = {"time": "s", "slip": "m", "force": "N"}
+
+
+def _split_header(header):
+    """'force [mN]' / 'force (mN)' / 'force_mN' -> ('force', 'mN'); no unit -> (name, None)."""
+    import re
+
+    text = str(header).strip()
+    match = re.fullmatch(r"(.+?)\s*[\[(](.+)[\])]", text)
+    if match:
+        return match.group(1).strip().lower(), match.group(2).strip()
+    name, _, unit = text.rpartition("_")
+    if name and unit:
+        return name.strip().lower(), unit
+    return text.lower(), None
+
+
+def _read_fit_csv(path):
+    """{'time'|'slip'|'force': SI array} from a CSV whose headers carry units."""
+    import pandas as pd
+
+    from granflow.errors import FileFormatError
+    from granflow.units import to_si
+
+    try:
+        frame = pd.read_csv(path)
+    except FileNotFoundError:
+        raise FileFormatError(f"{path}: no such file") from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise FileFormatError(f"{path}: not a readable CSV file ({exc})") from None
+    columns = {}
+    for header in frame.columns:
+        name, unit = _split_header(header)
+        kind = next((k for k, names in _COLUMN_KINDS.items() if name in names), None)
+        if kind is None or kind in columns:
+            continue
+        if unit is None:
+            raise FileFormatError(
+                f"{path}: column {header!r} has no unit; write it as '{name} [unit]'"
+            )
+        values = pd.to_numeric(frame[header], errors="coerce").to_numpy(dtype=float)
+        bad = np.isnan(values) & frame[header].notna().to_numpy()
+        if bad.any():
+            line = int(np.argmax(bad)) + 2  # header is line 1
+            raise FileFormatError(
+                f"line {line} of {path}: column {header!r} has a non-numeric value "
+                f"{frame[header].iloc[line - 2]!r}"
+            )
+        try:
+            columns[kind] = np.asarray(to_si(values, unit, f"{path}: column {header!r}"))
+        except GranflowError as exc:
+            raise FileFormatError(str(exc)) from None
+        expected = granflow.units.unit_registry()(_SI_UNITS[kind]).dimensionality
+        if (
+            granflow.units.unit_registry()(unit.replace("µ", "u").replace("μ", "u")).dimensionality
+            != expected
+        ):
+            raise FileFormatError(f"{path}: column {header!r} has unit {unit!r}, not a {kind} unit")
+    if "force" not in columns or not ({"time", "slip"} & columns.keys()):
+        raise FileFormatError(
+            f"{path}: need a force column and a time or slip column, found "
+            f"{', '.join(map(str, frame.columns))}"
+        )
+    return columns
+
+
+def _add_fit(subparsers):
+    parser = subparsers.add_parser(
+        "fit",
+        help="fit Eq. 3 to a friction curve in a CSV file",
+        description="Fit the aging-rejuvenation model (Eq. 3) to one friction curve, with no "
+        "initial guess, and print the parameters with standard errors and 95 % intervals.",
+        epilog=_EPILOG_FIT,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("data", help="CSV file with a time or slip column and a force column")
+    parser.add_argument(
+        "--domain",
+        choices=("slip", "time"),
+        help="fit F(slip) with a, alpha, Fd, x0 or F(t) with a, k, Fd, t0 "
+        "(default: slip when the file has a slip column)",
+    )
+    parser.add_argument(
+        "--fix",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="hold a parameter fixed, e.g. --fix Fd=10mN (repeatable)",
+    )
+    parser.add_argument("--velocity", help="sliding velocity, e.g. 0.86um/s (time domain)")
+    parser.add_argument("--window", help="fit window START:STOP with units, e.g. 1s:600s")
+    parser.add_argument("--sigma", help="known force noise, e.g. 0.05mN")
+    parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    parser.set_defaults(run=_run_fit)
+
+
+def _run_fit(args):
+    import json
+
+    from granflow.fitting import _UNITS
+
+    columns = _read_fit_csv(args.data)
+    domain = args.domain or ("slip" if "slip" in columns else "time")
+    abscissa = "slip" if domain == "slip" else "time"
+    if abscissa not in columns:
+        raise _UsageError(f"--domain {domain} needs a {abscissa} column in {args.data}")
+    units = _UNITS[domain]
+    fixed = {}
+    for item in args.fix:
+        name, sep, value = item.partition("=")
+        if not sep or name not in units:
+            raise _UsageError(
+                f"--fix must be NAME=VALUE with NAME one of {', '.join(units)}, got {item!r}"
+            )
+        fixed[name] = parse_quantity(value, units[name], f"--fix {name}")
+    window = None
+    if args.window:
+        start, sep, stop = args.window.partition(":")
+        if not sep:
+            raise _UsageError(f"--window must be START:STOP, got {args.window!r}")
+        unit = _SI_UNITS[abscissa]
+        window = (
+            parse_quantity(start, unit, "--window start"),
+            parse_quantity(stop, unit, "--window stop") if stop else None,
+        )
+    velocity = parse_quantity(args.velocity, "m/s", "--velocity") if args.velocity else None
+    sigma = parse_quantity(args.sigma, "N", "--sigma") if args.sigma else None
+    result = granflow.fit(
+        (columns[abscissa], columns["force"]),
+        domain=domain,
+        velocity=velocity,
+        fixed=fixed,
+        window=window,
+        sigma=sigma,
+    )
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    else:
+        print(f"fit of {args.data}")
+        print(result.report())
+    return 0 if result.success else 1
 
 
 _EPILOG_SIMULATE = """examples:
@@ -327,6 +563,9 @@ def build_parser():
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     _add_curve(subparsers)
+    _add_inspect(subparsers)
+    _add_convert(subparsers)
+    _add_fit(subparsers)
     _add_simulate(subparsers)
     _add_stability_map(subparsers)
     return parser

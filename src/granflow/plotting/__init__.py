@@ -4,6 +4,7 @@ matplotlib is imported inside the functions, so importing granflow stays light. 
 are plotted in display units (mN, µm, s) with the unit on every axis.
 """
 
+from granflow.plotting.fits import plot_corner, plot_fit
 from granflow.plotting.simulation import (
     plot_simulation,
     plot_simulation_force,
@@ -12,6 +13,8 @@ from granflow.plotting.simulation import (
 )
 
 __all__ = [
+    "plot_corner",
+    "plot_fit",
     "plot_simulation",
     "plot_simulation_force",
     "plot_simulation_slip",

@@ -1,0 +1,309 @@
+"""THE table of vendor labels (English, French, German) and the unit conversions to SI.
+
+Every reader maps column names and header keywords through this one module, so a new
+language or a new vendor spelling is one more string in a tuple below. Matching ignores
+case, accents and surrounding spaces ("Angle de deflexion" finds "Angle de Déflexion").
+
+Units are converted in one place, :func:`si_factor`, with pint (via :mod:`granflow.units`):
+an unknown unit is an error naming it, never a guess.
+"""
+
+import math
+import re
+import unicodedata
+
+from granflow.errors import InvalidParameterError
+from granflow.units import to_si
+
+__all__ = [
+    "KEYWORDS",
+    "LANGUAGES",
+    "METADATA",
+    "QUANTITIES",
+    "SI_UNITS",
+    "control_from_text",
+    "label",
+    "match_keyword",
+    "match_metadata",
+    "match_quantity",
+    "normalize",
+    "si_factor",
+]
+
+LANGUAGES = ("en", "fr", "de")
+
+#: Column labels per quantity and language, in order of preference (the first one of each
+#: language is what the writer prints). "vendor" holds spellings of other software (TRIOS).
+QUANTITIES = {
+    "point": {
+        "en": ("Point No.", "Meas. Pts.", "Point"),
+        "fr": ("N° de point", "Pts. de mes.", "Point"),
+        "de": ("Punkt Nr.", "Messpkt.", "Messpunkt"),
+    },
+    "interval_time": {
+        "en": ("Interval Time",),
+        "fr": ("Temps d'intervalle",),
+        "de": ("Intervallzeit",),
+        "vendor": ("Step time",),
+    },
+    "time": {
+        "en": ("Time",),
+        "fr": ("Temps",),
+        "de": ("Zeit",),
+    },
+    "torque": {
+        "en": ("Torque",),
+        "fr": ("Couple",),
+        "de": ("Drehmoment",),
+    },
+    "speed": {
+        "en": ("Rotational Speed", "Speed"),
+        "fr": ("Vitesse de Rotation", "Vitesse"),
+        "de": ("Drehzahl",),
+        "vendor": ("Velocity", "Angular velocity"),
+    },
+    "angle": {
+        "en": ("Deflection Angle",),
+        "fr": ("Angle de Déflexion",),
+        "de": ("Auslenkwinkel",),
+        "vendor": ("Displacement", "Angular displacement"),
+    },
+    "normal_force": {
+        "en": ("Normal Force",),
+        "fr": ("Force Normale",),
+        "de": ("Normalkraft",),
+        "vendor": ("Axial force",),
+    },
+    "shear_stress": {
+        "en": ("Shear Stress",),
+        "fr": ("Contrainte de Cisaillement",),
+        "de": ("Schubspannung",),
+        "vendor": ("Stress",),
+    },
+    "shear_rate": {
+        "en": ("Shear Rate",),
+        "fr": ("Vitesse de Cisaillement",),
+        "de": ("Scherrate",),
+    },
+    "strain": {
+        "en": ("Shear Strain", "Strain"),
+        "fr": ("Déformation de Cisaillement", "Déformation"),
+        "de": ("Scherdeformation", "Deformation"),
+    },
+    "status": {
+        "en": ("Status",),
+        "fr": ("Statut", "État"),
+        "de": ("Status",),
+    },
+}
+
+#: The SI unit of each quantity (None: a count or text, no unit).
+SI_UNITS = {
+    "point": None,
+    "interval_time": "s",
+    "time": "s",
+    "torque": "N m",
+    "speed": "rev/s",
+    "angle": "rad",
+    "normal_force": "N",
+    "shear_stress": "Pa",
+    "shear_rate": "1/s",
+    "strain": "1",
+    "status": None,
+}
+
+#: Structural keywords of the exports (the label cell that starts a header line).
+KEYWORDS = {
+    "project": {"en": ("Project:",), "fr": ("Projet:",), "de": ("Projekt:",)},
+    "test": {"en": ("Test:",), "fr": ("Test:", "Essai:"), "de": ("Test:", "Versuch:")},
+    "result": {"en": ("Result:",), "fr": ("Résultat:",), "de": ("Ergebnis:",)},
+    "interval_points": {
+        "en": ("Interval and data points:",),
+        "fr": ("Intervalle et points de données:",),
+        "de": ("Intervall und Datenpunkte:",),
+    },
+    "interval_data": {
+        "en": ("Interval data:",),
+        "fr": ("Données d'intervalle:",),
+        "de": ("Intervalldaten:",),
+    },
+    "series": {
+        "en": ("Data Series Information",),
+        "fr": ("Informations sur la série de données",),
+        "de": ("Datenreihen-Information",),
+    },
+    "interval": {"en": ("Interval:",), "fr": ("Intervalle:",), "de": ("Intervall:",)},
+    "profile": {
+        "en": ("Measuring Profile:",),
+        "fr": ("Profil de mesure:",),
+        "de": ("Messprofil:",),
+    },
+}
+
+#: Metadata keys: label per language, and the SI unit of the value (None: text).
+METADATA = {
+    "sample": ({"en": "Sample", "fr": "Échantillon", "de": "Probe"}, None),
+    "preparation": ({"en": "Preparation", "fr": "Préparation", "de": "Präparation"}, None),
+    "normal_load": ({"en": "Normal Load", "fr": "Charge Normale", "de": "Normallast"}, "N"),
+    "rest_time": ({"en": "Rest Time", "fr": "Temps de Repos", "de": "Ruhezeit"}, "s"),
+    "velocity": (
+        {"en": "Nominal Velocity", "fr": "Vitesse Nominale", "de": "Nenngeschwindigkeit"},
+        "m/s",
+    ),
+    "control": ({"en": "Control Mode", "fr": "Mode de Contrôle", "de": "Regelungsart"}, None),
+}
+
+#: Words that name the control mode, in any language (profile lines and "Control Mode").
+_CONTROL_WORDS = {
+    "rate": (
+        "rate",
+        "speed",
+        "strain",
+        "shear rate",
+        "deflection",
+        "velocity",
+        "vitesse",
+        "deformation",
+        "geschwindigkeit",
+        "drehzahl",
+        "scherrate",
+    ),
+    "stress": (
+        "stress",
+        "torque",
+        "contrainte",
+        "couple",
+        "spannung",
+        "schubspannung",
+        "drehmoment",
+    ),
+}
+
+#: Control-mode words the writer prints, per language.
+CONTROL_LABELS = {
+    "en": {"rate": "Rate", "stress": "Stress"},
+    "fr": {"rate": "Vitesse", "stress": "Contrainte"},
+    "de": {"rate": "Geschwindigkeit", "stress": "Spannung"},
+}
+
+
+def normalize(text):
+    """Lower case, accents removed, inner spaces collapsed: the key labels are compared by."""
+    decomposed = unicodedata.normalize("NFKD", str(text))
+    stripped = "".join(char for char in decomposed if not unicodedata.combining(char))
+    return " ".join(stripped.lower().replace("’", "'").split())
+
+
+def _index(table):
+    index = {}
+    for key, spellings in table.items():
+        for group in spellings.values():
+            for rank, spelling in enumerate(group if isinstance(group, tuple) else (group,)):
+                index.setdefault(normalize(spelling), (key, rank))
+    return index
+
+
+_QUANTITY_INDEX = _index(QUANTITIES)
+_KEYWORD_INDEX = _index(KEYWORDS)
+_METADATA_INDEX = {
+    normalize(spelling): key
+    for key, (labels, _) in METADATA.items()
+    for spelling in labels.values()
+}
+
+
+def match_quantity(name):
+    """(quantity, rank) for a column label, or (None, None) when it is not in the table."""
+    return _QUANTITY_INDEX.get(normalize(name), (None, None))
+
+
+def match_keyword(cell):
+    """The structural keyword a header cell is ("test", "interval_data", ...), or None."""
+    hit = _KEYWORD_INDEX.get(normalize(cell))
+    return None if hit is None else hit[0]
+
+
+def match_metadata(label):
+    """The metadata key a label names ("normal_load", ...), or None."""
+    return _METADATA_INDEX.get(normalize(label.rstrip(":").split("[")[0]))
+
+
+def label(quantity, language):
+    """The label the writer prints for ``quantity`` in ``language``."""
+    return QUANTITIES[quantity][language][0]
+
+
+def keyword(name, language):
+    """The structural keyword the writer prints in ``language``."""
+    return KEYWORDS[name][language][0]
+
+
+def control_from_text(text):
+    """ "rate" or "stress" when ``text`` names a control mode or profile quantity, else None."""
+    words = normalize(text)
+    found = {
+        mode
+        for mode, names in _CONTROL_WORDS.items()
+        if any(re.search(rf"\b{re.escape(name)}\b", words) for name in names)
+    }
+    return found.pop() if len(found) == 1 else None
+
+
+_TORQUE_PRODUCT = re.compile(r"N\s*[·⋅.*\s]?\s*m$")
+
+
+def _pint_unit(quantity, unit):
+    """Rewrite instrument spellings into pint's: µNm, µN.m, N m -> µN*m; ° -> deg."""
+    text = unit.strip()
+    if quantity == "torque":
+        text = _TORQUE_PRODUCT.sub("N*m", text)
+    text = text.replace("°", "deg").replace("%", "percent").replace("min⁻¹", "1/min")
+    return text.replace("s⁻¹", "1/s")
+
+
+def si_factor(quantity, unit):
+    """The factor from ``unit`` to the SI unit of ``quantity`` (``SI_UNITS``).
+
+    Rotational speeds go to rev/s: "1/min" and "1/s" (and "rpm") count revolutions, as
+    rheometers print them; "rad/s" and "deg/s" are angular velocities.
+
+    Raises
+    ------
+    InvalidParameterError
+        The unit is unknown to pint or has the wrong dimension for ``quantity``.
+    """
+    target = SI_UNITS[quantity]
+    if target is None:
+        return 1.0
+    text = _pint_unit(quantity, unit)
+    if text in ("", "1") and target == "1":
+        return 1.0
+    if text == "":
+        raise InvalidParameterError(f"{quantity}: no unit given, expected one like {target!r}")
+    from granflow.units import unit_registry
+
+    registry = unit_registry()
+    try:
+        if quantity == "speed":
+            angular = any(word in text for word in ("rad", "deg"))
+            value = registry.Quantity(1.0, text.replace("rpm", "1/min"))
+            factor = value.to("rad/s").magnitude / (2 * math.pi) if angular else None
+            if factor is None:
+                factor = value.to("1/s").magnitude
+            return float(factor)
+        value = to_si(1.0, text, quantity)
+        expected = registry.Quantity(1.0, target.replace(" ", "*"))
+        measured = registry.Quantity(1.0, text.replace("μ", "u").replace("µ", "u"))
+        if measured.dimensionality != expected.dimensionality:
+            raise InvalidParameterError(f"unit {unit!r} is not a unit of {quantity} ({target})")
+        return float(value)
+    except InvalidParameterError as exc:
+        if "unit" in str(exc) and repr(unit) in str(exc):
+            raise
+        raise InvalidParameterError(
+            f"unknown or invalid unit {unit!r} for {quantity} (expected one like {target!r})"
+        ) from None
+    except Exception:  # pint raises several unrelated types for bad units
+        raise InvalidParameterError(
+            f"unknown or invalid unit {unit!r} for {quantity} (expected one like {target!r})"
+        ) from None

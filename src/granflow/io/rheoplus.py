@@ -1,0 +1,117 @@
+"""Anton Paar Rheoplus text exports (the software before RheoCompass).
+
+Layout: one "Data Series Information" block per series (test), ``Key:<TAB><TAB><TAB>value``
+metadata (name, device, measuring system, calculating constants, interval number, number of
+data points, measuring profile), then a header row starting with "Meas. Pts.", a unit row
+("[s]", "[µNm]", "[]") and data rows up to a blank line. ``******`` marks a missing value.
+"""
+
+from dataclasses import replace
+from pathlib import Path
+
+from granflow.io import _columns
+from granflow.io._file import BlockSpec, finish
+from granflow.io._text import decode, sniff_delimiter, split
+
+__all__ = ["looks_like_rheoplus", "parse_rheoplus", "read_rheoplus"]
+
+
+def looks_like_rheoplus(lines):
+    """True when the file has Rheoplus's "Data Series Information" keyword."""
+    return any(_columns.match_keyword(line.strip()) == "series" for line in lines[:200])
+
+
+def _joined(cells):
+    return " ".join(cell.strip() for cell in cells if cell.strip())
+
+
+def _scan(lines, delimiter):
+    specs, file_metadata = [], {}
+    test, metadata, number, declared = "", {}, 0, None
+    last_key = ""
+    index, count = 0, len(lines)
+    while index < count:
+        line = lines[index]
+        stripped = line.strip()
+        if not stripped:
+            index += 1
+            continue
+        cells = split(line, delimiter)
+        head = cells[0].strip() if cells else ""
+        keyword = _columns.match_keyword(head)
+        if keyword == "series":
+            test, metadata, number, declared = f"series {len(specs) + 1}", {}, 0, None
+        elif keyword == "interval":
+            try:
+                number = int(_joined(cells[1:]))
+            except ValueError:
+                number += 1
+        elif keyword == "profile":
+            profile = []
+            while index + 1 < count and lines[index + 1].strip() and lines[index + 1][:1] in " \t":
+                index += 1
+                profile.append(_joined(split(lines[index], delimiter)))
+            metadata["profile"] = "; ".join(profile)
+        elif _columns.match_quantity(head)[0] == "point":
+            names = cells
+            row = index + 1
+            units = lines[row].split(delimiter) if row < count else []
+            row += 1 if any(cell.strip().startswith("[") for cell in units) else 0
+            stop = row
+            while stop < count and lines[stop][:1].isdigit():
+                stop += 1
+            spec_metadata = dict(metadata)
+            if declared is not None:
+                spec_metadata["declared_points"] = declared
+            specs.append(
+                BlockSpec(test, number or 1, index + 1, names, units, [], row, stop, spec_metadata)
+            )
+            index = stop
+            continue
+        elif head.endswith(":") or len(cells) > 1:
+            key = head.lstrip("- ").rstrip(":").strip()
+            value = _joined(cells[1:])
+            target = metadata if test else file_metadata
+            if not key and last_key in target:
+                target[last_key] = [*target[last_key], *cells[1:]]
+                index += 1
+                continue
+            last_key = key
+            if _columns.normalize(key) == "name":
+                test = value or test
+            elif _columns.normalize(key) == "number of data points":
+                try:
+                    declared = int(value)
+                except ValueError:
+                    declared = None
+            elif test:
+                metadata[key] = cells[1:]
+            else:
+                file_metadata[key] = cells[1:]
+        index += 1
+    return file_metadata, specs
+
+
+def parse_rheoplus(text, source="<text>", encoding="str"):
+    """Parse the text of a Rheoplus export into a :class:`granflow.io.ParsedFile`.
+
+    Examples
+    --------
+    >>> from granflow.io import parse_rheoplus
+    >>> text = ("Data Series Information\\nName:\\t\\t\\tdemo\\n\\n"
+    ...         "Meas. Pts.\\tTime\\tTorque\\n\\t[s]\\t[µNm]\\n1\\t1E0\\t******\\n2\\t2E0\\t5E0\\n")
+    >>> parse_rheoplus(text).intervals[0].si("torque").tolist()
+    [nan, 5e-06]
+    """
+    lines = text.splitlines()
+    delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
+    metadata, specs = _scan(lines, delimiter)
+    return finish(source, "rheoplus", encoding, delimiter, lines, specs, metadata, [])
+
+
+def read_rheoplus(path):
+    """Read a Rheoplus export file; see :func:`parse_rheoplus`."""
+    path = Path(path)
+    text, encoding, problems = decode(path.read_bytes(), str(path))
+    parsed = parse_rheoplus(text, source=str(path), encoding=encoding)
+    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed

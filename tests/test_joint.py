@@ -1,0 +1,129 @@
+"""Joint fits: tied parameters, velocity collapse with its likelihood-ratio test, Amontons."""
+
+import json
+
+import numpy as np
+import pytest
+
+import granflow
+from granflow import MaterialConstants, Params, friction_slip
+
+NOISE = 0.05e-3
+VELOCITIES = (0.3e-6, 0.86e-6, 2.5e-6)
+
+
+def slip_run(params, seed, points=1500, last_slip=5e-4):
+    x = np.linspace(params.x0, last_slip, points)
+    return x, friction_slip(x, params) + np.random.default_rng(seed).normal(0, NOISE, points)
+
+
+def campaign(alphas, seed):
+    """Two repeats at each velocity; x0 differs between repeats (preparation)."""
+    runs, velocities = [], []
+    for i, (velocity, alpha) in enumerate(zip(VELOCITIES, alphas, strict=True)):
+        for repeat, x0 in enumerate((2e-7, 3.2e-7)):
+            params = Params(a=3.1e-3, alpha=alpha, Fd=10e-3, x0=x0)
+            runs.append(slip_run(params, seed=100 * seed + 10 * i + repeat))
+            velocities.append(velocity)
+    return runs, velocities
+
+
+def test_joint_fit_recovers_shared_parameters_within_intervals():
+    truths = [Params(3.1e-3, 5e4, 10e-3, x0) for x0 in (1.5e-7, 2.5e-7, 4e-7)]
+    runs = [slip_run(p, seed=i) for i, p in enumerate(truths)]
+    joint = granflow.fit_joint(runs)
+    assert joint.success
+    assert joint.names == ("a", "alpha", "Fd", "x0_0", "x0_1", "x0_2")
+    for name, value in (("a", 3.1e-3), ("alpha", 5e4), ("Fd", 10e-3)):
+        low, high = joint.ci95[name]
+        assert low <= value <= high, name
+    for i, p in enumerate(truths):
+        low, high = joint.ci95[f"x0_{i}"]
+        assert low <= p.x0 <= high
+        assert joint.run_params[i]["x0"] == joint.params[f"x0_{i}"]
+    # the joint interval of a shared parameter is narrower than each single-run interval
+    assert all(joint.stderr["alpha"] < f.stderr["alpha"] for f in joint.individual)
+    json.dumps(joint.to_dict())
+    assert "alpha" in joint.report()
+
+
+def test_joint_fit_with_fixed_and_unknown_names():
+    truths = [Params(3.1e-3, 5e4, 10e-3, x0) for x0 in (1.5e-7, 2.5e-7)]
+    runs = [slip_run(p, seed=i, points=800) for i, p in enumerate(truths)]
+    joint = granflow.fit_joint(runs, fixed={"Fd": 10e-3})
+    assert joint.params["Fd"] == 10e-3 and joint.stderr["Fd"] == 0.0
+    with pytest.raises(granflow.InvalidParameterError, match="missing: x0"):
+        granflow.fit_joint(runs, per_run=())
+    with pytest.raises(granflow.InvalidParameterError, match="unknown parameter"):
+        granflow.fit_joint(runs, fixed={"x0_9": 1e-7})
+
+
+def test_velocity_collapse_is_not_rejected_when_alpha_is_constant():
+    runs, velocities = campaign((5e4, 5e4, 5e4), seed=1)
+    result = granflow.velocity_collapse(runs, velocities)
+    assert result.df == 4
+    assert result.collapses and result.p_value > 0.05
+    low, high = result.shared.ci95["alpha"]
+    assert low <= 5e4 <= high
+    assert "collapse" in result.report()
+    json.dumps(result.to_dict())
+
+
+def test_velocity_collapse_is_rejected_when_alpha_depends_on_velocity():
+    runs, velocities = campaign((4e4, 5e4, 6e4), seed=2)
+    result = granflow.velocity_collapse(runs, velocities)
+    assert not result.collapses and result.p_value < 1e-6
+    for i, alpha in enumerate((4e4, 5e4, 6e4)):
+        low, high = result.per_velocity.ci95[f"alpha_v{i}"]
+        assert low <= alpha <= high
+
+
+def test_collapse_test_false_rejection_rate_is_near_five_percent():
+    """Under the null the p-value is uniform: over 20 campaigns at most 4 rejections."""
+    rejections = 0
+    for seed in range(20):
+        runs, velocities = campaign((5e4, 5e4, 5e4), seed=50 + seed)
+        runs = [(x[::3], f[::3]) for x, f in runs]
+        rejections += not granflow.velocity_collapse(runs, velocities).collapses
+    assert rejections <= 4
+
+
+def test_amontons_recovers_material_constants():
+    constants = MaterialConstants(mu_a=0.06, mu_d=0.2, alpha=5e4)
+    runs, loads = [], []
+    for i, load in enumerate((0.03, 0.06, 0.09)):
+        for repeat in range(3):
+            params = constants.params_at(load, x0=(1.5 + repeat) * 1e-7)
+            runs.append(slip_run(params, seed=10 * i + repeat, points=800))
+            loads.append(load)
+    result = granflow.fit_amontons(runs, loads, velocities=[0.86e-6] * len(runs))
+    joint = result.joint
+    for name, value in (("mu_a", 0.06), ("mu_d", 0.2), ("alpha", 5e4)):
+        low, high = joint.ci95[name]
+        assert low <= value <= high, name
+    assert len(result.per_load) == 3
+    row = result.per_load[1]
+    assert row["repeats"] == 3 and row["normal_load"] == 0.06
+    assert row["Fd"][0] == pytest.approx(0.012, rel=1e-3)
+    assert row["alpha_v"][0] == pytest.approx(5e4 * 0.86e-6, rel=0.02)
+    slope, error = result.lines["Fd"]
+    assert abs(slope - 0.2) < 4 * error
+    slope, error = result.lines["a"]
+    assert abs(slope - 0.06) < 4 * error
+    assert "F_N" in result.report()
+    json.dumps(result.to_dict())
+
+
+def test_preparation_spread():
+    fits = []
+    x0s = (1.5e-7, 2e-7, 3e-7, 4.5e-7)
+    for i, x0 in enumerate(x0s):
+        fits.append(granflow.fit(slip_run(Params(3.1e-3, 5e4, 10e-3, x0), seed=i, points=800)))
+    spread = granflow.preparation_spread(fits)
+    assert spread.repeats == 4
+    assert spread.start["mean"] == pytest.approx(np.mean(x0s), rel=0.05)
+    assert spread.Fd["relative"] < 0.01
+    # a larger x0 (older initial state) gives a smaller overshoot in this model
+    peaks = [granflow.peak(Params(3.1e-3, 5e4, 10e-3, x0)).force for x0 in x0s]
+    assert np.sign(spread.correlation) == np.sign(np.corrcoef(x0s, peaks)[0, 1])
+    assert "repeats" in spread.report()
