@@ -13,6 +13,7 @@ import numpy as np
 import granflow
 import granflow.units
 from granflow.errors import GranflowError
+from granflow.plotting import plot_simulation, plot_stability_map
 from granflow.units import parse_quantity
 
 __all__ = ["build_parser", "main"]
@@ -476,16 +477,19 @@ def _run_simulate(args):
     protocol = granflow.Protocol.load(args.protocol)
     result = granflow.simulate(params, protocol, **_dynamic_options(args))
     print(result.report())
-    if args.output:
-        result.to_frame().to_csv(args.output, index=False, float_format="%.17g")
-        print(f"wrote {len(result.t)} points to {args.output}")
-    if args.plot:
-        from granflow.plotting import plot_simulation
-
-        axes = plot_simulation(result)
-        axes[0].figure.savefig(args.plot, dpi=120)
-        print(f"wrote {args.plot}")
+    _write_outputs(args, result.to_frame, "points", lambda: plot_simulation(result)[0])
     return 0 if result.success else 1
+
+
+def _write_outputs(args, frame, rows, axes):
+    """Write ``frame()`` to ``args.output`` (CSV) and the figure of ``axes()`` to ``args.plot``."""
+    if args.output:
+        table = frame()
+        table.to_csv(args.output, index=False, float_format="%.17g")
+        print(f"wrote {len(table)} {rows} to {args.output}")
+    if args.plot:
+        axes().figure.savefig(args.plot, dpi=120)
+        print(f"wrote {args.plot}")
 
 
 def _grid(text, unit, name):
@@ -541,15 +545,7 @@ def _run_stability_map(args):
         **options,
     )
     print(stability.report())
-    if args.output:
-        stability.to_frame().to_csv(args.output, index=False, float_format="%.17g")
-        print(f"wrote {stability.outcome.size} cells to {args.output}")
-    if args.plot:
-        from granflow.plotting import plot_stability_map
-
-        ax = plot_stability_map(stability)
-        ax.figure.savefig(args.plot, dpi=120)
-        print(f"wrote {args.plot}")
+    _write_outputs(args, stability.to_frame, "cells", lambda: plot_stability_map(stability))
     return 1 if np.any(stability.outcome == "error") else 0
 
 

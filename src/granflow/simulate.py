@@ -96,6 +96,7 @@ _CLOCKS = ("slip", "time")
 _METHODS = ("quasistatic", "dynamic")
 _TIME_TOLERANCE = 1e-12  # relative, for "the piece has ended"
 _RTOL = 4 * np.finfo(float).eps  # the finest relative tolerance brentq accepts
+_REJUVENATION_ONLY = "sliding only lowers the strength towards Fd = {:.7g} N (time clock)"
 
 
 class _WorkExceededError(Exception):
@@ -602,7 +603,6 @@ class _Run:
 
     def run(self):
         records = []
-        self.record_now()
         message = "completed"
         success = True
         for index, segment in enumerate(self.protocol):
@@ -801,6 +801,11 @@ class _Run:
         self.F = float(np.broadcast_to(F, tau.shape)[-1])
         self.v = 0.0
 
+    def runaway(self, t, sigma, message):
+        """A quasi-static failure at once: no stable state ahead under the force sigma."""
+        self.fail(t, self.x, sigma, self.F, message)
+        self.record(t, self.x, np.inf, sigma, self.F, self.tau, self.displacement)
+
     def jump(self, x_new, F_new, sigma):
         """A quasi-static sudden slip at constant time under the force sigma."""
         self.displacement += x_new - self.x
@@ -817,14 +822,9 @@ class _Run:
         if sigma_a > self.F:
             self.event("slide", t_a, self.x, sigma_a, self.F, "the force exceeds the strength")
             if sigma_a > top or (sigma_a == top and not attained):
-                self.fail(
-                    t_a,
-                    self.x,
-                    sigma_a,
-                    self.F,
-                    f"the force exceeds the largest friction ahead ({top:.7g} N)",
+                self.runaway(
+                    t_a, sigma_a, f"the force exceeds the largest friction ahead ({top:.7g} N)"
                 )
-                self.record(t_a, self.x, np.inf, sigma_a, self.F, self.tau, self.displacement)
                 return
             x_new = curve.root(sigma_a)
             self.jump(x_new, curve(x_new), sigma_a)
@@ -839,6 +839,9 @@ class _Run:
             self.stuck(t_a, t_u, sigma_a, sigma_a + rate * (t_u - t_a))
             self.event("slide", t_u, self.x, self.F, self.F, "the force reaches the strength")
         t_f = t_a + (top - sigma_a) / rate
+        if t_f <= t_u and curve.peak is None:  # on the falling branch: no creep, a runaway
+            self.runaway(t_u, self.F, "the force exceeds the friction on the falling branch")
+            return
         failing = t_f <= t_b
         t_end = t_f if failing else t_b
         sigma_end = top if failing else piece.end
@@ -884,14 +887,7 @@ class _Run:
         if sigma_a > self.F:
             self.event("slide", t_a, self.x, sigma_a, self.F, "the force exceeds the strength")
             if sigma_a >= p.Fd:
-                self.fail(
-                    t_a,
-                    self.x,
-                    sigma_a,
-                    self.F,
-                    f"sliding only lowers the strength towards Fd = {p.Fd:.7g} N (time clock)",
-                )
-                self.record(t_a, self.x, np.inf, sigma_a, self.F, self.tau, self.displacement)
+                self.runaway(t_a, sigma_a, _REJUVENATION_ONLY.format(p.Fd))
                 return
             x_new = self.x + math.log((p.Fd - self.F) / (p.Fd - sigma_a)) / p.alpha
             self.jump(x_new, sigma_a, sigma_a)
@@ -921,14 +917,7 @@ class _Run:
         if t_u > t_a:
             self.event("slide", t_u, self.x, sigma_u, self.F, "the force reaches the strength")
         if sigma_u >= p.Fd:
-            self.fail(
-                t_u,
-                self.x,
-                sigma_u,
-                self.F,
-                f"sliding only lowers the strength towards Fd = {p.Fd:.7g} N (time clock)",
-            )
-            self.record(t_u, self.x, np.inf, sigma_u, self.F, self.tau, self.displacement)
+            self.runaway(t_u, sigma_u, _REJUVENATION_ONLY.format(p.Fd))
             return
         # sliding with F = sigma: alpha dx/dtau = (rate - a/tau) / (Fd - sigma), closed form
         tau_u, gap_u = self.tau, p.Fd - sigma_u
@@ -1158,8 +1147,9 @@ class _Run:
             if t_end > t:
                 n = max(3, int(self.points * (t_end - t) / d) + 2)
                 times = np.linspace(t, t_end, n)
-                if sol.t.size <= 4 * self.points:
-                    times = np.union1d(times, sol.t)
+                # the solver's own steps crowd where the motion is fast: keep (some of) them
+                stride = max(1, sol.t.size // (4 * self.points))
+                times = np.union1d(times, sol.t[::stride])
                 ys = sol.sol(times)
                 ys[:, -1] = sol.y[:, -1]
                 force = K * ys[3] if rate else start + slope * (times - t_a)
