@@ -11,8 +11,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
+from granflow._json import json_safe
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
 from granflow.run import Run
 
@@ -33,20 +32,6 @@ MANIFEST_FIELDS = (
 )
 _QUANTITIES = {"normal_load": "N", "velocity": "m/s", "rest_time": "s"}
 _HEADER = "# granflow campaign "
-
-
-def _json_safe(value):
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, bool | int | str) or value is None:
-        return value
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, list | tuple):
-        return [_json_safe(item) for item in value]
-    if isinstance(value, dict):
-        return {str(key): _json_safe(item) for key, item in value.items()}
-    return str(value)
 
 
 def _entry(raw, where, manifest):
@@ -250,7 +235,7 @@ class Campaign:
 
     def _header(self):
         return {
-            "runs": [{"control": run.control, "meta": _json_safe(dict(run.meta))} for run in self],
+            "runs": [{"control": run.control, "meta": json_safe(dict(run.meta))} for run in self],
             "problems": list(self.problems),
         }
 

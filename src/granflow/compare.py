@@ -10,9 +10,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from granflow._fitcore import FrozenMap
+from granflow._json import json_safe
 from granflow.creep import fit_curve
 from granflow.errors import GranflowError, InvalidParameterError
-from granflow.fitting import _json_safe, _prepare, fit
+from granflow.fitting import _prepare, fit
 
 __all__ = ["ModelComparison", "compare_models"]
 
@@ -60,7 +61,7 @@ class ModelComparison:
 
     def to_dict(self):
         """JSON-safe mapping: the rows and the winners."""
-        return _json_safe(
+        return json_safe(
             {
                 "rows": [dict(r) for r in self.rows],
                 "best_aic": self.best_aic,

@@ -12,8 +12,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from granflow._fitcore import WALD_Z, FrozenMap
+from granflow._json import json_safe
 from granflow.errors import InvalidDataError
-from granflow.fitting import _json_safe
 
 __all__ = ["CurveFitResult", "fit_creep"]
 
@@ -84,7 +84,7 @@ class CurveFitResult:
 
     def to_dict(self):
         """JSON-safe mapping (without the arrays)."""
-        return _json_safe(
+        return json_safe(
             {
                 "model": self.model,
                 "formula": self.formula,

@@ -38,6 +38,7 @@ from granflow._fitcore import (
     model_only,
     profile_interval,
 )
+from granflow._json import json_safe
 from granflow.errors import (
     ConvergenceWarning,
     FitError,
@@ -476,28 +477,13 @@ class FitResult:
         if include_arrays:
             for key in ("x", "data", "best_fit", "residuals"):
                 out[key] = getattr(self, key).tolist()
-        return _json_safe(out)
+        return json_safe(out)
 
     def plot(self, ax=None, *, residual_ax=None):
         """Data, fit and residuals; see :func:`granflow.plotting.plot_fit`."""
         from granflow.plotting.fits import plot_fit
 
         return plot_fit(self, ax=ax, residual_ax=residual_ax)
-
-
-def _json_safe(value):
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, float | np.floating):
-        number = float(value)
-        return number if math.isfinite(number) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.bool_):
-        return bool(value)
-    return value
 
 
 # --------------------------------------------------------------------------- the fit

@@ -21,8 +21,9 @@ from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
 
 from granflow._fitcore import WALD_Z, Curve, FrozenMap, GlobalParameter, Problem, covariance
+from granflow._json import json_safe
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
-from granflow.fitting import FitResult, _json_safe, _prepare, _Solution, fit, parameter_names
+from granflow.fitting import FitResult, _prepare, _Solution, fit, parameter_names
 from granflow.model import peak
 from granflow.run import Run
 
@@ -124,7 +125,7 @@ class JointFitResult:
 
     def to_dict(self):
         """JSON-safe mapping of the result."""
-        return _json_safe(
+        return json_safe(
             {
                 "domain": self.domain,
                 "names": list(self.names),
@@ -428,7 +429,7 @@ class CollapseResult:
 
     def to_dict(self):
         """JSON-safe mapping."""
-        return _json_safe(
+        return json_safe(
             {
                 "velocities": list(self.velocities),
                 "shared": self.shared.to_dict(),
@@ -542,7 +543,7 @@ class AmontonsResult:
 
     def to_dict(self):
         """JSON-safe mapping."""
-        return _json_safe(
+        return json_safe(
             {
                 "joint": self.joint.to_dict(),
                 "per_load": [dict(row) for row in self.per_load],
@@ -701,7 +702,7 @@ class PreparationSpread:
 
     def to_dict(self):
         """JSON-safe mapping."""
-        return _json_safe(
+        return json_safe(
             {
                 "domain": self.domain,
                 "repeats": self.repeats,

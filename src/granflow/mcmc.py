@@ -13,8 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from granflow._fitcore import FrozenMap, model_only
+from granflow._json import json_safe
 from granflow.errors import ConvergenceWarning, InvalidParameterError
-from granflow.fitting import FitResult, _json_safe
+from granflow.fitting import FitResult
 
 __all__ = ["PosteriorResult", "sample_posterior"]
 
@@ -101,7 +102,7 @@ class PosteriorResult:
 
     def to_dict(self):
         """JSON-safe summary (without the chain)."""
-        return _json_safe(
+        return json_safe(
             {
                 "names": list(self.names),
                 "medians": dict(self.medians),

@@ -3,6 +3,7 @@
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
+from granflow._json import json_safe
 from granflow.errors import InvalidParameterError
 from granflow.io import _columns
 from granflow.io._text import fail, read_block
@@ -109,15 +110,9 @@ class Interval:
             "line": self.line,
             "rows": self.rows,
             "columns": [column.to_dict() for column in self.columns],
-            "metadata": {key: _json_safe(value) for key, value in self.metadata.items()},
+            "metadata": {key: json_safe(value) for key, value in self.metadata.items()},
             "problems": list(self.problems),
         }
-
-
-def _json_safe(value):
-    if isinstance(value, float | int | str | bool) or value is None:
-        return value
-    return str(value)
 
 
 @dataclass(frozen=True, eq=False)
@@ -159,7 +154,7 @@ class ParsedFile:
             "delimiter": self.delimiter,
             "decimal": self.decimal,
             "thousands": self.thousands,
-            "metadata": {key: _json_safe(value) for key, value in self.metadata.items()},
+            "metadata": {key: json_safe(value) for key, value in self.metadata.items()},
             "tests": list(self.tests),
             "intervals": [interval.to_dict() for interval in self.intervals],
             "problems": list(self.problems),
