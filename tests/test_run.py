@@ -37,3 +37,26 @@ def test_frame_round_trip_keeps_values_nan_and_metadata():
     np.testing.assert_array_equal(back.slip, run.slip)
     assert back.control == "stress" and back.meta["interval"] == 2
     assert back.name == "a.csv#2"
+
+
+def test_run_pickles_for_process_pools():
+    import pickle
+
+    import numpy as np
+
+    import granflow as gf
+
+    run = gf.Run(
+        t=[0.0, 1.0],
+        slip=[0.0, 1e-6],
+        velocity=[1e-6, 1e-6],
+        force=[0.0, 1e-3],
+        control="stress",
+        meta={"source": "a.txt", "interval": 2, "normal_load": 0.05},
+    )
+    copy = pickle.loads(pickle.dumps(run))
+    assert copy.control == "stress"
+    assert dict(copy.meta) == dict(run.meta)
+    for name in ("t", "slip", "velocity", "force"):
+        assert np.array_equal(getattr(copy, name), getattr(run, name))
+        assert not getattr(copy, name).flags.writeable

@@ -69,6 +69,11 @@ class Run:
             raise InvalidDataError(f"Run control must be 'rate' or 'stress', got {self.control!r}")
         object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
 
+    def __reduce__(self):
+        # MappingProxyType cannot be pickled: rebuild from plain values (for process pools)
+        columns = (self.t, self.slip, self.velocity, self.force)
+        return (_rebuild, (*columns, self.control, dict(self.meta)))
+
     def __len__(self):
         return self.t.shape[0]
 
@@ -148,6 +153,10 @@ class Run:
             control=self.control,
             meta=dict(self.meta),
         )
+
+
+def _rebuild(t, slip, velocity, force, control, meta):
+    return Run(t=t, slip=slip, velocity=velocity, force=force, control=control, meta=meta)
 
 
 def check_finite_times(run):
