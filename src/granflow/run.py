@@ -5,7 +5,6 @@ from types import MappingProxyType
 
 import numpy as np
 
-from granflow import _validate as check
 from granflow.errors import InvalidDataError
 
 __all__ = ["CONTROL_MODES", "Run"]
@@ -157,16 +156,3 @@ class Run:
 
 def _rebuild(t, slip, velocity, force, control, meta):
     return Run(t=t, slip=slip, velocity=velocity, force=force, control=control, meta=meta)
-
-
-def check_finite_times(run):
-    """Raise InvalidDataError unless the run's times are finite and increasing."""
-    time = check.float_array(run.t, "t", "s")
-    if not np.all(np.isfinite(time)):
-        raise InvalidDataError(f"{run.name}: times must be finite")
-    if time.size > 1 and np.any(np.diff(time) <= 0):
-        index = int(np.argmax(np.diff(time) <= 0))
-        raise InvalidDataError(
-            f"{run.name}: times must increase, but t[{index + 1}] = {time[index + 1]:g} s "
-            f"follows t[{index}] = {time[index]:g} s"
-        )
