@@ -106,3 +106,12 @@ def test_manifest_errors_name_the_entry(tmp_path):
     bad.write_text("- {file: a.csv, colour: red}\n", encoding="utf-8")
     with pytest.raises(granflow.FileFormatError, match="unknown field 'colour'"):
         granflow.Campaign.from_manifest(bad)
+
+
+def test_manifest_test_kind_is_checked(tmp_path):
+    manifest = tmp_path / "manifest.csv"
+    manifest.write_text("file,test\nrun.csv,Creep\n", encoding="utf-8")
+    assert granflow.campaign.read_manifest(manifest) == [{"file": "run.csv", "test": "creep"}]
+    manifest.write_text("file,test\nrun.csv,slide\n", encoding="utf-8")
+    with pytest.raises(granflow.FileFormatError, match="line 2: test must be one of"):
+        granflow.campaign.read_manifest(manifest)

@@ -15,11 +15,11 @@ from granflow._json import json_safe
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
 from granflow.run import Run
 
-__all__ = ["MANIFEST_FIELDS", "Campaign", "read_manifest"]
+__all__ = ["MANIFEST_FIELDS", "TEST_KINDS", "Campaign", "read_manifest"]
 
 #: Manifest columns: file (required), interval (default: all), normal_load [N or with a
 #: unit, "50 mN"], velocity [m/s or "0.86 um/s"], rest_time [s or "5 min"], preparation,
-#: sample, notes.
+#: sample, notes, test (one of :data:`TEST_KINDS`; inferred from the data when absent).
 MANIFEST_FIELDS = (
     "file",
     "interval",
@@ -29,7 +29,11 @@ MANIFEST_FIELDS = (
     "preparation",
     "sample",
     "notes",
+    "test",
 )
+#: What a run is: a rate-controlled start-up (Fig. 2), a stress ramp (Fig. 3a), creep under a
+#: constant stress (Fig. 3b), or a switch from rate to stress control (Fig. 3c).
+TEST_KINDS = ("startup", "ramp", "creep", "switch")
 _QUANTITIES = {"normal_load": "N", "velocity": "m/s", "rest_time": "s"}
 _HEADER = "# granflow campaign "
 
@@ -61,6 +65,13 @@ def _entry(raw, where, manifest):
                 raise FileFormatError(
                     f"{manifest}, {where}: interval must be an integer, got {value!r}"
                 ) from None
+        elif key == "test":
+            value = str(value).strip().lower()
+            if value not in TEST_KINDS:
+                raise FileFormatError(
+                    f"{manifest}, {where}: test must be one of {', '.join(TEST_KINDS)}, "
+                    f"got {value!r}"
+                )
         else:
             value = str(value)
         entry[key] = value
