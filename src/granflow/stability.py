@@ -245,6 +245,7 @@ def stability_map(
     method="quasistatic",
     clock="slip",
     jobs=1,
+    executor=None,
     **options,
 ):
     """Fail or stop, for each switch point of a start-up and each imposed-to-current ratio.
@@ -269,6 +270,10 @@ def stability_map(
         Passed to :func:`granflow.simulate`.
     jobs : int or None
         Local processes; 1 (default) runs in this process, None uses every core.
+    executor : object, optional
+        Runs the switch points instead of ``jobs``: anything with a ``map(function,
+        iterable)`` method that returns the results in order (a
+        :class:`concurrent.futures.Executor` one already has, or an adapter of a Dask client).
     **options
         Further keyword arguments of :func:`granflow.simulate` (mass, damping, ...).
 
@@ -313,7 +318,9 @@ def stability_map(
     ]
     # Check the options once here, so that a bad one raises in this process.
     simulate(params, Protocol([Velocity(velocity, float(points[0]))]), **sim_options)
-    if jobs == 1 or len(tasks) == 1:
+    if executor is not None:
+        rows = list(executor.map(map_row, tasks))
+    elif jobs == 1 or len(tasks) == 1:
         rows = [map_row(task) for task in tasks]
     else:
         with ProcessPoolExecutor(max_workers=min(jobs, len(tasks))) as pool:
