@@ -724,7 +724,9 @@ def _multistart(problem, starts, noise, rise_points):
 def _result(problem, solution, prepared, domain, names, fixed, profile):
     values = problem.values(solution.x)
     n, nfree = problem.ndata, len(problem.free)
-    chisqr = problem.chisqr(values)
+    best_fit = model_only(prepared.z, *values)
+    residuals = prepared.y - best_fit
+    chisqr = float(np.sum((prepared.w * residuals) ** 2))
     dof = max(n - nfree, 1)
     redchi = chisqr / dof
     variance = 1.0 if prepared.sigma_known else redchi
@@ -782,8 +784,6 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     bound_names = [n_ for n_, flag in at_bound.items() if flag]
     if bound_names:
         messages.append(f"at a bound of the search range: {', '.join(bound_names)}")
-    best_fit = model_only(prepared.z, *values)
-    residuals = prepared.y - best_fit
     total = float(np.sum((prepared.y - np.mean(prepared.y)) ** 2))
     rsquared = 1.0 - float(residuals @ residuals) / total if total > 0 else math.nan
     log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf
