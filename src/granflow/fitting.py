@@ -39,6 +39,7 @@ from granflow._fitcore import (
     profile_interval,
 )
 from granflow._json import json_safe
+from granflow._results import estimates, statistics, statistics_lines
 from granflow.errors import (
     ConvergenceWarning,
     FitError,
@@ -408,18 +409,12 @@ class FitResult:
 
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
-        lines = [
-            "[[Fit Statistics]]",
-            f"    domain             = {self.domain}",
-            f"    success            = {self.success}",
-            f"    message            = {self.message}",
-            f"    # function evals   = {self.nfev}",
-            f"    # data points      = {self.ndata}",
-            f"    # variables        = {self.nfree}",
-            f"    chi-square         = {self.chisqr:.6g}",
-            f"    reduced chi-square = {self.redchi:.6g}",
-            f"    Akaike info crit   = {self.aic:.6g}",
-            f"    Bayesian info crit = {self.bic:.6g}",
+        lines = statistics_lines(
+            self,
+            title="Fit Statistics",
+            extra=(("domain", self.domain), ("# function evals", self.nfev)),
+        )
+        lines += [
             f"    R-squared          = {self.rsquared:.8f}",
             f"    window             = [{self.window[0]:.6g}, {self.window[1]:.6g}] "
             f"{_ABSCISSA[self.domain][1]}",
@@ -451,28 +446,17 @@ class FitResult:
         out = {
             "domain": self.domain,
             "name": self.name,
-            "success": self.success,
-            "message": self.message,
-            "params": dict(self.params),
-            "stderr": dict(self.stderr),
-            "ci95": {n: list(v) for n, v in self.ci95.items()},
+            **estimates(self),
             "ci_method": dict(self.ci_method),
-            "covar": {n: dict(row) for n, row in self.covar.items()},
             "correl": {n: dict(row) for n, row in self.correl.items()},
             "fixed": list(self.fixed),
             "at_bound": dict(self.at_bound),
             "units": dict(self.units),
             "nfev": self.nfev,
-            "ndata": self.ndata,
-            "nfree": self.nfree,
-            "chisqr": self.chisqr,
-            "redchi": self.redchi,
-            "aic": self.aic,
-            "bic": self.bic,
+            **statistics(self),
             "rsquared": self.rsquared,
             "velocity": self.velocity,
             "window": list(self.window),
-            "sigma_known": self.sigma_known,
         }
         if include_arrays:
             for key in ("x", "data", "best_fit", "residuals"):
