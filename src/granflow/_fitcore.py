@@ -517,20 +517,26 @@ def profile_interval(
         def gap(u, u_others_start, u_last):
             pinned = {index: u}
             if others:
-                predicted = u_others_start + follow * (u - u_last)
-                cost, g, H = problem.state(predicted, others, pinned)
-                try:
-                    step = np.linalg.solve(H, -g)
-                    decrease = -0.5 * float(g @ step)
-                except np.linalg.LinAlgError:
-                    decrease = math.inf
-                if 0.0 <= decrease < 0.02 * variance:
-                    # the prediction is so close that one Gauss-Newton step's quadratic model
-                    # gives the conditional minimum to far better than 1e-3 of 3.84 variance
-                    u_found, chisqr = predicted + step, cost - decrease
-                else:
+                u_found = u_others_start + follow * (u - u_last)
+                chisqr = None
+                for _ in range(4):
+                    cost, g, H = problem.state(u_found, others, pinned)
+                    try:
+                        step = np.linalg.solve(H, -g)
+                        decrease = -0.5 * float(g @ step)
+                    except np.linalg.LinAlgError:
+                        break
+                    if not (math.isfinite(cost) and decrease >= 0.0):
+                        break
+                    if decrease < 0.02 * variance:
+                        # so close that one Gauss-Newton step's quadratic model gives the
+                        # conditional minimum to far better than 1e-3 of 3.84 variance
+                        u_found, chisqr = u_found + step, cost - decrease
+                        break
+                    u_found = u_found + step  # Gauss-Newton converges quadratically here
+                if chisqr is None:
                     u_found, chisqr, *_ = problem.lm(
-                        predicted, others, pinned, max_iter=30, rtol=1e-9
+                        u_found, others, pinned, max_iter=30, rtol=1e-9
                     )
             else:
                 u_found = u_others_start
@@ -562,6 +568,11 @@ def profile_interval(
                 break
             (u1, g1), (u2, g2) = points[-2], points[-1]
             slope = (g2 - g1) / (u2 - u1) if u2 != u1 else 0.0
+            if abs(value) < 0.1 and slope * direction > 0:
+                # sqrt(delta chi-square) is nearly linear in u: the secant root is within
+                # a small fraction of the tolerance of the true root, no evaluation needed
+                end = u2 - g2 / slope
+                break
             proposal = u + direction * step if slope * direction <= 0 else u2 - g2 / slope
             # do not jump more than four steps at once, nor back past the estimate
             proposal = min(max(proposal, u - 4 * step), u + 4 * step)

@@ -13,6 +13,7 @@ from scipy.optimize import least_squares
 
 from granflow._fitcore import WALD_Z, FrozenMap
 from granflow._json import json_safe
+from granflow._results import estimates, statistics
 from granflow.errors import InvalidDataError
 
 __all__ = ["CurveFitResult", "fit_creep"]
@@ -88,20 +89,9 @@ class CurveFitResult:
             {
                 "model": self.model,
                 "formula": self.formula,
-                "params": dict(self.params),
-                "stderr": dict(self.stderr),
-                "ci95": {k: list(v) for k, v in self.ci95.items()},
-                "covar": {k: dict(v) for k, v in self.covar.items()},
+                **estimates(self),
                 "units": dict(self.units),
-                "success": self.success,
-                "message": self.message,
-                "ndata": self.ndata,
-                "nfree": self.nfree,
-                "chisqr": self.chisqr,
-                "redchi": self.redchi,
-                "aic": self.aic,
-                "bic": self.bic,
-                "sigma_known": self.sigma_known,
+                **statistics(self),
             }
         )
 

@@ -39,6 +39,7 @@ from granflow._fitcore import (
     profile_interval,
 )
 from granflow._json import json_safe
+from granflow._results import estimates, statistics, statistics_lines
 from granflow.errors import (
     ConvergenceWarning,
     FitError,
@@ -408,18 +409,12 @@ class FitResult:
 
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
-        lines = [
-            "[[Fit Statistics]]",
-            f"    domain             = {self.domain}",
-            f"    success            = {self.success}",
-            f"    message            = {self.message}",
-            f"    # function evals   = {self.nfev}",
-            f"    # data points      = {self.ndata}",
-            f"    # variables        = {self.nfree}",
-            f"    chi-square         = {self.chisqr:.6g}",
-            f"    reduced chi-square = {self.redchi:.6g}",
-            f"    Akaike info crit   = {self.aic:.6g}",
-            f"    Bayesian info crit = {self.bic:.6g}",
+        lines = statistics_lines(
+            self,
+            title="Fit Statistics",
+            extra=(("domain", self.domain), ("# function evals", self.nfev)),
+        )
+        lines += [
             f"    R-squared          = {self.rsquared:.8f}",
             f"    window             = [{self.window[0]:.6g}, {self.window[1]:.6g}] "
             f"{_ABSCISSA[self.domain][1]}",
@@ -451,28 +446,17 @@ class FitResult:
         out = {
             "domain": self.domain,
             "name": self.name,
-            "success": self.success,
-            "message": self.message,
-            "params": dict(self.params),
-            "stderr": dict(self.stderr),
-            "ci95": {n: list(v) for n, v in self.ci95.items()},
+            **estimates(self),
             "ci_method": dict(self.ci_method),
-            "covar": {n: dict(row) for n, row in self.covar.items()},
             "correl": {n: dict(row) for n, row in self.correl.items()},
             "fixed": list(self.fixed),
             "at_bound": dict(self.at_bound),
             "units": dict(self.units),
             "nfev": self.nfev,
-            "ndata": self.ndata,
-            "nfree": self.nfree,
-            "chisqr": self.chisqr,
-            "redchi": self.redchi,
-            "aic": self.aic,
-            "bic": self.bic,
+            **statistics(self),
             "rsquared": self.rsquared,
             "velocity": self.velocity,
             "window": list(self.window),
-            "sigma_known": self.sigma_known,
         }
         if include_arrays:
             for key in ("x", "data", "best_fit", "residuals"):
@@ -724,7 +708,9 @@ def _multistart(problem, starts, noise, rise_points):
 def _result(problem, solution, prepared, domain, names, fixed, profile):
     values = problem.values(solution.x)
     n, nfree = problem.ndata, len(problem.free)
-    chisqr = problem.chisqr(values)
+    best_fit = model_only(prepared.z, *values)
+    residuals = prepared.y - best_fit
+    chisqr = float(np.sum((prepared.w * residuals) ** 2))
     dof = max(n - nfree, 1)
     redchi = chisqr / dof
     variance = 1.0 if prepared.sigma_known else redchi
@@ -782,8 +768,6 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     bound_names = [n_ for n_, flag in at_bound.items() if flag]
     if bound_names:
         messages.append(f"at a bound of the search range: {', '.join(bound_names)}")
-    best_fit = model_only(prepared.z, *values)
-    residuals = prepared.y - best_fit
     total = float(np.sum((prepared.y - np.mean(prepared.y)) ** 2))
     rsquared = 1.0 - float(residuals @ residuals) / total if total > 0 else math.nan
     log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf

@@ -22,6 +22,7 @@ from scipy.stats import pearsonr
 
 from granflow._fitcore import WALD_Z, Curve, FrozenMap, GlobalParameter, Problem, covariance
 from granflow._json import json_safe
+from granflow._results import estimates, statistics, statistics_lines
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
 from granflow.fitting import FitResult, _prepare, _Solution, fit, parameter_names
 from granflow.model import peak
@@ -98,18 +99,12 @@ class JointFitResult:
 
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
-        lines = [
-            "[[Joint Fit Statistics]]",
-            f"    domain             = {self.domain}",
-            f"    runs               = {len(self.run_names)}",
-            f"    success            = {self.success}",
-            f"    message            = {self.message}",
-            f"    # data points      = {self.ndata}",
-            f"    # variables        = {self.nfree}",
-            f"    chi-square         = {self.chisqr:.6g}",
-            f"    reduced chi-square = {self.redchi:.6g}",
-            f"    Akaike info crit   = {self.aic:.6g}",
-            f"    Bayesian info crit = {self.bic:.6g}",
+        lines = statistics_lines(
+            self,
+            title="Joint Fit Statistics",
+            extra=(("domain", self.domain), ("runs", len(self.run_names))),
+        )
+        lines += [
             "[[Variables]]",
         ]
         for name in self.names:
@@ -129,23 +124,12 @@ class JointFitResult:
             {
                 "domain": self.domain,
                 "names": list(self.names),
-                "params": dict(self.params),
-                "stderr": dict(self.stderr),
-                "ci95": {k: list(v) for k, v in self.ci95.items()},
-                "covar": {k: dict(v) for k, v in self.covar.items()},
+                **estimates(self),
                 "fixed": list(self.fixed),
                 "run_params": [dict(p) for p in self.run_params],
                 "run_names": list(self.run_names),
-                "success": self.success,
-                "message": self.message,
                 "nfev": self.nfev,
-                "ndata": self.ndata,
-                "nfree": self.nfree,
-                "chisqr": self.chisqr,
-                "redchi": self.redchi,
-                "aic": self.aic,
-                "bic": self.bic,
-                "sigma_known": self.sigma_known,
+                **statistics(self),
             }
         )
 
