@@ -66,28 +66,43 @@ import contextlib
 import datetime
 import hashlib
 import json
-import math
 import os
 import re
 import sys
-import tempfile
 import time
-import warnings
-from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
 
 import numpy as np
 
-from granflow._json import json_safe
-from granflow.errors import (
-    ConvergenceWarning,
-    FitError,
-    GranflowError,
-    InvalidDataError,
-    InvalidParameterError,
+from granflow._analysis_joint import _MAP_HOLD, _MAP_POINTS, _MAP_RATIOS, _joint_stage, _rounded
+from granflow._analysis_outputs import (
+    FIGURES_DIR,
+    REPORT_FILE,
+    RESULTS_FILE,
+    RUNS_DIR,
+    TABLES_DIR,
+    _dump,
+    _make_figures,
+    _read_json,
+    _report_renderer,
+    _write_json,
+    _write_report,
+    _write_tables,
 )
+from granflow._analysis_runs import (
+    _ANALYSES,
+    _RAMP_TOLERANCE,
+    FAILURE_FACTOR,
+    StartupData,
+    analyse_run,
+    classify,
+    startup_data,
+)
+from granflow._execution import _Executor
+from granflow._json import json_safe
+from granflow.errors import InvalidParameterError
 from granflow.run import Run
 
 __all__ = [
@@ -101,428 +116,9 @@ __all__ = [
 
 #: Bumped whenever a per-run result changes meaning, so older saved results are not reused.
 ANALYSIS_VERSION = 1
-#: A slip velocity this many times the reference velocity is a runaway (failure).
-FAILURE_FACTOR = 1000.0
-RESULTS_FILE = "results.json"
-REPORT_FILE = "report.html"
-RUNS_DIR = "runs"
-TABLES_DIR = "tables"
-FIGURES_DIR = "figures"
 _MARKER = "granflow_run_record"
 _MANIFEST_NAMES = ("manifest.yaml", "manifest.yml", "manifest.csv")
 _DEFAULT_REFERENCE_VELOCITY = 1e-6  # m/s, as granflow.simulate
-_RAMP_TOLERANCE = 5.0  # noise standard deviations for the elastic ramp's straight line
-_LEVEL_POINTS = 10  # points at one velocity that make a stress-controlled run a switch
-_MAP_POINTS, _MAP_RATIOS = 8, 7  # the stability map's grid
-_MAP_HOLD = 60.0  # s under force control in each cell of the map
-
-
-# --------------------------------------------------------------------------- what a run is
-
-
-def classify(run):
-    """The kind of test a run is: ``"startup"``, ``"ramp"``, ``"creep"`` or ``"switch"``.
-
-    The metadata's ``test`` (from the manifest) wins; otherwise the rule in the module's
-    documentation decides from the control mode, the velocity and the force.
-
-    Examples
-    --------
-    >>> import numpy as np, granflow
-    >>> t = np.arange(50.0)
-    >>> ramp = granflow.Run(t=t, slip=1e-9 * t, velocity=np.full(50, 1e-9),
-    ...                     force=1e-4 * t, control="stress")
-    >>> classify(ramp)
-    'ramp'
-    """
-    from granflow.campaign import TEST_KINDS
-
-    declared = run.meta.get("test")
-    if isinstance(declared, str) and declared.strip().lower() in TEST_KINDS:
-        return declared.strip().lower()
-    if run.control == "rate":
-        return "startup"
-    velocity = run.velocity[np.isfinite(run.velocity)]
-    if velocity.size >= _LEVEL_POINTS:
-        lead = velocity[:_LEVEL_POINTS]
-        level = float(np.median(lead))
-        if level > 0 and np.all(np.abs(lead - level) <= 0.05 * level):
-            return "switch"
-    force = run.force[np.isfinite(run.force)]
-    if force.size < 2:
-        return "creep"
-    tenth = max(1, force.size // 10)
-    first, last = float(np.median(force[:tenth])), float(np.median(force[-tenth:]))
-    return "ramp" if last - first > 0.05 * abs(last) else "creep"
-
-
-# --------------------------------------------------------------------------- start-up window
-
-
-@dataclass(frozen=True, eq=False)
-class StartupData:
-    """The points of a start-up run that are fitted, and how they were chosen.
-
-    Attributes
-    ----------
-    slip : numpy.ndarray
-        Abscissa of the fitted points [m].
-    force : numpy.ndarray
-        Friction force [N].
-    abscissa : {"slip", "velocity*time"}
-        Measured slip, or the nominal velocity times the time.
-    elastic_points : int
-        Leading points left out as the elastic loading ramp (0 if none was found).
-    velocity : float or None
-        Nominal velocity of the run [m/s].
-    """
-
-    slip: np.ndarray
-    force: np.ndarray
-    abscissa: str
-    elastic_points: int
-    velocity: float | None
-
-    def describe(self):
-        """JSON-safe summary of the window."""
-        return {
-            "abscissa": self.abscissa,
-            "elastic_points": self.elastic_points,
-            "start": float(self.slip[0]),
-            "stop": float(self.slip[-1]),
-            "points": int(self.slip.size),
-        }
-
-
-def _noise(values):
-    from granflow.fitting import _noise_level
-
-    return _noise_level(np.asarray(values, dtype=float))
-
-
-def _elastic_ramp_end(x, force):
-    """Index of the last point of the leading straight line, or None (see the module doc)."""
-    if x.size < 4:
-        return None
-    top = int(np.argmax(force))
-    tolerance = _RAMP_TOLERANCE * _noise(force) + 1e-6 * abs(float(force[top]))
-    end = None
-    for index in range(2, top):
-        span = x[index] - x[0]
-        chord = force[0] + (force[index] - force[0]) * (x[1:index] - x[0]) / span
-        if np.max(np.abs(force[1:index] - chord)) > tolerance:
-            break
-        end = index
-    return end
-
-
-def startup_data(run):
-    """The slip and force of a start-up run inside the fit window (rule: module doc).
-
-    Parameters
-    ----------
-    run : granflow.Run
-
-    Returns
-    -------
-    StartupData
-
-    Raises
-    ------
-    InvalidDataError
-        Without finite forces, or without a usable slip and a nominal velocity.
-    """
-    velocity = run.nominal_velocity
-    keep = np.isfinite(run.t) & np.isfinite(run.force)
-    with_slip = keep & np.isfinite(run.slip)
-    slip = run.slip[with_slip]
-    if slip.size >= 2 and np.all(np.diff(slip) > 0):
-        x, force, abscissa = slip, run.force[with_slip], "slip"
-    else:
-        if velocity is None or not velocity > 0:
-            raise InvalidDataError(
-                f"{run.name}: the slip is missing or not strictly increasing, and there is no "
-                "nominal velocity to compute it from the time"
-            )
-        t = run.t[keep]
-        if t.size < 2 or np.any(np.diff(t) <= 0):
-            raise InvalidDataError(f"{run.name}: the time is not strictly increasing")
-        x, force, abscissa = velocity * (t - t[0]), run.force[keep], "velocity*time"
-    end = _elastic_ramp_end(x, force)
-    start = 0 if end is None else end
-    x, force = x[start:], force[start:]
-    return StartupData(
-        slip=x,
-        force=force,
-        abscissa=abscissa,
-        elastic_points=start,
-        velocity=velocity,
-    )
-
-
-# --------------------------------------------------------------------------- per-run work
-
-
-class _RunFailedError(GranflowError):
-    """A run that cannot be analysed; ``partial`` keeps what was found before the failure."""
-
-    def __init__(self, message, partial=None):
-        super().__init__(message)
-        self.partial = dict(partial or {})
-
-
-def _fit_startup(data, name):
-    from granflow.fitting import fit
-    from granflow.model import NoPeakError, peak
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        result = fit((data.slip, data.force), domain="slip", velocity=data.velocity)
-    out = {"fit": result.to_dict(), "window": data.describe(), "warnings": []}
-    if not result.success:
-        raise _RunFailedError(f"the fit did not succeed: {result.message}", out)
-    bounds = [n for n in result.names if result.at_bound[n]]
-    if bounds:
-        out["warnings"].append(f"{name}: fit at a bound of its search range: {', '.join(bounds)}")
-    try:
-        top = peak(result.to_params(), velocity=data.velocity)
-        out["peak"] = top.to_dict()
-    except NoPeakError:
-        out["peak"] = None
-    smooth = (
-        np.convolve(data.force, np.ones(5) / 5.0, mode="same")
-        if data.force.size > 5
-        else data.force
-    )
-    index = int(np.argmax(smooth))
-    out["observed_peak"] = {"force": float(smooth[index]), "slip": float(data.slip[index])}
-    return out
-
-
-def _analyse_startup(run, options):
-    data = startup_data(run)
-    return _fit_startup(data, run.name)
-
-
-def _increasing_time(run, columns):
-    """Finite rows (time and ``columns``), duplicate times reduced to their last row."""
-    keep = np.isfinite(run.t)
-    for name in columns:
-        keep &= np.isfinite(getattr(run, name))
-    rows = np.flatnonzero(keep)
-    t = run.t[rows]
-    if t.size and np.any(np.diff(t) < 0):
-        raise InvalidDataError(f"{run.name}: the time decreases")
-    last = np.r_[np.diff(t) > 0, True] if t.size else np.zeros(0, dtype=bool)
-    return rows[last]
-
-
-def _analyse_creep(run, options):
-    from granflow.creep import fit_creep
-
-    rows = _increasing_time(run, ("slip", "force"))
-    if rows.size < 4:
-        raise InvalidDataError(f"{run.name}: fewer than 4 points with time, slip and force")
-    force = run.force[rows]
-    level = float(np.median(force[force.size // 2 :]))
-    start = int(np.argmax(force >= 0.98 * level)) if level > 0 else 0
-    rows = rows[start:]
-    t = run.t[rows] - run.t[rows[0]]
-    slip = run.slip[rows] - run.slip[rows[0]]
-    result = fit_creep(t, slip)
-    out = {
-        "fit": result.to_dict(),
-        "stress": level,
-        "creep_start": float(run.t[rows[0]]),
-        "creep_slip": float(slip[-1]),
-        "duration": float(t[-1]),
-        "warnings": [],
-    }
-    if not result.success:
-        raise _RunFailedError(f"the creep fit did not succeed: {result.message}", out)
-    return out
-
-
-def _slip_velocity(run):
-    """The velocity column where it has finite values, else the slip's time derivative."""
-    if np.isfinite(run.velocity).any():
-        return np.array(run.velocity)
-    velocity = np.full(run.t.shape, np.nan)
-    rows = _increasing_time(run, ("slip",))
-    if rows.size >= 2:
-        velocity[rows[1:]] = np.diff(run.slip[rows]) / np.diff(run.t[rows])
-        velocity[rows[0]] = 0.0
-    return velocity
-
-
-def _missing_to_end(velocity):
-    """Index from which the velocity is missing to the end (after a finite value), or None."""
-    finite = np.flatnonzero(np.isfinite(velocity))
-    if finite.size == 0 or finite[-1] == velocity.size - 1:
-        return None
-    return int(finite[-1] + 1)
-
-
-def _last_finite_force(run, index):
-    finite = np.flatnonzero(np.isfinite(run.force[: index + 1]))
-    return (float(run.force[finite[-1]]), int(finite[-1])) if finite.size else (math.nan, index)
-
-
-def _analyse_ramp(run, options):
-    velocity = _slip_velocity(run)
-    threshold = FAILURE_FACTOR * options["reference_velocity"]
-    fast = np.flatnonzero(np.isfinite(velocity) & (velocity >= threshold))
-    candidates = []
-    if fast.size:
-        candidates.append((int(fast[0]), f"slip velocity above {threshold:.3g} m/s"))
-    missing = _missing_to_end(velocity)
-    if missing is not None:
-        candidates.append((missing, "velocity missing to the end of the run (runaway)"))
-    finite = velocity[np.isfinite(velocity)]
-    positive = finite[finite > 0]
-    if not candidates and positive.size and finite[-1] > 100.0 * float(np.median(positive)):
-        candidates.append((int(np.flatnonzero(np.isfinite(velocity))[-1]), "run ends accelerating"))
-    rows = _increasing_time(run, ("force",))
-    out = {"warnings": []}
-    if rows.size >= 2:
-        before = rows[: max(2, rows.size // 2)]
-        slope = np.polyfit(run.t[before], run.force[before], 1)[0]
-        out["loading_rate"] = float(slope)
-    if not candidates:
-        out["failure"] = {"observed": False, "reason": "the slip does not run away in this run"}
-        out["warnings"].append(f"{run.name}: no failure observed in the stress ramp")
-        return out
-    index, criterion = min(candidates)
-    force, where = _last_finite_force(run, index)
-    out["failure"] = {
-        "observed": True,
-        "criterion": criterion,
-        "index": index,
-        "time": float(run.t[where]),
-        "slip": float(run.slip[where]) if np.isfinite(run.slip[where]) else None,
-        "force": force,
-    }
-    return out
-
-
-def _analyse_switch(run, options):
-    velocity = np.array(run.velocity)
-    nominal = run.meta.get("velocity")
-    finite = np.flatnonzero(np.isfinite(velocity))
-    if nominal is None and finite.size:
-        nominal = float(np.median(velocity[finite[: max(1, finite.size // 10)]]))
-    if nominal is None or not nominal > 0:
-        raise InvalidDataError(f"{run.name}: no nominal velocity for the rate-controlled part")
-    nominal = float(nominal)
-    departs = ~np.isfinite(velocity) | (np.abs(velocity - nominal) > 0.5 * nominal)
-    # the drive may need a few points to reach the velocity: look from the first point at it
-    level = np.flatnonzero(~departs)
-    after = np.flatnonzero(departs[level[0] :]) + level[0] if level.size else level
-    if after.size == 0:
-        raise InvalidDataError(
-            f"{run.name}: no switch from rate to stress control found (the velocity never "
-            "departs from the nominal one)"
-        )
-    switch = int(after[0])
-    if switch < 2:
-        raise InvalidDataError(f"{run.name}: the switch comes before any rate-controlled data")
-    force_before, where = _last_finite_force(run, switch - 1)
-    imposed = run.force[switch:]
-    imposed = imposed[np.isfinite(imposed)]
-    level = float(np.median(imposed)) if imposed.size else force_before
-    tail = velocity[switch:]
-    threshold = FAILURE_FACTOR * nominal
-    if np.any(np.isfinite(tail) & (tail >= threshold)) or _missing_to_end(velocity) is not None:
-        outcome = "failure"
-    elif np.isfinite(tail[-1]) and abs(tail[-1]) <= 0.01 * nominal:
-        outcome = "stop"
-    else:
-        outcome = "creep"
-    t_switch = float(run.t[where])
-    out = {
-        "switch": {
-            "index": switch,
-            "time": t_switch,
-            "velocity": nominal,
-            "force_before": force_before,
-            "imposed_force": level,
-            "factor": level / force_before if force_before > 0 else None,
-            "hold": float(np.nanmax(run.t[switch:]) - t_switch),
-            "outcome": outcome,
-        },
-        "warnings": [],
-        "fit": None,
-    }
-    startup = run.select(np.arange(len(run)) < switch)
-    try:
-        out.update(_fit_startup(startup_data(startup), run.name), switch=out["switch"])
-    except (_RunFailedError, FitError, InvalidDataError) as exc:
-        out["fit_error"] = f"the start-up part could not be fitted: {exc}"
-        out["warnings"].append(f"{run.name}: {out['fit_error']}")
-    return out
-
-
-_ANALYSES = {
-    "startup": _analyse_startup,
-    "creep": _analyse_creep,
-    "ramp": _analyse_ramp,
-    "switch": _analyse_switch,
-}
-
-
-def analyse_run(task):
-    """Analyse one run: ``task = (run, kind, options)`` -> a JSON-safe dict.
-
-    A top-level function, so that process pools and Dask workers can run it. Never raises for
-    a problem of the run: ``status`` is ``"failed"`` and ``reason`` says why.
-    """
-    run, kind, options = task
-    try:
-        with np.errstate(all="ignore"):
-            out = _ANALYSES[kind](run, options)
-        out.update(status="ok", reason=None)
-    except _RunFailedError as exc:
-        out = {**exc.partial, "status": "failed", "reason": str(exc)}
-    except GranflowError as exc:
-        out = {"status": "failed", "reason": str(exc)}
-    except Exception as exc:  # a batch reports what failed and goes on with the rest
-        out = {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"}
-    out.setdefault("warnings", [])
-    return json_safe(out)
-
-
-# --------------------------------------------------------------------------- files
-
-
-def _write_atomic(path, write):
-    """Call ``write(temporary_path)``, then move the file into place (same folder)."""
-    path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(handle)
-    try:
-        write(Path(temporary))
-        os.replace(temporary, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        raise
-    return path
-
-
-def _dump(value):
-    return json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
-
-
-def _write_json(path, value):
-    text = _dump(value)
-    return _write_atomic(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
-
-
-def _read_json(path):
-    try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
 
 
 def _sha256_file(path):
@@ -561,106 +157,6 @@ def run_key(identity, run, kind, options):
     for name in ("t", "slip", "velocity", "force"):
         digest.update(np.ascontiguousarray(getattr(run, name), dtype="<f8").tobytes())
     return f"{_stem(identity['name'])}-{digest.hexdigest()[:20]}"
-
-
-# --------------------------------------------------------------------------- execution
-
-
-class _Executor:
-    """Per-run tasks over local processes or a Dask cluster; results come as they finish."""
-
-    def __init__(self, jobs, scheduler):
-        self.jobs = jobs
-        self.scheduler = scheduler
-        self._pool = None
-        self._client = None
-        self._own_client = False
-        self._futures = []
-        if scheduler is not None:
-            self._connect(scheduler)
-
-    def _connect(self, scheduler):
-        try:
-            from distributed import Client
-        except ImportError as exc:
-            raise ImportError(
-                "--scheduler needs Dask distributed: install the extra with "
-                "`pip install granflow[dask]`"
-            ) from exc
-        if isinstance(scheduler, Client):
-            self._client = scheduler
-        else:
-            self._client = Client(scheduler, timeout="30s")
-            self._own_client = True
-
-    @property
-    def description(self):
-        if self._client is not None:
-            return f"dask {self._client.scheduler.address}"
-        return f"local, {self.jobs} process{'es' if self.jobs > 1 else ''}"
-
-    def _local_pool(self):
-        if self._pool is None:
-            from concurrent.futures import ProcessPoolExecutor
-
-            self._pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_worker_init)
-        return self._pool
-
-    def run(self, function, tasks):
-        """Yield ``(position, result or exception)`` for each task, in completion order."""
-        if not tasks:
-            return
-        if self._client is not None:
-            from distributed import as_completed
-
-            futures = self._client.map(function, tasks, pure=False)
-            self._futures = futures
-            where = {future.key: position for position, future in enumerate(futures)}
-            for future in as_completed(futures):
-                yield where[future.key], _outcome(future.result)
-            return
-        if self.jobs == 1 or len(tasks) == 1:
-            for position, task in enumerate(tasks):
-                yield position, function(task)
-            return
-        from concurrent.futures import as_completed
-
-        pool = self._local_pool()
-        futures = {pool.submit(function, task): position for position, task in enumerate(tasks)}
-        self._futures = list(futures)
-        for future in as_completed(futures):
-            yield futures[future], _outcome(future.result)
-
-    def map(self, function, items):
-        """``[function(item) for item in items]``, on the same workers."""
-        items = list(items)
-        if self._client is not None:
-            return self._client.gather(self._client.map(function, items, pure=False))
-        if self.jobs == 1 or len(items) == 1:
-            return [function(item) for item in items]
-        return list(self._local_pool().map(function, items))
-
-    def close(self):
-        for future in self._futures:
-            future.cancel()
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-        if self._client is not None and self._own_client:
-            self._client.close()
-
-
-def _worker_init():
-    """Workers leave Ctrl-C to the main process, which stops the pool cleanly."""
-    import signal
-
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def _outcome(result):
-    try:
-        return result()
-    except Exception as exc:  # a worker that died: report the run, do not keep the result
-        return exc
 
 
 # --------------------------------------------------------------------------- progress
@@ -814,13 +310,6 @@ def _load(source):
 # --------------------------------------------------------------------------- small helpers
 
 
-def _rounded(value):
-    if value is None:
-        return None
-    value = float(value)
-    return float(f"{value:.6g}") if math.isfinite(value) and value != 0 else value
-
-
 def _identity(item):
     return {
         "name": item.name,
@@ -847,1008 +336,19 @@ def _describe(item):
         "test": item.kind,
         "control": run.control,
         "normal_load": run.normal_load,
-        "velocity": run.nominal_velocity,
+        "velocity": _imposed_velocity(item),
         "preparation": run.meta.get("preparation"),
         "points": len(run),
     }
 
 
-def _estimate(value, stderr, ci95):
-    return {"value": value, "stderr": stderr, "ci95": [ci95[0], ci95[1]]}
-
-
-def _no_material(reason):
-    empty = {"value": None, "stderr": None, "ci95": [None, None]}
-    return {
-        "mu_a": dict(empty),
-        "mu_d": dict(empty),
-        "alpha": dict(empty),
-        "source": None,
-        "reason": reason,
-    }
-
-
-def _most_common(values):
-    """The most frequent value (ties: the first seen)."""
-    counts = Counter(values)
-    best = max(counts.values())
-    return next(value for value in values if counts[value] == best)
-
-
-# --------------------------------------------------------------------------- rebuilt fits
-
-
-def _fit_from_record(record, data):
-    """The :class:`granflow.FitResult` of a saved start-up record, with its arrays rebuilt.
-
-    Saved results and fresh ones give the same object (JSON keeps every float exactly), so
-    joint analyses, figures and MCMC never depend on whether a run was fitted now.
-    """
-    from granflow._fitcore import FrozenMap, model_only
-    from granflow.fitting import FitResult
-
-    saved = record["fit"]
-    names = tuple(saved["params"])
-    keep = data.slip > 0
-    x, y = data.slip[keep], data.force[keep]
-
-    def number(value):
-        return math.nan if value is None else float(value)
-
-    params = {n: number(saved["params"][n]) for n in names}
-    best = model_only(np.ascontiguousarray(x), *(params[n] for n in names))
-    return FitResult(
-        domain=saved["domain"],
-        names=names,
-        params=FrozenMap(params),
-        stderr=FrozenMap({n: number(v) for n, v in saved["stderr"].items()}),
-        ci95=FrozenMap({n: tuple(number(b) for b in v) for n, v in saved["ci95"].items()}),
-        ci_method=FrozenMap(saved["ci_method"]),
-        covar=FrozenMap(
-            {
-                p: FrozenMap({q: number(v) for q, v in row.items()})
-                for p, row in saved["covar"].items()
-            }
-        ),
-        correl=FrozenMap(
-            {
-                p: FrozenMap({q: number(v) for q, v in row.items()})
-                for p, row in saved["correl"].items()
-            }
-        ),
-        fixed=tuple(saved["fixed"]),
-        at_bound=FrozenMap(saved["at_bound"]),
-        success=bool(saved["success"]),
-        message=saved["message"],
-        nfev=int(saved["nfev"]),
-        ndata=int(saved["ndata"]),
-        nfree=int(saved["nfree"]),
-        chisqr=number(saved["chisqr"]),
-        redchi=number(saved["redchi"]),
-        aic=number(saved["aic"]),
-        bic=number(saved["bic"]),
-        rsquared=number(saved["rsquared"]),
-        x=x,
-        data=y,
-        best_fit=best,
-        residuals=y - best,
-        weights=np.ones_like(x),
-        velocity=saved["velocity"],
-        window=tuple(saved["window"]),
-        sigma_known=bool(saved["sigma_known"]),
-        name=saved.get("name"),
-    )
-
-
-def _creep_from_record(record, run):
-    """The :class:`granflow.CurveFitResult` of a saved creep record, arrays rebuilt."""
-    from granflow._fitcore import FrozenMap
-    from granflow.creep import CurveFitResult
-
-    saved = record["fit"]
-    rows = _increasing_time(run, ("slip", "force"))
-    rows = rows[run.t[rows] >= record["creep_start"]]
-    t = run.t[rows] - run.t[rows[0]]
-    slip = run.slip[rows] - run.slip[rows[0]]
-    B, tau = saved["params"]["B"], saved["params"]["tau_c"]
-    best = B * np.log1p(t / tau)
-    return CurveFitResult(
-        model=saved["model"],
-        formula=saved["formula"],
-        names=tuple(saved["params"]),
-        units=FrozenMap(saved["units"]),
-        params=FrozenMap(saved["params"]),
-        stderr=FrozenMap(saved["stderr"]),
-        ci95=FrozenMap({k: tuple(v) for k, v in saved["ci95"].items()}),
-        covar=FrozenMap({k: FrozenMap(v) for k, v in saved["covar"].items()}),
-        success=bool(saved["success"]),
-        message=saved["message"],
-        ndata=int(saved["ndata"]),
-        nfree=int(saved["nfree"]),
-        chisqr=saved["chisqr"],
-        redchi=saved["redchi"],
-        aic=saved["aic"],
-        bic=saved["bic"],
-        sigma_known=bool(saved["sigma_known"]),
-        x=t,
-        data=slip,
-        best_fit=best,
-        residuals=slip - best,
-    )
-
-
-# --------------------------------------------------------------------------- joint analyses
-
-
-@dataclass(eq=False)
-class _Startup:
-    """A successful start-up run with its window and its fit (rebuilt from the record)."""
-
-    item: _Item
-    data: StartupData
-    fit: object
-
-    @property
-    def load(self):
-        return _rounded(self.item.run.normal_load)
-
-    @property
-    def velocity(self):
-        return _rounded(self.item.run.nominal_velocity)
-
-    @property
-    def pair(self):
-        return (self.data.slip, self.data.force)
-
-
-@dataclass(eq=False)
-class _Context:
-    """What the joint stage found: the JSON parts and the objects figures are drawn from."""
-
-    items: list
-    startups: list
-    analyses: dict = field(default_factory=dict)
-    material: dict = field(default_factory=dict)
-    predictions: dict = field(default_factory=dict)
-    warnings: list = field(default_factory=list)
-    constants: object = None  # MaterialConstants
-    covariance: object = None  # 3 x 3 array over (mu_a, mu_d, alpha)
-    material_velocity: float | None = None
-    collapse: object = None
-    amontons: object = None
-    stability: object = None
-    posterior: object = None
-    representative: _Startup | None = None
-    ramp_params: dict = field(default_factory=dict)  # item name -> Params
-    switch_params: dict = field(default_factory=dict)
-
-
-def _attempt(context, key, function):
-    """``function()``, or None with a warning naming the analysis and the reason."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            return function()
-    except GranflowError as exc:
-        context.analyses[key] = {"error": str(exc)}
-        context.warnings.append(f"{key.replace('_', ' ')}: {exc}")
-        return None
-
-
-def _velocity_collapse(context):
-    from granflow.joint import velocity_collapse
-
-    groups = {}
-    for startup in context.startups:
-        groups.setdefault(startup.load, []).append(startup)
-    best = None
-    for load, members in groups.items():
-        distinct = len({m.velocity for m in members})
-        if distinct >= 2 and (best is None or (distinct, len(members)) > best[0]):
-            best = ((distinct, len(members)), load, members)
-    if best is None:
-        return
-    _, load, members = best
-    result = _attempt(
-        context,
-        "velocity_collapse",
-        lambda: velocity_collapse(
-            [m.pair for m in members], velocities=[m.item.run.nominal_velocity for m in members]
-        ),
-    )
-    if result is None:
-        return
-    context.collapse = result
-    context.analyses["velocity_collapse"] = {
-        "normal_load": load,
-        "runs": [m.item.name for m in members],
-        **result.to_dict(),
-    }
-
-
-def _set_material(context, names, params, stderr, ci95, covariance, source, **extra):
-    from granflow.params import MaterialConstants
-
-    context.material = {
-        name: _estimate(params[key], stderr[key], ci95[key]) for name, key in names.items()
-    }
-    context.material.update(source=source, reason=None, **extra)
-    context.covariance = covariance
-    try:
-        context.constants = MaterialConstants(
-            mu_a=context.material["mu_a"]["value"],
-            mu_d=context.material["mu_d"]["value"],
-            alpha=context.material["alpha"]["value"],
-        )
-    except GranflowError as exc:
-        context.warnings.append(f"material constants out of their domain: {exc}")
-
-
-def _material(context):
-    """Amontons over loads at the most common velocity; one load: a joint fit over the load."""
-    from granflow.joint import fit_amontons, fit_joint
-
-    if not context.startups:
-        context.material = _no_material("no start-up run could be fitted")
-        return
-    loaded = [s for s in context.startups if s.load is not None and s.load > 0]
-    if not loaded:
-        context.material = _no_material("no normal load is given for the start-up runs")
-        return
-    velocity = _most_common([s.velocity for s in loaded])
-    chosen = [s for s in loaded if s.velocity == velocity]
-    context.material_velocity = velocity
-    loads = sorted({s.load for s in chosen})
-    names = ("mu_a", "mu_d", "alpha")
-    if len(loads) >= 2:
-        result = _attempt(
-            context,
-            "amontons",
-            lambda: fit_amontons(
-                [s.pair for s in chosen],
-                normal_loads=[s.item.run.normal_load for s in chosen],
-                velocities=[s.item.run.nominal_velocity for s in chosen],
-            ),
-        )
-        if result is None:
-            context.material = _no_material("the Amontons joint fit failed")
-            return
-        context.amontons = result
-        joint = result.joint
-        context.analyses["amontons"] = {
-            "velocity": velocity,
-            "runs": [s.item.name for s in chosen],
-            **result.to_dict(),
-        }
-        if not joint.success:
-            context.warnings.append(f"Amontons joint fit: {joint.message}")
-        covariance = np.array([[joint.covar[p][q] for q in names] for p in names])
-        _set_material(
-            context,
-            {n: n for n in names},
-            joint.params,
-            joint.stderr,
-            joint.ci95,
-            covariance,
-            "amontons joint fit",
-            runs=len(chosen),
-            normal_loads=loads,
-            velocity=velocity,
-        )
-        return
-    load = float(np.mean([s.item.run.normal_load for s in chosen]))
-    result = _attempt(
-        context,
-        "joint_fit",
-        lambda: fit_joint([s.pair for s in chosen], shared=("a", "alpha", "Fd"), per_run=("x0",)),
-    )
-    if result is None:
-        context.material = _no_material("the joint fit at the single load failed")
-        return
-    context.analyses["joint_fit"] = {
-        "normal_load": load,
-        "velocity": velocity,
-        "runs": [s.item.name for s in chosen],
-        **result.to_dict(),
-    }
-    keys = {"mu_a": "a", "mu_d": "Fd", "alpha": "alpha"}
-    scale = {"mu_a": 1.0 / load, "mu_d": 1.0 / load, "alpha": 1.0}
-    params = {n: result.params[keys[n]] * scale[n] for n in names}
-    stderr = {n: result.stderr[keys[n]] * scale[n] for n in names}
-    ci95 = {n: tuple(b * scale[n] for b in result.ci95[keys[n]]) for n in names}
-    covariance = np.array(
-        [[result.covar[keys[p]][keys[q]] * scale[p] * scale[q] for q in names] for p in names]
-    )
-    _set_material(
-        context,
-        {n: n for n in names},
-        params,
-        stderr,
-        ci95,
-        covariance,
-        f"joint fit at the single load {load * 1e3:.6g} mN, divided by the load",
-        runs=len(chosen),
-        normal_loads=[_rounded(load)],
-        velocity=velocity,
-    )
-    if not result.success:
-        context.warnings.append(f"joint fit at one load: {result.message}")
-
-
-def _preparation_spread(context):
-    from granflow.joint import preparation_spread
-
-    groups = {}
-    for startup in context.startups:
-        key = (startup.load, startup.velocity, startup.item.run.meta.get("preparation"))
-        groups.setdefault(key, []).append(startup)
-    rows = []
-    for (load, velocity, preparation), members in groups.items():
-        if len(members) < 2:
-            continue
-        spread = _attempt(
-            context, "preparation_spread", lambda m=members: preparation_spread([s.fit for s in m])
-        )
-        if spread is not None:
-            rows.append(
-                {
-                    "normal_load": load,
-                    "velocity": velocity,
-                    "preparation": preparation,
-                    "runs": [s.item.name for s in members],
-                    **spread.to_dict(),
-                }
-            )
-    if rows:
-        context.analyses["preparation_spread"] = rows
-
-
-def _representative(context):
-    if not context.startups:
-        return None
-    largest = _most_common([(s.load, s.velocity) for s in context.startups])
-    return next(s for s in context.startups if (s.load, s.velocity) == largest)
-
-
-def _model_comparison(context):
-    from granflow.compare import compare_models
-
-    chosen = context.representative
-    if chosen is None:
-        return
-    result = _attempt(context, "model_comparison", lambda: compare_models(chosen.pair))
-    if result is not None:
-        context.analyses["model_comparison"] = {"run": chosen.item.name, **result.to_dict()}
-
-
-def _mcmc(context, seed):
-    from granflow.mcmc import sample_posterior
-
-    chosen = context.representative
-    if chosen is None:
-        context.warnings.append("mcmc: no start-up fit to sample")
-        return
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", ConvergenceWarning)
-        posterior = _attempt(context, "mcmc", lambda: sample_posterior(chosen.fit, seed=seed))
-    context.warnings += [f"mcmc: {w.message}" for w in caught if w.category is ConvergenceWarning]
-    if posterior is not None:
-        context.posterior = posterior
-        context.analyses["mcmc"] = {"run": chosen.item.name, **posterior.to_dict()}
-
-
-# --------------------------------------------------------------------------- predictions
-
-
-def _peak_force(mu_a, mu_d, alpha, x0, load):
-    from granflow.model import peak
-    from granflow.params import Params
-
-    return peak(Params(a=mu_a * load, alpha=alpha, Fd=mu_d * load, x0=x0)).force
-
-
-def _x0_at(context, load):
-    """Per-run x0 [m] of the start-ups at ``load`` (at the material's velocity when there
-    are some), or of every start-up when none has that load; and where they came from."""
-    at_load = [s for s in context.startups if s.load == load]
-    same_velocity = [s for s in at_load if s.velocity == context.material_velocity]
-    chosen, origin = (same_velocity or at_load), "start-up runs at this load"
-    if not chosen:
-        chosen = [s for s in context.startups if s.velocity == context.material_velocity]
-        chosen, origin = chosen or context.startups, "all start-up runs (none at this load)"
-    return [s.fit.params["x0"] for s in chosen], origin
-
-
-def _yield_at(context, load):
-    """Predicted static yield at one load, with its standard error and preparation spread."""
-    from granflow.model import peak
-
-    constants = context.constants
-    x0_values, origin = _x0_at(context, load)
-    if constants is None or not x0_values:
-        return None
-    x0 = float(np.mean(x0_values))
-    x0_error = (
-        float(np.std(x0_values, ddof=1) / math.sqrt(len(x0_values))) if len(x0_values) > 1 else 0.0
-    )
-    point = np.array([constants.mu_a, constants.mu_d, constants.alpha, x0])
-    force = _peak_force(*point, load)
-    gradient = np.empty(4)
-    for k in range(4):
-        step = 1e-6 * point[k]
-        up, down = point.copy(), point.copy()
-        up[k] += step
-        down[k] -= step
-        gradient[k] = (_peak_force(*up, load) - _peak_force(*down, load)) / (2 * step)
-    variance = gradient[:3] @ context.covariance @ gradient[:3] + (gradient[3] * x0_error) ** 2
-    stderr = math.sqrt(max(float(variance), 0.0))
-    per_run = [_peak_force(*point[:3], value, load) for value in x0_values]
-    params = constants.params_at(load, x0)
-    top = peak(params, velocity=context.material_velocity)
-    return {
-        "normal_load": load,
-        "repeats": len(x0_values),
-        "x0": x0,
-        "x0_stderr": x0_error,
-        "x0_from": origin,
-        "F_peak": force,
-        "stderr": stderr,
-        "ci95": [force - 1.959963984540054 * stderr, force + 1.959963984540054 * stderr],
-        "spread": float(np.std(per_run, ddof=1)) if len(per_run) > 1 else 0.0,
-        "F_peak_over_load": force / load,
-        "x_peak": top.slip,
-        "t_peak": top.time,
-        "velocity": context.material_velocity,
-    }
-
-
-def _params_at(context, load):
-    """Model parameters at a load from the material constants and the mean x0 there."""
-    x0_values, _ = _x0_at(context, load)
-    if context.constants is None or not x0_values or load is None:
-        return None
-    return context.constants.params_at(load, float(np.mean(x0_values)))
-
-
-def _static_yield(context):
-    loads = {s.load for s in context.startups if s.load is not None}
-    loads |= {
-        _rounded(item.run.normal_load)
-        for item in context.items
-        if item.run is not None and item.kind != "startup" and item.run.normal_load
-    }
-    if context.constants is None:
-        context.predictions["static_yield"] = []
-        context.predictions["static_yield_reason"] = context.material.get("reason")
-        return
-    rows = [_yield_at(context, load) for load in sorted(loads)]
-    context.predictions["static_yield"] = [row for row in rows if row is not None]
-
-
-def _yield_row(context, load):
-    return next(
-        (row for row in context.predictions.get("static_yield", []) if row["normal_load"] == load),
-        None,
-    )
-
-
-def _compare_ramps(context):
-    rows = []
-    for item in context.items:
-        if item.kind != "ramp" or item.record is None or item.record["status"] != "ok":
-            continue
-        load = _rounded(item.run.normal_load)
-        failure = item.record["failure"]
-        row = {"run": item.name, "normal_load": load, "observed": failure}
-        predicted = _yield_row(context, load)
-        if predicted is None:
-            row["reason"] = "no predicted static yield at this load"
-        else:
-            row["predicted"] = {k: predicted[k] for k in ("F_peak", "stderr", "spread", "ci95")}
-            params = _params_at(context, load)
-            if params is not None:
-                context.ramp_params[item.name] = params
-        if predicted is not None and failure.get("observed"):
-            width = math.hypot(predicted["stderr"], predicted["spread"])
-            difference = failure["force"] - predicted["F_peak"]
-            row["ratio"] = failure["force"] / predicted["F_peak"]
-            row["z"] = difference / width if width > 0 else None
-            row["consistent"] = bool(width > 0 and abs(difference) <= 2.0 * width)
-        rows.append(row)
-    if rows:
-        context.analyses["stress_ramp"] = rows
-
-
-def _compare_creep(context):
-    rows = []
-    for item in context.items:
-        if item.kind != "creep" or item.record is None or item.record["status"] != "ok":
-            continue
-        load = _rounded(item.run.normal_load)
-        record = item.record
-        row = {
-            "run": item.name,
-            "normal_load": load,
-            "stress": record["stress"],
-            "B": record["fit"]["params"]["B"],
-            "B_stderr": record["fit"]["stderr"]["B"],
-            "tau_c": record["fit"]["params"]["tau_c"],
-            "tau_c_stderr": record["fit"]["stderr"]["tau_c"],
-        }
-        predicted = _yield_row(context, load)
-        if predicted is not None:
-            row["stress_over_peak"] = record["stress"] / predicted["F_peak"]
-        if context.constants is not None and load:
-            row["stress_over_Fd"] = record["stress"] / (context.constants.mu_d * load)
-        rows.append(row)
-    if rows:
-        context.analyses["creep"] = rows
-
-
-def _compare_switches(context):
-    from granflow.params import Params
-    from granflow.protocol import Protocol, SwitchToForce, Velocity
-    from granflow.simulate import simulate
-
-    rows = []
-    for item in context.items:
-        if item.kind != "switch" or item.record is None or item.record["status"] != "ok":
-            continue
-        record, switch = item.record, item.record["switch"]
-        row = {"run": item.name, "normal_load": _rounded(item.run.normal_load), **switch}
-        fit = record.get("fit")
-        if fit is not None and fit.get("success"):
-            params, origin = Params(**fit["params"]), "the run's own start-up fit"
-        else:
-            params = _params_at(context, _rounded(item.run.normal_load))
-            origin = "material constants at the run's load"
-        if params is None or not switch.get("factor"):
-            row["reason"] = "no parameters to predict the switch with"
-            rows.append(row)
-            continue
-        context.switch_params[item.name] = params
-        protocol = Protocol(
-            [
-                Velocity(switch["velocity"], max(switch["time"], 1e-9)),
-                SwitchToForce(max(switch["hold"], 1.0), factor=switch["factor"]),
-            ]
-        )
-        result = simulate(params, protocol)
-        if result.failed:
-            predicted = "failure"
-        elif result.success and result.velocity[-1] == 0:
-            predicted = "stop"
-        else:
-            predicted = "creep" if result.success else "error"
-        row.update(
-            params=params.to_dict(),
-            params_from=origin,
-            predicted_outcome=predicted,
-            agree=predicted == switch["outcome"],
-            predicted_message=result.message,
-        )
-        rows.append(row)
-    if rows:
-        context.analyses["switch"] = rows
-
-
-class _Mapper:
-    """Adapts the executor to ``stability_map(executor=...)``."""
-
-    def __init__(self, executor):
-        self.executor = executor
-
-    def map(self, function, items):
-        return self.executor.map(function, items)
-
-
-def _stability(context, executor):
-    from granflow.model import peak
-    from granflow.stability import stability_map
-
-    switches = [i for i in context.items if i.kind == "switch" and i.run is not None]
-    if switches and switches[0].run.normal_load:
-        load = _rounded(switches[0].run.normal_load)
-    elif any(s.load for s in context.startups):
-        load = _most_common([s.load for s in context.startups if s.load])
-    else:
-        load = None
-    params = _params_at(context, load) if load is not None else None
-    velocity = context.material_velocity
-    if params is None and context.representative is not None:
-        params = context.representative.fit.to_params()
-        load = context.representative.load
-        velocity = context.representative.velocity
-    if params is None or not velocity:
-        return
-    t_peak = peak(params, velocity=velocity).time
-    points = np.geomspace(0.25 * t_peak, 4.0 * t_peak, _MAP_POINTS)
-    ratios = np.linspace(0.97, 1.09, _MAP_RATIOS)
-    result = _attempt(
-        context,
-        "stability_map",
-        lambda: stability_map(
-            params, points, ratios, velocity=velocity, hold=_MAP_HOLD, executor=_Mapper(executor)
-        ),
-    )
-    if result is not None:
-        context.stability = result
-        context.predictions["stability_map"] = {"normal_load": load, **result.to_dict()}
-
-
-def _joint_stage(items, executor, *, mcmc, seed):
-    startups = []
-    for item in items:
-        if item.kind == "startup" and item.record is not None and item.record["status"] == "ok":
-            data = startup_data(item.run)
-            startups.append(_Startup(item=item, data=data, fit=_fit_from_record(item.record, data)))
-    context = _Context(items=items, startups=startups)
-    context.representative = _representative(context)
-    _velocity_collapse(context)
-    _material(context)
-    _preparation_spread(context)
-    _model_comparison(context)
-    if mcmc:
-        _mcmc(context, seed)
-    _static_yield(context)
-    _compare_ramps(context)
-    _compare_creep(context)
-    _compare_switches(context)
-    _stability(context, executor)
-    return context
-
-
-# --------------------------------------------------------------------------- tables
-
-
-_TABLE_PARAMS = ("a", "alpha", "Fd", "x0", "B", "tau_c")
-
-
-def _runs_table(entries):
-    rows = []
-    for entry in entries:
-        row = {
-            key: entry.get(key)
-            for key in (
-                "index",
-                "name",
-                "source",
-                "interval",
-                "test",
-                "status",
-                "reason",
-                "normal_load",
-                "velocity",
-                "preparation",
-                "points",
-            )
-        }
-        fit = entry.get("fit") or {}
-        for name in _TABLE_PARAMS:
-            value = (fit.get("params") or {}).get(name)
-            row[name] = value
-            row[f"{name}_stderr"] = (
-                (fit.get("stderr") or {}).get(name) if value is not None else None
-            )
-            low, high = (fit.get("ci95") or {}).get(name) or (None, None)
-            row[f"{name}_ci95_low"], row[f"{name}_ci95_high"] = low, high
-        row["redchi"] = fit.get("redchi")
-        row["peak_force"] = (entry.get("peak") or {}).get("force")
-        row["failure_force"] = (entry.get("failure") or {}).get("force")
-        row["switch_outcome"] = (entry.get("switch") or {}).get("outcome")
-        rows.append(row)
-    return rows
-
-
-def _loads_table(results):
-    amontons = results["analyses"].get("amontons") or {}
-    per_load = {row["normal_load"]: row for row in amontons.get("per_load", [])}
-    yields = {row["normal_load"]: row for row in results["predictions"].get("static_yield", [])}
-    rows = []
-    for load in sorted(set(per_load) | set(yields)):
-        row = {"normal_load": load}
-        measured = per_load.get(load, {})
-        row["repeats"] = measured.get("repeats")
-        for key in ("a", "alpha", "alpha_v", "Fd"):
-            mean, error = measured.get(key) or (None, None)
-            row[f"{key}_mean"], row[f"{key}_stderr"] = mean, error
-        predicted = yields.get(load, {})
-        for key in ("x0", "x0_stderr", "F_peak", "stderr", "spread"):
-            row[f"predicted_{key}" if key in ("stderr", "spread") else key] = predicted.get(key)
-        rows.append(row)
-    return rows
-
-
-def _material_table(material):
-    return [
-        {
-            "constant": name,
-            "value": material[name]["value"],
-            "stderr": material[name]["stderr"],
-            "ci95_low": material[name]["ci95"][0],
-            "ci95_high": material[name]["ci95"][1],
-            "unit": "1/m" if name == "alpha" else "",
-            "source": material.get("source"),
-        }
-        for name in ("mu_a", "mu_d", "alpha")
-    ]
-
-
-def _predictions_table(predictions):
-    rows = []
-    for row in predictions.get("static_yield", []):
-        rows.append(
-            {k: v for k, v in row.items() if k != "ci95"}
-            | {
-                "ci95_low": row["ci95"][0],
-                "ci95_high": row["ci95"][1],
-            }
-        )
-    return rows
-
-
-def _write_tables(output, results, warnings_list):
-    """CSV and Parquet of runs, loads, material and predictions; returns results["tables"]."""
-    import pandas as pd
-
-    folder = output / TABLES_DIR
-    folder.mkdir(exist_ok=True)
-    tables = {
-        "runs": _runs_table(results["runs"]),
-        "loads": _loads_table(results),
-        "material": _material_table(results["material"]),
-        "predictions": _predictions_table(results["predictions"]),
-    }
-    stability = results["predictions"].get("stability_map")
-    if stability:
-        tables["stability_map"] = [
-            {
-                "switch_point": point,
-                "stress_ratio": ratio,
-                "outcome": stability["outcome"][i][j],
-                "stop_slip": stability["stop_slip"][i][j],
-                "failure_time": stability["failure_time"][i][j],
-            }
-            for i, point in enumerate(stability["switch_points"])
-            for j, ratio in enumerate(stability["stress_ratios"])
-        ]
-    try:
-        import pyarrow  # noqa: F401
-
-        parquet = True
-    except ImportError:
-        parquet = False
-        warnings_list.append(
-            "tables written as CSV only: Parquet needs pyarrow (pip install granflow[parquet])"
-        )
-    written = {}
-    for name, rows in tables.items():
-        frame = pd.DataFrame(rows)
-        paths = {"csv": f"{TABLES_DIR}/{name}.csv"}
-        _write_atomic(
-            output / paths["csv"],
-            lambda temporary, f=frame: f.to_csv(temporary, index=False, float_format="%.17g"),
-        )
-        if parquet:
-            paths["parquet"] = f"{TABLES_DIR}/{name}.parquet"
-            _write_atomic(
-                output / paths["parquet"],
-                lambda temporary, f=frame: f.astype(
-                    {c: "string" for c in f.columns if f[c].dtype == object}
-                ).to_parquet(temporary, index=False),
-            )
-        written[name] = paths
-    return written
-
-
-# --------------------------------------------------------------------------- figures and report
-
-
-def _figure_specs(context):
-    """(name, title, caption, draw) for each figure the campaign allows; draw() -> Figure."""
-    import matplotlib.pyplot as plt
-
-    from granflow import plotting
-
-    specs = []
-    paper = getattr(plotting, "plot_startup", None)
-    startups = context.startups
-    if startups:
-        chosen = [
-            s
-            for s in startups
-            if (s.load, s.velocity)
-            == (context.representative.load, context.representative.velocity)
-        ][:6]
-
-        def startup():
-            figure, (ax, residual) = plt.subplots(
-                2, 1, sharex=True, figsize=(6.0, 5.0), height_ratios=(3, 1), layout="constrained"
-            )
-            if paper is not None:
-                paper(
-                    [s.item.run for s in chosen], [s.fit for s in chosen], ax, residual_ax=residual
-                )
-            else:
-                context.representative.fit.plot(ax, residual_ax=residual)
-            return figure
-
-        specs.append(
-            (
-                "startup",
-                "Start-up curves and fits",
-                f"Friction force during start-up at {_display_load(context.representative.load)} "
-                "with the fits of Eq. 3 and their residuals (Fig. 2a).",
-                startup,
-            )
-        )
-    if context.collapse is not None:
-        specs.append(
-            (
-                "collapse",
-                "Velocity collapse",
-                "Start-up curves at several velocities against slip, with the shared fit "
-                "(Fig. 2b).",
-                lambda: plotting.plot_collapse(context.collapse).figure,
-            )
-        )
-    if context.amontons is not None:
-        specs.append(
-            (
-                "amontons",
-                "Amontons' law",
-                "a, αv and F_d against the normal load, means with standard errors over the "
-                "repeats and lines through the origin (Fig. 2c).",
-                lambda: plotting.plot_amontons(context.amontons)[0].figure,
-            )
-        )
-    ramp = getattr(plotting, "plot_stress_ramp", None)
-    for item in context.items:
-        if (
-            ramp is not None
-            and item.kind == "ramp"
-            and item.record
-            and item.record["status"] == "ok"
-        ):
-            params = context.ramp_params.get(item.name)
-            specs.append(
-                (
-                    "stress_ramp",
-                    "Stress ramp",
-                    "Slip and stress against time under a stress ramp, with the predicted static "
-                    "yield (Fig. 3a).",
-                    lambda i=item, p=params: _figure_of(ramp(i.run, p)),
-                )
-            )
-            break
-    creep = getattr(plotting, "plot_creep", None)
-    creeps = [
-        i for i in context.items if i.kind == "creep" and i.record and i.record["status"] == "ok"
-    ]
-    if creep is not None and creeps:
-        specs.append(
-            (
-                "creep",
-                "Creep",
-                "Slip against time under constant stresses below the peak, with logarithmic "
-                "fits (Fig. 3b).",
-                lambda: _figure_of(
-                    creep(
-                        [i.run for i in creeps],
-                        [_creep_from_record(i.record, i.run) for i in creeps],
-                    )
-                ),
-            )
-        )
-    switch = getattr(plotting, "plot_switch", None)
-    for item in context.items:
-        if (
-            switch is not None
-            and item.kind == "switch"
-            and item.record
-            and item.record["status"] == "ok"
-        ):
-            params = context.switch_params.get(item.name)
-            specs.append(
-                (
-                    "switch",
-                    "Switch from rate to stress control",
-                    "Force and slip against time, the switch marked, with the rate-controlled "
-                    "curve of the fitted parameters (Fig. 3c).",
-                    lambda i=item, p=params: _figure_of(switch(i.run, p)),
-                )
-            )
-            break
-    if context.stability is not None:
-        specs.append(
-            (
-                "stability_map",
-                "Stability map",
-                "Predicted outcome of switching to stress control, over the switch time and the "
-                "ratio of imposed to current force (quasi-static, slip clock).",
-                lambda: plotting.plot_stability_map(context.stability).figure,
-            )
-        )
-    if context.posterior is not None:
-        specs.append(
-            (
-                "corner",
-                "Posterior (MCMC)",
-                f"Posterior of the Eq. 3 fit of {context.representative.item.name} (emcee), "
-                "with the least-squares values marked.",
-                lambda: plotting.plot_corner(context.posterior),
-            )
-        )
-    return specs
-
-
-def _display_load(load):
-    return "an unknown load" if load is None else f"F_N = {load * 1e3:.4g} mN"
-
-
-def _figure_of(axes):
-    """The Figure of whatever a plot function returned (Axes, array of Axes, Figure)."""
-    if hasattr(axes, "savefig"):
-        return axes
-    if hasattr(axes, "figure"):
-        return axes.figure
-    return np.ravel(axes)[0].figure
-
-
-def _save_figure(figure, folder, stem):
-    try:
-        from granflow.plotting import save_figure
-    except ImportError:
-        paths = {}
-        for suffix, options in (("png", {"dpi": 150}), ("svg", {})):
-            paths[suffix] = folder / f"{stem}.{suffix}"
-            figure.savefig(paths[suffix], **options)
-        return paths
-    return save_figure(figure, folder, stem)
-
-
-def _make_figures(output, context, warnings_list):
-    """Draw every figure the campaign allows into OUTPUT/figures; returns results["figures"]."""
-    import matplotlib.pyplot as plt
-
-    folder = output / FIGURES_DIR
-    folder.mkdir(exist_ok=True)
-    figures = []
-    with tempfile.TemporaryDirectory(prefix=".figures-", dir=output) as scratch:
-        for name, title, caption, draw in _figure_specs(context):
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    figure = draw()
-                    paths = _save_figure(figure, Path(scratch), name)
-                plt.close(figure)
-            except Exception as exc:  # a figure that fails must not cost the results
-                warnings_list.append(
-                    f"figure {name!r} could not be drawn: {type(exc).__name__}: {exc}"
-                )
-                plt.close("all")
-                continue
-            entry = {"name": name, "title": title, "caption": caption}
-            for suffix, path in sorted(paths.items()):
-                os.replace(path, folder / f"{name}.{suffix}")
-                entry[suffix] = f"{FIGURES_DIR}/{name}.{suffix}"
-            figures.append(entry)
-    return figures
-
-
-def _report_renderer():
-    try:
-        from granflow.report import render_report
-    except ImportError:
-        return None
-    return render_report
-
-
-def _write_report(output, results, render):
-    """Render report.html atomically (into a temporary file, then moved into place)."""
-    return _write_atomic(
-        output / REPORT_FILE, lambda temporary: render(results, output, path=temporary)
-    )
+def _imposed_velocity(item):
+    """The imposed velocity [m/s]: the nominal one of a start-up, the manifest's otherwise
+    (the median measured velocity of a stress-controlled run is no imposed velocity)."""
+    if item.kind == "startup":
+        return item.run.nominal_velocity
+    value = item.run.meta.get("velocity")
+    return None if value is None else float(value)
 
 
 # --------------------------------------------------------------------------- the result
@@ -1961,7 +461,7 @@ class AnalysisResult:
                 lines.append(f"  {entry['name']}: {entry['reason']}")
             if len(self.failed_runs) > 10:
                 lines.append(f"  ... and {len(self.failed_runs) - 10} more in results.json")
-        lines.append(f"output: {self.output}")
+        lines.append(f"output: {self.output.resolve()}")
         return "\n".join(lines)
 
 
@@ -1985,7 +485,8 @@ def _own_files(output):
             files.append(path)
     previous = _read_json(output / RESULTS_FILE)
     if isinstance(previous, dict) and "granflow_version" in previous:
-        listed = [f.get(k) for f in previous.get("figures", []) for k in ("png", "svg")]
+        listed = [RESULTS_FILE, REPORT_FILE]
+        listed += [f.get(k) for f in previous.get("figures", []) for k in ("png", "svg")]
         listed += [p for t in previous.get("tables", {}).values() for p in t.values()]
         for relative in listed:
             if isinstance(relative, str) and (output / relative).is_file():
@@ -2025,9 +526,7 @@ def _campaign_summary(items, manifest, material):
     runs = [item for item in items if item.run is not None]
     ok = [item for item in runs if item.record and item.record["status"] == "ok"]
     loads = sorted({_rounded(i.run.normal_load) for i in runs if i.run.normal_load is not None})
-    speeds = sorted(
-        {_rounded(i.run.nominal_velocity) for i in runs if i.run.nominal_velocity is not None}
-    )
+    speeds = sorted({_rounded(v) for v in map(_imposed_velocity, runs) if v is not None})
     preparations = sorted(
         {str(i.run.meta["preparation"]) for i in runs if "preparation" in i.run.meta}
     )
@@ -2131,30 +630,87 @@ def analyze(
     jobs = _check_jobs(jobs)
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
         raise InvalidParameterError(f"seed must be an integer, got {seed!r}")
+    seed = int(seed)
     if mcmc:
         from granflow.mcmc import _emcee
 
-        _emcee()
+        _emcee()  # a missing extra is an error now, not after the fits
     output = Path(output)
-    output.mkdir(parents=True, exist_ok=True)
-    (output / RUNS_DIR).mkdir(exist_ok=True)
     reporter = _Progress(quiet, progress)
     stages = {}
     items, manifest, inputs = _load(source)
     stages["read_s"] = time.perf_counter() - clock
-    _remove_leftovers(output)
-    if not resume:
-        for path in _own_files(output):
-            with contextlib.suppress(OSError):
-                path.unlink()
-    startup_velocities = [
+    executor = _Executor(jobs, scheduler)
+    try:
+        output.mkdir(parents=True, exist_ok=True)
+        (output / RUNS_DIR).mkdir(exist_ok=True)
+        _remove_leftovers(output)
+        if not resume:
+            for path in _own_files(output):
+                with contextlib.suppress(OSError):
+                    path.unlink()
+        reference = _reference_velocity(items)
+        todo, reused = _plan(items, output, reference, resume)
+        if reused:
+            reporter.line(f"reusing {reused} saved run results from {output / RUNS_DIR}")
+        clock_stage = time.perf_counter()
+        _run_all(todo, executor, output, reporter)
+        stages["runs_s"] = time.perf_counter() - clock_stage
+        reporter.line("joint analyses and predictions")
+        clock_stage = time.perf_counter()
+        context = _joint_stage(items, executor, mcmc=mcmc, seed=seed)
+        stages["joint_s"] = time.perf_counter() - clock_stage
+        description = executor.description
+    finally:
+        executor.close()
+    clock_stage = time.perf_counter()
+    results = _assemble(items, manifest, inputs, context, mcmc, seed, reference)
+    results["tables"] = _write_tables(output, results, results["warnings"])
+    reporter.line("figures")
+    results["figures"] = _make_figures(output, context, results["warnings"])
+    render = _report_renderer()
+    if render is None:
+        results["warnings"].append("no HTML report: granflow.report is not available")
+    _remove_stale_records(output, items)
+    stages["outputs_s"] = time.perf_counter() - clock_stage
+    results["timing"] = {
+        "started": started.isoformat(timespec="seconds"),
+        "finished": None,
+        "elapsed_s": None,
+        "jobs": None if scheduler is not None else jobs,
+        "scheduler": description if scheduler is not None else None,
+        "fitted_now": len(todo),
+        "reused": reused,
+        "stages_s": stages,
+    }
+    results = json_safe(results)
+    report = None
+    if render is not None:
+        reporter.line("report")
+        _finish_timing(results, clock)
+        report = _write_report(output, results, render)
+    _finish_timing(results, clock)
+    _write_json(output / RESULTS_FILE, results)
+    return AnalysisResult(
+        output=output, results=results, fitted_now=len(todo), reused=reused, report=report
+    )
+
+
+def _reference_velocity(items):
+    """The median nominal velocity of the start-ups [m/s]: the scale of a runaway."""
+    velocities = [
         item.run.nominal_velocity
         for item in items
         if item.run is not None and classify(item.run) == "startup" and item.run.nominal_velocity
     ]
-    reference = (
-        float(np.median(startup_velocities)) if startup_velocities else _DEFAULT_REFERENCE_VELOCITY
-    )
+    return float(np.median(velocities)) if velocities else _DEFAULT_REFERENCE_VELOCITY
+
+
+def _plan(items, output, reference, resume):
+    """Classify and key every run; attach the saved results that still match (resume).
+
+    Returns the ``(item, options)`` pairs still to analyse and the number reused.
+    """
     todo, reused = [], 0
     for item in items:
         if item.run is None:
@@ -2170,74 +726,41 @@ def analyze(
         ):
             item.record = saved
             reused += 1
-            continue
-        todo.append((item, options))
-    executor = _Executor(jobs, scheduler)
-    fitted = 0
-    try:
-        if reused:
-            reporter.line(f"reusing {reused} saved run results from {output / RUNS_DIR}")
-        reporter.start(len(todo))
-        tasks = [(item.run, item.kind, options) for item, options in todo]
-        clock_runs = time.perf_counter()
-        for position, result in executor.run(analyse_run, tasks):
-            item = todo[position][0]
-            if isinstance(result, Exception):  # the worker died: not saved, so retried
-                item.record = {
-                    "status": "failed",
-                    "reason": f"the worker failed: {type(result).__name__}: {result}",
-                    "warnings": [],
-                }
-            else:
-                record = json.loads(_dump({_MARKER: ANALYSIS_VERSION, "key": item.key, **result}))
-                _write_json(output / RUNS_DIR / f"{item.key}.json", record)
-                item.record = record
-            fitted += 1
-            reporter.step(item.name)
-        stages["runs_s"] = time.perf_counter() - clock_runs
-        reporter.line("joint analyses and predictions")
-        clock_joint = time.perf_counter()
-        context = _joint_stage(items, executor, mcmc=mcmc, seed=int(seed))
-        stages["joint_s"] = time.perf_counter() - clock_joint
-        description = executor.description
-    finally:
-        executor.close()
-    results = _assemble(items, manifest, inputs, context, mcmc, int(seed), reference)
-    clock_out = time.perf_counter()
-    results["tables"] = _write_tables(output, results, results["warnings"])
-    reporter.line("figures")
-    results["figures"] = _make_figures(output, context, results["warnings"])
-    render = _report_renderer()
-    if render is None:
-        results["warnings"].append("no HTML report: granflow.report is not available")
+        else:
+            todo.append((item, options))
+    return todo, reused
+
+
+def _run_all(todo, executor, output, reporter):
+    """Analyse the runs of ``todo``, saving each result (atomically) as soon as it is ready.
+
+    A result goes through JSON before it is used, so that a fresh result and a saved one are
+    the same values.
+    """
+    reporter.start(len(todo))
+    tasks = [(item.run, item.kind, options) for item, options in todo]
+    for position, result in executor.run(analyse_run, tasks):
+        item = todo[position][0]
+        if isinstance(result, Exception):  # the worker died: not saved, so retried on resume
+            item.record = {
+                "status": "failed",
+                "reason": f"the worker failed: {type(result).__name__}: {result}",
+                "warnings": [],
+            }
+        else:
+            record = json.loads(_dump({_MARKER: ANALYSIS_VERSION, "key": item.key, **result}))
+            _write_json(output / RUNS_DIR / f"{item.key}.json", record)
+            item.record = record
+        reporter.step(item.name)
+
+
+def _remove_stale_records(output, items):
+    """Saved run results of runs that are no longer in the campaign (or whose data changed)."""
     keys = {item.key for item in items if item.key}
     for path in (output / RUNS_DIR).glob("*.json"):
         if path.stem not in keys and _MARKER in (_read_json(path) or {}):
             with contextlib.suppress(OSError):
                 path.unlink()
-    stages["outputs_s"] = time.perf_counter() - clock_out
-    results["timing"] = {
-        "started": started.isoformat(timespec="seconds"),
-        "finished": None,
-        "elapsed_s": None,
-        "jobs": None if scheduler is not None else jobs,
-        "scheduler": description if scheduler is not None else None,
-        "executor": description,
-        "fitted_now": fitted,
-        "reused": reused,
-        "stages_s": stages,
-    }
-    results = json_safe(results)
-    report = None
-    if render is not None:
-        reporter.line("report")
-        _finish_timing(results, clock)
-        report = _write_report(output, results, render)
-    _finish_timing(results, clock)
-    _write_json(output / RESULTS_FILE, results)
-    return AnalysisResult(
-        output=output, results=results, fitted_now=fitted, reused=reused, report=report
-    )
 
 
 def _finish_timing(results, clock):

@@ -5,7 +5,9 @@ with ``main([...])``. Exit codes: 0 success, 1 some work failed, 2 usage or inpu
 """
 
 import argparse
+import contextlib
 import sys
+import traceback
 from pathlib import Path
 
 import numpy as np
@@ -549,18 +551,171 @@ def _run_stability_map(args):
     return 1 if np.any(stability.outcome == "error") else 0
 
 
+_EPILOG_ANALYZE = """examples:
+  granflow analyze campaign/                        (a folder holding manifest.yaml)
+  granflow analyze campaign/manifest.yaml -o results --jobs 4
+  granflow analyze campaign/ -o results --resume    (after an interruption: reuses finished runs)
+  granflow analyze campaign/ --scheduler tcp://10.0.0.5:8786   (Dask: pip install granflow[dask])
+  granflow analyze campaign/ --mcmc --seed 1        (emcee: pip install granflow[mcmc])
+The manifest lists the export files with normal_load, velocity, preparation, test, ...
+Writes report.html, results.json, tables/ (CSV and Parquet), figures/ (PNG and SVG) and runs/
+(one result per run, written as it finishes). Exit code 1 when some runs failed (named in the
+output, results.json and the report), 2 for a bad argument or an unreadable manifest."""
+
+_EPILOG_DEMO = """examples:
+  granflow demo                                     (writes granflow-demo/)
+  granflow demo -o demo --seed 3 --jobs 2
+Generates a synthetic campaign that mirrors the paper, labelled as synthetic, writes it as
+instrument exports with a manifest in DIR/exports, then runs 'granflow analyze' on it:
+DIR/report.html, DIR/results.json and DIR/synthetic_truth.json (the values it was made with)."""
+
+
+def _positive_int(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def _add_analyze(subparsers):
+    parser = subparsers.add_parser(
+        "analyze",
+        help="analyse a campaign: fits, joint analyses, predictions, tables, figures, report",
+        description="Read every run a manifest names, fit each (start-ups, creep, stress ramps, "
+        "switches), run the joint analyses the campaign allows (velocity collapse, Amontons' "
+        "law, preparation spread), predict the static yield and a stability map, and write "
+        "the results, tables, figures and an HTML report.",
+        epilog=_EPILOG_ANALYZE,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "campaign", help="a manifest (.yaml, .yml, .csv) or a folder holding manifest.yaml"
+    )
+    parser.add_argument(
+        "-o", "--output", default="granflow-analysis", help="output folder (default: %(default)s)"
+    )
+    _add_execution_options(parser)
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run the per-run work on a Dask scheduler, e.g. tcp://host:8786",
+    )
+    parser.add_argument(
+        "--resume", action="store_true", help="reuse the runs an interrupted analysis finished"
+    )
+    parser.add_argument(
+        "--mcmc", action="store_true", help="sample the posterior of a representative fit"
+    )
+    parser.set_defaults(run=_run_analyze)
+
+
+def _add_execution_options(parser):
+    parser.add_argument(
+        "--jobs",
+        type=_positive_int,
+        help="local worker processes (default: every core; 1 runs in this process)",
+    )
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def _add_demo(subparsers):
+    parser = subparsers.add_parser(
+        "demo",
+        help="generate a synthetic campaign like the paper's and analyse it",
+        description="Generate a synthetic campaign that mirrors the paper (start-ups over "
+        "preparations, velocities and loads; a stress ramp; creep; a switch), write it as "
+        "instrument exports and run 'granflow analyze' on it. Everything is labelled synthetic.",
+        epilog=_EPILOG_DEMO,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "-o", "--output", default="granflow-demo", help="output folder (default granflow-demo)"
+    )
+    _add_execution_options(parser)
+    parser.set_defaults(run=_run_demo)
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts():
+    """Within the block, SIGTERM stops the work like Ctrl-C (finished runs stay saved)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _analyze_and_report(args, campaign):
+    from granflow.analysis import analyze
+
+    try:
+        with _sigterm_interrupts():
+            result = analyze(
+                campaign,
+                args.output,
+                jobs=args.jobs,
+                scheduler=getattr(args, "scheduler", None),
+                resume=getattr(args, "resume", False),
+                quiet=args.quiet,
+                mcmc=getattr(args, "mcmc", False),
+                seed=args.seed,
+            )
+    except KeyboardInterrupt:
+        print(
+            f"granflow {args.command}: interrupted; the finished runs are saved in "
+            f"{Path(args.output) / 'runs'}: run again with --resume to go on",
+            file=sys.stderr,
+        )
+        return 130
+    print(result.summary())
+    return result.exit_code
+
+
+def _run_analyze(args):
+    return _analyze_and_report(args, args.campaign)
+
+
+def _run_demo(args):
+    from granflow.demo import make_demo_campaign
+
+    manifest = make_demo_campaign(args.output, seed=args.seed)
+    if not args.quiet:
+        print(f"wrote a synthetic campaign (seed {args.seed}): {manifest}", file=sys.stderr)
+    return _analyze_and_report(args, manifest)
+
+
 def build_parser():
     """The argument parser of the ``granflow`` command (one subparser per command)."""
     parser = argparse.ArgumentParser(
         prog="granflow",
         description="granflow: the onset of dense granular flow (Farain & Bonn's "
         "aging-rejuvenation friction model).",
-        epilog="examples:\n  granflow curve --a 3.31mN --k 0.036/s --t0 0.23s --Fd 10mN\n"
-        "Run 'granflow COMMAND --help' for a command's options.",
+        epilog="examples:\n"
+        "  granflow demo -o demo                    (a synthetic campaign, analysed)\n"
+        "  granflow analyze campaign/ -o results    (your campaign: a folder with a manifest)\n"
+        "  granflow curve --a 3.31mN --k 0.036/s --t0 0.23s --Fd 10mN\n"
+        "Run 'granflow COMMAND --help' for a command's options and examples. Exit codes: 0 "
+        "success, 1 some runs failed, 2 bad arguments or input.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"granflow {granflow.__version__}")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    parser.add_argument(
+        "--debug", action="store_true", help="show the traceback of an error (give it first)"
+    )
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     _add_curve(subparsers)
     _add_inspect(subparsers)
@@ -568,6 +723,8 @@ def build_parser():
     _add_fit(subparsers)
     _add_simulate(subparsers)
     _add_stability_map(subparsers)
+    _add_analyze(subparsers)
+    _add_demo(subparsers)
     return parser
 
 
@@ -583,11 +740,20 @@ def main(argv=None):
         return 2
     try:
         return args.run(args)
-    except GranflowError as exc:
-        if args.debug:
-            raise
-        print(f"granflow {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    except (GranflowError, ImportError, OSError) as exc:
+        # bad input, a missing optional extra, a file that cannot be read or written
+        return _error(args, exc, 2)
+    except Exception as exc:  # a bug: one line, the traceback with --debug
+        return _error(args, exc, 1, internal=True)
+
+
+def _error(args, exc, code, internal=False):
+    if args.debug:
+        traceback.print_exc()
+    text = f"{type(exc).__name__}: {exc}" if internal else str(exc)
+    hint = " (run with --debug for the traceback)" if internal and not args.debug else ""
+    print(f"granflow {args.command}: error: {text}{hint}", file=sys.stderr)
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,0 +1,7 @@
+"""``python -m granflow``: the command line (see :mod:`granflow.cli`)."""
+
+import sys
+
+from granflow.cli import main
+
+sys.exit(main())

@@ -1,0 +1,102 @@
+"""Tasks over local processes or a Dask cluster, for :func:`granflow.analyze`.
+
+Results come back as each task finishes (so that they can be saved at once) together with
+the task's position, so that callers order them by their input, never by completion.
+"""
+
+
+class _Executor:
+    """Per-run tasks over local processes or a Dask cluster; results come as they finish."""
+
+    def __init__(self, jobs, scheduler):
+        self.jobs = jobs
+        self.scheduler = scheduler
+        self._pool = None
+        self._client = None
+        self._own_client = False
+        self._futures = []
+        if scheduler is not None:
+            self._connect(scheduler)
+
+    def _connect(self, scheduler):
+        try:
+            from distributed import Client
+        except ImportError as exc:
+            raise ImportError(
+                "--scheduler needs Dask distributed: install the extra with "
+                "`pip install granflow[dask]`"
+            ) from exc
+        if isinstance(scheduler, Client):
+            self._client = scheduler
+        else:
+            self._client = Client(scheduler, timeout="30s")
+            self._own_client = True
+
+    @property
+    def description(self):
+        if self._client is not None:
+            return f"dask {self._client.scheduler.address}"
+        return f"local, {self.jobs} process{'es' if self.jobs > 1 else ''}"
+
+    def _local_pool(self):
+        if self._pool is None:
+            from concurrent.futures import ProcessPoolExecutor
+
+            self._pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_worker_init)
+        return self._pool
+
+    def run(self, function, tasks):
+        """Yield ``(position, result or exception)`` for each task, in completion order."""
+        if not tasks:
+            return
+        if self._client is not None:
+            from distributed import as_completed
+
+            futures = self._client.map(function, tasks, pure=False)
+            self._futures = futures
+            where = {future.key: position for position, future in enumerate(futures)}
+            for future in as_completed(futures):
+                yield where[future.key], _outcome(future.result)
+            return
+        if self.jobs == 1 or len(tasks) == 1:
+            for position, task in enumerate(tasks):
+                yield position, function(task)
+            return
+        from concurrent.futures import as_completed
+
+        pool = self._local_pool()
+        futures = {pool.submit(function, task): position for position, task in enumerate(tasks)}
+        self._futures = list(futures)
+        for future in as_completed(futures):
+            yield futures[future], _outcome(future.result)
+
+    def map(self, function, items):
+        """``[function(item) for item in items]``, on the same workers."""
+        items = list(items)
+        if self._client is not None:
+            return self._client.gather(self._client.map(function, items, pure=False))
+        if self.jobs == 1 or len(items) == 1:
+            return [function(item) for item in items]
+        return list(self._local_pool().map(function, items))
+
+    def close(self):
+        for future in self._futures:
+            future.cancel()
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+        if self._client is not None and self._own_client:
+            self._client.close()
+
+
+def _worker_init():
+    """Workers leave Ctrl-C to the main process, which stops the pool cleanly."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _outcome(result):
+    try:
+        return result()
+    except Exception as exc:  # a worker that died: report the run, do not keep the result
+        return exc
