@@ -439,8 +439,7 @@ def _campaign(rng):
     params = _params(_FIG_LOAD, float(rng.uniform(*_X0_RANGE)))
     run, extra = _switch(params, rng, _meta(_FIG_LOAD, "fig3c", _VELOCITY))
     truth = {**_truth(params, _FIG_LOAD, _VELOCITY, "fig3c", "stress"), **extra}
-    notes = f"{_NOTES}; switch_time={_SWITCH_TIME:g} s"
-    planned.append(_Planned("switch", run, "switch", truth, notes))
+    planned.append(_Planned("switch", run, "switch", truth))
     return planned
 
 
@@ -464,6 +463,8 @@ def _manifest_entry(plan, interval):
     if "rest_time" in truth:
         entry["rest_time"] = _quantity(truth["rest_time"], 1.0, "s")
     entry.update(preparation=truth["preparation"], sample=_SAMPLE, notes=plan.notes)
+    if plan.test == "switch":
+        entry["switch_time"] = f"{_SWITCH_TIME:g} s"
     return entry
 
 
