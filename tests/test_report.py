@@ -297,6 +297,7 @@ def test_failed_run_only_in_the_runs_list_is_still_warned_about(tmp_path):
         {"name": "broken", "source": "b.csv", "status": "failed", "reason": "no torque column"}
     )
     parsed = _Page(render_html(results, tmp_path))
+    assert "startup: 1; unspecified: 1" in parsed.section("campaign")
     assert "no torque column" in parsed.section("failed-runs")
     assert "broken" in parsed.section("failed-summary")
 

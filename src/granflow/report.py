@@ -414,7 +414,8 @@ def _campaign_view(results, runs):
 
     tests = {}
     for run in runs:
-        tests[run["test"]] = tests.get(run["test"], 0) + 1
+        test = run["test"] if run["test"] != _DASH else "unspecified"
+        tests[test] = tests.get(test, 0) + 1
     campaign = _mapping(results.get("campaign"))
     return {
         "runs": len(runs),
