@@ -140,7 +140,8 @@ def test_collapse_and_amontons_plots():
     runs, velocities = campaign((5e4, 5e4, 5e4), seed=3)
     runs = [(x[::4], f[::4]) for x, f in runs]
     ax = plot_collapse(granflow.velocity_collapse(runs, velocities))
-    assert ax.get_xlabel() == "slip x [µm]" and "collapse" in ax.get_title()
+    assert ax.get_xlabel() == "slip x [µm]"
+    assert "collapse" in ax.get_legend().get_title().get_text()
     assert len(ax.get_lines()) == 2 * len(runs)
     constants = MaterialConstants(mu_a=0.06, mu_d=0.2, alpha=5e4)
     amontons_runs, loads = [], []

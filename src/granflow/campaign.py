@@ -19,7 +19,8 @@ __all__ = ["MANIFEST_FIELDS", "TEST_KINDS", "Campaign", "read_manifest"]
 
 #: Manifest columns: file (required), interval (default: all), normal_load [N or with a
 #: unit, "50 mN"], velocity [m/s or "0.86 um/s"], rest_time [s or "5 min"], preparation,
-#: sample, notes, test (one of :data:`TEST_KINDS`; inferred from the data when absent).
+#: sample, notes, test (one of :data:`TEST_KINDS`; inferred from the data when absent),
+#: switch_time [s or with a unit; for a switch test: when the force was imposed].
 MANIFEST_FIELDS = (
     "file",
     "interval",
@@ -30,11 +31,12 @@ MANIFEST_FIELDS = (
     "sample",
     "notes",
     "test",
+    "switch_time",
 )
 #: What a run is: a rate-controlled start-up (Fig. 2), a stress ramp (Fig. 3a), creep under a
 #: constant stress (Fig. 3b), or a switch from rate to stress control (Fig. 3c).
 TEST_KINDS = ("startup", "ramp", "creep", "switch")
-_QUANTITIES = {"normal_load": "N", "velocity": "m/s", "rest_time": "s"}
+_QUANTITIES = {"normal_load": "N", "velocity": "m/s", "rest_time": "s", "switch_time": "s"}
 _HEADER = "# granflow campaign "
 
 

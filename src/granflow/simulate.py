@@ -298,7 +298,13 @@ class SimulationResult:
         return frame
 
     def to_run(self):
-        """The simulated data as a :class:`granflow.Run` (slip measured from the start)."""
+        """The simulated data as a :class:`granflow.Run` (slip measured from the start).
+
+        Time and slip start at zero at the initial state, as a rheometer would record them.
+        :func:`granflow.fit` reads a run the paper's way instead (its abscissa is the model's
+        own coordinate, which starts at x0 = v t0): to fit a simulated start-up, shift it
+        first, e.g. ``Run(t + x0 / v, slip + x0, ...)``, or fit the fitted x0 as an offset.
+        """
         from granflow.run import Run
 
         control = "stress" if any(s.control == "force" for s in self.protocol) else "rate"

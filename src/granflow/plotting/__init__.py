@@ -1,10 +1,20 @@
 """Figures in the manner of the paper: each ``plot_*(result, ax=None) -> Axes``.
 
 matplotlib is imported inside the functions, so importing granflow stays light. Quantities
-are plotted in display units (mN, µm, s) with the unit on every axis.
+are plotted in display units (mN, µm, s) with the unit on every axis. Fig. 2a, 3a, 3b and 3c
+are in :mod:`granflow.plotting.paper` (with :func:`save_figure`), Fig. 2b and 2c in
+:mod:`granflow.plotting.fits`, simulations and stability maps in
+:mod:`granflow.plotting.simulation`.
 """
 
 from granflow.plotting.fits import plot_amontons, plot_collapse, plot_corner, plot_fit
+from granflow.plotting.paper import (
+    plot_creep,
+    plot_startup,
+    plot_stress_ramp,
+    plot_switch,
+    save_figure,
+)
 from granflow.plotting.simulation import (
     plot_simulation,
     plot_simulation_force,
@@ -16,9 +26,14 @@ __all__ = [
     "plot_amontons",
     "plot_collapse",
     "plot_corner",
+    "plot_creep",
     "plot_fit",
     "plot_simulation",
     "plot_simulation_force",
     "plot_simulation_slip",
     "plot_stability_map",
+    "plot_startup",
+    "plot_stress_ramp",
+    "plot_switch",
+    "save_figure",
 ]

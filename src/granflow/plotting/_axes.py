@@ -1,7 +1,24 @@
-"""Shared helpers of the plotting functions."""
+"""Shared helpers of the plotting functions: scales, colours, argument checks, legends."""
+
+from pathlib import Path
+
+import numpy as np
+
+from granflow.errors import InvalidParameterError
 
 MILLI = 1e3  # N -> mN
 MICRO = 1e6  # m -> µm, m/s -> µm/s
+
+# One colour per quantity, the same in every figure (as in Fig. 3 of the paper).
+SLIP_COLOR = "C0"  # measured slip (blue, left axis)
+FORCE_COLOR = "black"  # measured or imposed force (right axis)
+MODEL_COLOR = "0.55"  # rate-controlled model curve (grey)
+PEAK_COLOR = "C3"  # static yield: F_peak and the predicted failure (red)
+STEADY_COLOR = "C2"  # steady-state friction F_d (green, dashed)
+SWITCH_COLOR = "C1"  # the switch from rate to force control (orange)
+
+#: Runs named in a legend before the rest are summarised as "+ n more".
+MAX_LEGEND_RUNS = 8
 
 
 def new_axes(ax=None, *, figsize=(6.0, 4.0)):
@@ -12,3 +29,78 @@ def new_axes(ax=None, *, figsize=(6.0, 4.0)):
 
     _, ax = plt.subplots(figsize=figsize, layout="constrained")
     return ax
+
+
+def check_axes(ax, name):
+    """``ax`` if it is None or a matplotlib Axes; else InvalidParameterError naming ``name``."""
+    if ax is None:
+        return None
+    from matplotlib.axes import Axes
+
+    if not isinstance(ax, Axes):
+        raise InvalidParameterError(
+            f"{name} must be a matplotlib Axes or None, got {type(ax).__name__}"
+        )
+    return ax
+
+
+def run_colors(count):
+    """Colours of ``count`` runs: matplotlib's tab10 cycle, viridis beyond ten runs."""
+    if count <= 10:
+        return [f"C{index}" for index in range(count)]
+    import matplotlib
+
+    return list(matplotlib.colormaps["viridis"](np.linspace(0.0, 0.9, count)))
+
+
+def run_label(run, width=28):
+    """A short legend label for a Run: its ``name`` metadata, else ``file#interval``."""
+    if "name" in run.meta:
+        label = str(run.meta["name"])
+    else:
+        source = run.meta.get("source")
+        stem = Path(str(source)).stem if source else "run"
+        interval = run.meta.get("interval")
+        label = stem if interval is None else f"{stem}#{interval}"
+    if len(label) <= width:
+        return label
+    head = (width - 1) // 3  # keep the end: file names differ there (run number, interval)
+    return label[:head] + "…" + label[len(label) - (width - 1 - head) :]
+
+
+def finite(*columns):
+    """The columns restricted to the rows where every one of them is finite."""
+    keep = np.ones(np.shape(columns[0]), dtype=bool)
+    for column in columns:
+        keep &= np.isfinite(column)
+    return tuple(np.asarray(column)[keep] for column in columns)
+
+
+def legend_above(ax, handles=None, *, ncols=2, title=None):
+    """A legend above the axes, so it never hides data or an inset."""
+    if handles is None:
+        handles, _ = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    # mode="expand" would be neater, but then constrained layout collapses when a figure is
+    # saved as SVG after a PNG at another dpi (matplotlib 3.11)
+    return ax.legend(
+        handles=handles,
+        loc="lower left",
+        bbox_to_anchor=(0.0, 1.0),
+        ncols=max(1, min(ncols, len(handles))),
+        fontsize="small",
+        title=title,
+        title_fontsize="small",
+        frameon=False,
+        borderaxespad=0.3,
+        columnspacing=1.5,
+    )
+
+
+def plus_minus(value, error):
+    """``value ± error`` rounded to the first significant digit of the error."""
+    if not (np.isfinite(error) and error > 0):
+        return f"{value:.3g}"
+    digits = max(0, -int(np.floor(np.log10(error))))
+    return f"{value:.{digits}f} ± {error:.{digits}f}"

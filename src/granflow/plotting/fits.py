@@ -1,6 +1,20 @@
 """Figures of fits: data, fit and residuals; velocity collapse; Amontons; posterior corners."""
 
-from granflow.plotting._axes import MICRO, MILLI, new_axes
+import math
+
+import numpy as np
+
+from granflow.errors import InvalidParameterError
+from granflow.plotting._axes import (
+    MICRO,
+    MILLI,
+    check_axes,
+    finite,
+    legend_above,
+    new_axes,
+    plus_minus,
+    run_colors,
+)
 
 __all__ = ["plot_amontons", "plot_collapse", "plot_corner", "plot_fit"]
 
@@ -83,84 +97,285 @@ def plot_corner(posterior, **kwargs):
     return corner.corner(posterior.samples, **options)
 
 
-def plot_collapse(result, ax=None):
+def _velocity_groups(result):
+    """Index into ``result.velocities`` of each run of a CollapseResult, or None if unknown.
+
+    The per-velocity fit gives every run of a group the same a: a run belongs to the
+    velocity whose ``a_v<i>`` it carries; failing that, to its own fit's velocity.
+    """
+    per_velocity = result.per_velocity
+    groups = []
+    for run_params, individual in zip(
+        per_velocity.run_params, result.shared.individual, strict=True
+    ):
+        found = None
+        for index in range(len(result.velocities)):
+            value = per_velocity.params.get(f"a_v{index}")
+            if value is not None and math.isclose(run_params["a"], value, rel_tol=1e-12):
+                found = index
+                break
+        if found is None and individual.velocity is not None:
+            matches = [
+                i
+                for i, v in enumerate(result.velocities)
+                if math.isclose(v, individual.velocity, rel_tol=1e-9)
+            ]
+            found = matches[0] if matches else None
+        groups.append(found)
+    return groups
+
+
+def _short_slip_window(run_params, fallback):
+    """Upper end [m] of the short-slip inset: 1.5 times the largest peak slip."""
+    from granflow.model import NoPeakError, peak
+    from granflow.params import Params
+
+    slips = []
+    for values in run_params:
+        try:
+            slips.append(peak(Params(**dict(values))).slip)
+        except (NoPeakError, ValueError):
+            continue
+    return 1.5 * max(slips) if slips else fallback
+
+
+def plot_collapse(result, ax=None, *, inset=True):
     """Velocity collapse (Fig. 2b): every run against slip with the shared curve.
+
+    Points are the data, coloured by sliding velocity; lines are the joint fit (a, α and F_d
+    shared, x0 per run) in the same colour. The verdict of the likelihood-ratio test is the
+    legend's title.
 
     Parameters
     ----------
     result : CollapseResult
         From :func:`granflow.velocity_collapse`.
     ax : matplotlib.axes.Axes, optional
+        Where to draw; a new figure when None.
+    inset : bool
+        Add an inset (lower right) magnifying the short slips, up to 1.5 times the slip of
+        the largest peak, where the runs differ by their initial state x0.
 
     Returns
     -------
     matplotlib.axes.Axes
-    """
-    import numpy as np
+        The main axes (the inset is in ``ax.child_axes``).
 
+    Raises
+    ------
+    InvalidParameterError
+        If ``result`` is not a CollapseResult or ``ax`` not an Axes.
+    """
+    import matplotlib
+    from matplotlib.lines import Line2D
+
+    from granflow.joint import CollapseResult
     from granflow.model import friction_slip
     from granflow.params import Params
 
-    ax = new_axes(ax)
+    if not isinstance(result, CollapseResult):
+        raise InvalidParameterError(
+            f"result must be a granflow.CollapseResult, got {type(result).__name__}"
+        )
+    ax = new_axes(check_axes(ax, "ax"), figsize=(6.4, 4.4))
     shared = result.shared
-    for index, (run, params) in enumerate(zip(shared.individual, shared.run_params, strict=True)):
-        color = f"C{index % 10}"
-        ax.plot(run.x * MICRO, run.data * MILLI, ".", ms=1.5, alpha=0.4, color=color)
+    groups = _velocity_groups(result)
+    palette = matplotlib.colormaps["viridis"](np.linspace(0.0, 0.85, len(result.velocities)))
+    fallback = run_colors(len(groups))
+    curves = []
+    for index, (run, params, group) in enumerate(
+        zip(shared.individual, shared.run_params, groups, strict=True)
+    ):
+        color = palette[group] if group is not None else fallback[index]
+        x, force = finite(run.x, run.data)
+        ax.plot(x * MICRO, force * MILLI, ".", ms=1.5, alpha=0.4, color=color)
         model = Params(**dict(params))
-        slip = np.geomspace(model.x0 * (1 + 1e-9), run.x[-1], 300)
-        label = "shared a, α, F_d" if index == 0 else None
-        ax.plot(slip * MICRO, friction_slip(slip, model) * MILLI, "-", color=color, label=label)
+        slip = np.geomspace(model.x0 * (1 + 1e-9), max(x[-1], model.x0 * 2), 400)
+        curve = friction_slip(slip, model)
+        ax.plot(slip * MICRO, curve * MILLI, "-", color=color, lw=1.2)
+        curves.append((color, x, force, slip, curve))
+    handles = [
+        Line2D([], [], color=color, marker="o", ms=4, ls="none", label=f"{v * MICRO:.3g} µm/s")
+        for color, v in zip(palette, result.velocities, strict=True)
+    ]
+    handles.append(Line2D([], [], color="0.3", lw=1.2, label="joint fit: shared a, α, F_d"))
     ax.set_xlabel("slip x [µm]")
-    ax.set_ylabel("force F [mN]")
+    ax.set_ylabel("friction force F [mN]")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=0.0)
     verdict = "collapse not rejected" if result.collapses else "collapse rejected"
-    ax.set_title(f"{verdict} (p = {result.p_value:.3g})", fontsize="medium")
-    ax.legend(frameon=False)
+    legend_above(
+        ax,
+        handles,
+        ncols=4 if len(handles) <= 4 else 3,
+        title=f"{verdict} (p = {result.p_value:.3g})",
+    )
+    if inset and curves:
+        top = _short_slip_window(shared.run_params, 0.05 * max(c[1][-1] for c in curves))
+        _collapse_inset(ax, curves, top)
     return ax
 
 
-def plot_amontons(result, axes=None):
-    """Amontons' law (Fig. 2c): a, alpha (or alpha v) and Fd against the normal load.
+def _collapse_inset(ax, curves, top):
+    """Inset of the short slips ``0 <= x <= top`` [m] in the lower right of ``ax``."""
+    inset = ax.inset_axes([0.47, 0.13, 0.5, 0.42])
+    highest = 0.0
+    for color, x, force, slip, curve in curves:
+        near = x <= top
+        inset.plot(x[near] * MICRO, force[near] * MILLI, ".", ms=2, alpha=0.5, color=color)
+        near = slip <= top
+        inset.plot(slip[near] * MICRO, curve[near] * MILLI, "-", color=color, lw=1.0)
+        if near.any():
+            highest = max(highest, float(np.max(curve[near])))
+    inset.set_xlim(0.0, top * MICRO)
+    if highest > 0:  # the zoom rectangle stays inside the main axes
+        inset.set_ylim(0.0, min(1.08 * highest * MILLI, ax.get_ylim()[1]))
+    inset.set_title("short slips", fontsize="x-small", pad=2)
+    inset.set_xlabel("x [µm]", fontsize="x-small", labelpad=1)
+    inset.set_ylabel("F [mN]", fontsize="x-small", labelpad=1)
+    inset.tick_params(labelsize="x-small")
+    ax.indicate_inset_zoom(inset, edgecolor="0.5")
+    return inset
 
-    Per-load means with standard errors, and the lines through the origin for a and Fd.
+
+def _single_velocity(per_load):
+    """The one velocity [m/s] behind every per-load alpha v, or None when they differ."""
+    ratios = [
+        row["alpha_v"][0] / row["alpha"][0]
+        for row in per_load
+        if row["alpha_v"] is not None and row["alpha"][0]
+    ]
+    if len(ratios) != len(per_load) or not ratios:
+        return None
+    first = ratios[0]
+    return first if all(math.isclose(r, first, rel_tol=1e-9) for r in ratios) else None
+
+
+def _check_panels(axes):
+    if axes is None:
+        import matplotlib.pyplot as plt
+
+        _, axes = plt.subplots(1, 3, figsize=(8.4, 3.1), layout="constrained")
+        return list(axes)
+    try:
+        axes = list(np.ravel(np.asarray(axes, dtype=object)))
+    except TypeError:
+        raise InvalidParameterError(
+            f"axes must be a sequence of three matplotlib Axes, got {type(axes).__name__}"
+        ) from None
+    if len(axes) != 3:
+        raise InvalidParameterError(f"axes must hold three Axes (a, α v, F_d), got {len(axes)}")
+    for index, ax in enumerate(axes):
+        if ax is None:
+            raise InvalidParameterError(f"axes[{index}] must be a matplotlib Axes, got None")
+        check_axes(ax, f"axes[{index}]")
+    return axes
+
+
+def plot_amontons(result, axes=None):
+    """Amontons' law (Fig. 2c): a, α v (or α) and F_d against the normal load F_N.
+
+    Per-load means over the repeats with their standard errors as error bars; for a and F_d
+    the weighted line through the origin (slope mu_a, mu_d) with its ±1 standard-error band;
+    for α v the joint fit's load-independent α (times the velocity, when all runs share
+    one) with its band. A load with one repeat has no error bar.
 
     Parameters
     ----------
     result : AmontonsResult
         From :func:`granflow.fit_amontons`.
     axes : sequence of three matplotlib.axes.Axes, optional
+        Panels for a, α v and F_d; a new 1 x 3 figure when None.
 
     Returns
     -------
-    list of matplotlib.axes.Axes
+    numpy.ndarray of matplotlib.axes.Axes
+        The three panels.
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``result`` is not an AmontonsResult or ``axes`` not three Axes.
     """
-    import numpy as np
+    from granflow.joint import AmontonsResult
 
-    if axes is None:
-        import matplotlib.pyplot as plt
-
-        _, axes = plt.subplots(1, 3, figsize=(10.0, 3.4), layout="constrained")
-    loads = np.array([row["normal_load"] for row in result.per_load])
-    use_rate = all(row["alpha_v"] is not None for row in result.per_load)
+    if not isinstance(result, AmontonsResult):
+        raise InvalidParameterError(
+            f"result must be a granflow.AmontonsResult, got {type(result).__name__}"
+        )
+    axes = _check_panels(axes)
+    per_load = result.per_load
+    loads = np.array([row["normal_load"] for row in per_load])
+    velocity = _single_velocity(per_load)
+    use_rate = all(row["alpha_v"] is not None for row in per_load)
+    repeats = sorted({int(row["repeats"]) for row in per_load})
+    count = f"{repeats[0]}" if len(repeats) == 1 else f"{repeats[0]}–{repeats[-1]}"
     panels = (
-        ("a", MILLI, "a [mN]"),
-        ("alpha_v" if use_rate else "alpha", 1.0, "α v [1/s]" if use_rate else "α [1/m]"),
-        ("Fd", MILLI, "F_d [mN]"),
+        ("a", MILLI, "a [mN]", "μ_a"),
+        ("alpha_v" if use_rate else "alpha", 1.0, "α v [1/s]" if use_rate else "α [1/m]", None),
+        ("Fd", MILLI, "F_d [mN]", "μ_d"),
     )
     span = np.linspace(0.0, loads.max() * 1.1, 50)
-    for ax, (key, scale, label) in zip(axes, panels, strict=True):
-        means = np.array([row[key][0] for row in result.per_load]) * scale
-        errors = np.array([row[key][1] for row in result.per_load]) * scale
-        ax.errorbar(loads * MILLI, means, yerr=errors, fmt="o", capsize=3)
-        if key in result.lines:
+    for panel, (ax, (key, scale, label, coefficient)) in enumerate(zip(axes, panels, strict=True)):
+        means = np.array([row[key][0] for row in per_load]) * scale
+        errors = np.array([row[key][1] for row in per_load]) * scale
+        ax.errorbar(
+            loads * MILLI,
+            means,
+            yerr=np.where(np.isfinite(errors), errors, 0.0),
+            fmt="o",
+            ms=5,
+            color=f"C{panel}",
+            ecolor=f"C{panel}",
+            capsize=3,
+            label=f"mean ± s.e. (n = {count})",
+        )
+        if coefficient is not None and key in result.lines:
             slope, error = result.lines[key]
-            ax.plot(span * MILLI, slope * span * scale, "k-", lw=1)
-            ax.fill_between(
-                span * MILLI,
-                (slope - error) * span * scale,
-                (slope + error) * span * scale,
-                color="0.8",
-            )
+            if math.isfinite(slope):
+                _through_origin(ax, span, slope, error, scale, coefficient)
+        elif coefficient is None:
+            _joint_alpha(ax, result.joint, span, velocity if use_rate else 1.0, use_rate)
         ax.set_xlabel("normal load F_N [mN]")
         ax.set_ylabel(label)
-        ax.set_xlim(left=0)
-    return list(axes)
+        ax.set_xlim(0.0, span[-1] * MILLI)
+        highest = np.nanmax(np.concatenate([means + np.nan_to_num(errors), [0.0]]))
+        if coefficient is None:  # a level: room above it for the legend
+            ax.set_ylim(0.0, 1.5 * highest if highest > 0 else None)
+        else:
+            ax.set_ylim(bottom=0.0)
+        handles, _ = ax.get_legend_handles_labels()
+        ax.legend(handles=handles[::-1], loc="upper left", fontsize="x-small", frameon=False)
+    return np.array(axes, dtype=object)
+
+
+def _through_origin(ax, span, slope, error, scale, coefficient):
+    band = error if math.isfinite(error) else 0.0
+    ax.plot(
+        span * MILLI,
+        slope * span * scale,
+        "k-",
+        lw=1,
+        label=f"{coefficient} F_N, {coefficient} = {plus_minus(slope, band)}",
+    )
+    ax.fill_between(
+        span * MILLI,
+        (slope - band) * span * scale,
+        (slope + band) * span * scale,
+        color="0.85",
+        lw=0,
+    )
+
+
+def _joint_alpha(ax, joint, span, factor, rate):
+    """The joint fit's alpha (times ``factor``: the velocity when ``rate``, else 1) as a level
+    with its band; nothing when the fit failed or the velocities differ (factor None)."""
+    if factor is None or not joint.success or "alpha" not in joint.params:
+        return
+    value = joint.params["alpha"] * factor
+    error = joint.stderr.get("alpha", math.nan) * factor
+    name, unit = ("α v", "1/s") if rate else ("α", "1/m")
+    label = f"joint fit: {name} = {plus_minus(value, error)} {unit}"
+    ax.plot(span * MILLI, np.full(span.size, value), "k-", lw=1, label=label)
+    if math.isfinite(error):
+        ax.fill_between(span * MILLI, value - error, value + error, color="0.85", lw=0)
