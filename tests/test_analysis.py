@@ -68,8 +68,10 @@ def test_results_layout_and_order(baseline, campaign):
     assert baseline.exit_code == 0
     tests = [run["test"] for run in results["runs"]]
     assert tests == ["startup"] * 11 + ["ramp", "creep", "switch"]
-    assert results["campaign"]["normal_loads"] == [0.03, 0.06, 0.09]
-    assert results["campaign"]["velocities"] == [8.6e-07, 2e-06, 4e-06]
+    counts = results["campaign"]["counts"]
+    assert counts["normal_loads"] == [0.03, 0.06, 0.09]
+    assert counts["velocities"] == [8.6e-07, 2e-06, 4e-06]
+    assert counts["tests"] == {"startup": 11, "creep": 1, "ramp": 1, "switch": 1}
     assert set(results["analyses"]) >= {
         "velocity_collapse",
         "amontons",
@@ -143,17 +145,19 @@ def test_stress_controlled_runs_against_the_model(baseline):
         SMALL_TRUTH["mu_a"] * 0.06, SMALL_TRUTH["alpha"], SMALL_TRUTH["mu_d"] * 0.06, 3.0e-7
     )
     ramp = analyses["stress_ramp"][0]
-    # quasi-statically, the layer fails exactly at the peak of the rate-controlled curve
-    assert ramp["observed"]["force"] == pytest.approx(gf.peak(params).force, rel=1e-6)
+    # quasi-statically, the layer fails at the peak of the rate-controlled curve; the last
+    # point before the runaway lies just below it
+    failure_force = ramp["observed"]["failure_force"]
+    assert gf.peak(params).force * (1 - 2e-3) < failure_force <= gf.peak(params).force
     assert ramp["consistent"] is True
     creep = analyses["creep"][0]
     assert creep["stress"] == pytest.approx(0.9 * gf.peak(params).force, rel=1e-9)
     assert creep["stress_over_peak"] == pytest.approx(0.9, rel=0.02)
     switch = analyses["switch"][0]
-    assert switch["time"] == pytest.approx(80.0)
+    assert switch["switch_time"] == pytest.approx(80.0)
     assert switch["factor"] == pytest.approx(1.01, rel=1e-6)
-    assert switch["outcome"] == "failure"  # after the peak: the layer fails (Fig. 3c)
-    assert switch["predicted_outcome"] == "failure"
+    assert switch["observed"]["outcome"] == "failure"  # after the peak: it fails (Fig. 3c)
+    assert switch["predicted"]["outcome"] == "failure"
     assert switch["agree"] is True
     stability = baseline.results["predictions"]["stability_map"]
     outcomes = np.array(stability["outcome"])
@@ -248,6 +252,7 @@ def test_a_corrupt_file_is_named_and_the_rest_is_analysed(campaign, tmp_path):
     assert [run["status"] for run in results["runs"]].count("ok") == len(SMALL_RUNS) - 1
     assert any("velocity_2um_s.txt" in warning for warning in results["warnings"])
     assert "velocity_2um_s.txt" in result.summary()
+    assert "velocity_2um_s.txt" in (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
     assert results["material"]["mu_a"]["value"] is not None
 
 

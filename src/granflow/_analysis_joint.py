@@ -361,13 +361,12 @@ def _yield_at(context, load):
         "normal_load": load,
         "repeats": len(x0_values),
         "x0": x0,
-        "x0_stderr": x0_error,
-        "x0_from": origin,
+        "x0_estimate": {"stderr": x0_error, "from": origin},
         "F_peak": force,
         "stderr": stderr,
         "ci95": [force - 1.959963984540054 * stderr, force + 1.959963984540054 * stderr],
-        "spread": float(np.std(per_run, ddof=1)) if len(per_run) > 1 else 0.0,
-        "F_peak_over_load": force / load,
+        "F_peak_spread": float(np.std(per_run, ddof=1)) if len(per_run) > 1 else 0.0,
+        "mu_peak": force / load,
         "x_peak": top.slip,
         "t_peak": top.time,
         "velocity": context.material_velocity,
@@ -404,24 +403,41 @@ def _yield_row(context, load):
     )
 
 
+def _ok(item, kind):
+    return item.kind == kind and item.record is not None and item.record["status"] == "ok"
+
+
 def _compare_ramps(context):
+    """Each stress ramp's observed failure force against the predicted static yield."""
     rows = []
     for item in context.items:
-        if item.kind != "ramp" or item.record is None or item.record["status"] != "ok":
+        if not _ok(item, "ramp"):
             continue
         load = _rounded(item.run.normal_load)
         failure = item.record["failure"]
-        row = {"run": item.name, "normal_load": load, "observed": failure}
+        row = {"run": item.name, "normal_load": load}
+        if failure is not None:
+            row["observed"] = {
+                "failure_force": failure["force"],
+                "failure_time": failure["time"],
+                "failure_slip": failure["slip"],
+            }
+            row["criterion"] = failure["criterion"]
         predicted = _yield_row(context, load)
+        params = _params_at(context, load)
+        if params is not None:
+            context.ramp_params[item.name] = params
         if predicted is None:
             row["reason"] = "no predicted static yield at this load"
+            rows.append(row)
+            continue
+        row["predicted"] = {"failure_force": predicted["F_peak"]}
+        row["F_peak_stderr"] = predicted["stderr"]
+        row["F_peak_spread"] = predicted["F_peak_spread"]
+        if failure is None:
+            row["reason"] = "no failure observed in this run"
         else:
-            row["predicted"] = {k: predicted[k] for k in ("F_peak", "stderr", "spread", "ci95")}
-            params = _params_at(context, load)
-            if params is not None:
-                context.ramp_params[item.name] = params
-        if predicted is not None and failure.get("observed"):
-            width = math.hypot(predicted["stderr"], predicted["spread"])
+            width = math.hypot(predicted["stderr"], predicted["F_peak_spread"])
             difference = failure["force"] - predicted["F_peak"]
             row["ratio"] = failure["force"] / predicted["F_peak"]
             row["z"] = difference / width if width > 0 else None
@@ -432,72 +448,84 @@ def _compare_ramps(context):
 
 
 def _compare_creep(context):
+    """Each creep test's stress against the predicted peak and the steady friction."""
     rows = []
     for item in context.items:
-        if item.kind != "creep" or item.record is None or item.record["status"] != "ok":
+        if not _ok(item, "creep"):
             continue
         load = _rounded(item.run.normal_load)
         record = item.record
-        row = {
-            "run": item.name,
-            "normal_load": load,
-            "stress": record["stress"],
-            "B": record["fit"]["params"]["B"],
-            "B_stderr": record["fit"]["stderr"]["B"],
-            "tau_c": record["fit"]["params"]["tau_c"],
-            "tau_c_stderr": record["fit"]["stderr"]["tau_c"],
-        }
+        row = {"run": item.name, "normal_load": load, "stress": record["stress"]}
         predicted = _yield_row(context, load)
         if predicted is not None:
             row["stress_over_peak"] = record["stress"] / predicted["F_peak"]
         if context.constants is not None and load:
             row["stress_over_Fd"] = record["stress"] / (context.constants.mu_d * load)
+        row["fit"] = record["fit"]
         rows.append(row)
     if rows:
         context.analyses["creep"] = rows
 
 
-def _compare_switches(context):
-    from granflow.params import Params
+def _predict_switch(params, switch):
+    """Outcome of the switch under the model (quasi-static, slip clock): the start-up at the
+    nominal velocity up to the switch time (the simulator's clock starts at t0 = x0 / v, the
+    export's at 0), then the observed force ratio held for the observed time (at least 1 s)."""
     from granflow.protocol import Protocol, SwitchToForce, Velocity
     from granflow.simulate import simulate
 
+    velocity = switch["velocity"]
+    duration = switch["switch_time"] - params.x0 / velocity
+    if duration <= 0:
+        return None
+    protocol = Protocol(
+        [
+            Velocity(velocity, duration),
+            SwitchToForce(max(switch["hold_time"], 1.0), factor=switch["factor"]),
+        ]
+    )
+    return simulate(params, protocol)
+
+
+def _compare_switches(context):
+    """Each switch's observed outcome against the model's, from the run's own start-up fit
+    (or the material constants at its load)."""
+    from granflow.params import Params
+
     rows = []
     for item in context.items:
-        if item.kind != "switch" or item.record is None or item.record["status"] != "ok":
+        if not _ok(item, "switch"):
             continue
         record, switch = item.record, item.record["switch"]
-        row = {"run": item.name, "normal_load": _rounded(item.run.normal_load), **switch}
+        row = {"run": item.name, "normal_load": _rounded(item.run.normal_load)}
+        row["observed"] = {"outcome": switch["outcome"], "imposed_force": switch["imposed_force"]}
+        row.update({k: switch[k] for k in ("switch_time", "factor", "switch_force")})
         fit = record.get("fit")
         if fit is not None and fit.get("success"):
             params, origin = Params(**fit["params"]), "the run's own start-up fit"
         else:
             params = _params_at(context, _rounded(item.run.normal_load))
-            origin = "material constants at the run's load"
-        if params is None or not switch.get("factor"):
-            row["reason"] = "no parameters to predict the switch with"
+            origin = "the material constants at the run's load"
+        result = None
+        if params is not None and switch.get("factor"):
+            context.switch_params[item.name] = params
+            result = _predict_switch(params, switch)
+        if result is None:
+            row["reason"] = "no parameters (or no switch time after t0) to predict the switch"
             rows.append(row)
             continue
-        context.switch_params[item.name] = params
-        protocol = Protocol(
-            [
-                Velocity(switch["velocity"], max(switch["time"], 1e-9)),
-                SwitchToForce(max(switch["hold"], 1.0), factor=switch["factor"]),
-            ]
-        )
-        result = simulate(params, protocol)
         if result.failed:
             predicted = "failure"
         elif result.success and result.velocity[-1] == 0:
             predicted = "stop"
         else:
             predicted = "creep" if result.success else "error"
+        row["predicted"] = {"outcome": predicted}
         row.update(
-            params=params.to_dict(),
-            params_from=origin,
-            predicted_outcome=predicted,
             agree=predicted == switch["outcome"],
-            predicted_message=result.message,
+            params_from=origin,
+            params=params.to_dict(),
+            simulation=result.message,
         )
         rows.append(row)
     if rows:

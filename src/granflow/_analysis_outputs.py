@@ -3,11 +3,9 @@
 import contextlib
 import json
 import os
-import tempfile
+import uuid
 import warnings
 from pathlib import Path
-
-import numpy as np
 
 from granflow._analysis_runs import _creep_from_record
 
@@ -24,10 +22,11 @@ FIGURES_DIR = "figures"
 def _write_atomic(path, write):
     """Call ``write(temporary_path)``, then move the file into place (same folder)."""
     path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(handle)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp")
+    # made with os.open so that the file gets the usual permissions (umask), not mkstemp's 0600
+    os.close(os.open(temporary, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
     try:
-        write(Path(temporary))
+        write(temporary)
         os.replace(temporary, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -107,8 +106,11 @@ def _loads_table(results):
             mean, error = measured.get(key) or (None, None)
             row[f"{key}_mean"], row[f"{key}_stderr"] = mean, error
         predicted = yields.get(load, {})
-        for key in ("x0", "x0_stderr", "F_peak", "stderr", "spread"):
-            row[f"predicted_{key}" if key in ("stderr", "spread") else key] = predicted.get(key)
+        row["x0"] = predicted.get("x0")
+        row["x0_stderr"] = (predicted.get("x0_estimate") or {}).get("stderr")
+        row["F_peak"] = predicted.get("F_peak")
+        row["F_peak_stderr"] = predicted.get("stderr")
+        row["F_peak_spread"] = predicted.get("F_peak_spread")
         rows.append(row)
     return rows
 
@@ -131,13 +133,11 @@ def _material_table(material):
 def _predictions_table(predictions):
     rows = []
     for row in predictions.get("static_yield", []):
-        rows.append(
-            {k: v for k, v in row.items() if k != "ci95"}
-            | {
-                "ci95_low": row["ci95"][0],
-                "ci95_high": row["ci95"][1],
-            }
-        )
+        flat = {k: v for k, v in row.items() if k not in ("ci95", "x0_estimate")}
+        flat["ci95_low"], flat["ci95_high"] = row["ci95"]
+        flat["x0_stderr"] = row["x0_estimate"]["stderr"]
+        flat["x0_from"] = row["x0_estimate"]["from"]
+        rows.append(flat)
     return rows
 
 
@@ -198,52 +198,47 @@ def _write_tables(output, results, warnings_list):
 # --------------------------------------------------------------------------- figures and report
 
 
-def _figure_specs(context):
-    """(name, title, caption, draw) for each figure the campaign allows; draw() -> Figure."""
-    import matplotlib.pyplot as plt
+def _ok_items(context, kind):
+    return [
+        item
+        for item in context.items
+        if item.kind == kind and item.record is not None and item.record["status"] == "ok"
+    ]
 
+
+def _startup_figure(context):
+    """Fig. 2a: the start-ups of the representative load and velocity (at most six)."""
+    from granflow.plotting import plot_startup
+
+    chosen = context.representative
+    group = [s for s in context.startups if (s.load, s.velocity) == (chosen.load, chosen.velocity)]
+    group = group[:6]
+    axes = plot_startup([s.item.run for s in group], [s.fit for s in group])
+    caption = (
+        f"Friction force during start-up at {_display_load(chosen.load)} and "
+        f"{chosen.velocity * 1e6:.4g} µm/s: data (points), fits of Eq. 3 (lines) and "
+        "residuals (Fig. 2a)."
+    )
+    return axes, caption
+
+
+def _figure_specs(context):
+    """(name, title, draw) for each figure the campaign allows; draw() -> (figure, caption)."""
     from granflow import plotting
 
     specs = []
-    paper = getattr(plotting, "plot_startup", None)
-    startups = context.startups
-    if startups:
-        chosen = [
-            s
-            for s in startups
-            if (s.load, s.velocity)
-            == (context.representative.load, context.representative.velocity)
-        ][:6]
-
-        def startup():
-            figure, (ax, residual) = plt.subplots(
-                2, 1, sharex=True, figsize=(6.0, 5.0), height_ratios=(3, 1), layout="constrained"
-            )
-            if paper is not None:
-                paper(
-                    [s.item.run for s in chosen], [s.fit for s in chosen], ax, residual_ax=residual
-                )
-            else:
-                context.representative.fit.plot(ax, residual_ax=residual)
-            return figure
-
-        specs.append(
-            (
-                "startup",
-                "Start-up curves and fits",
-                f"Friction force during start-up at {_display_load(context.representative.load)} "
-                "with the fits of Eq. 3 and their residuals (Fig. 2a).",
-                startup,
-            )
-        )
+    if context.startups:
+        specs.append(("startup", "Start-up curves and fits", lambda: _startup_figure(context)))
     if context.collapse is not None:
         specs.append(
             (
                 "collapse",
                 "Velocity collapse",
-                "Start-up curves at several velocities against slip, with the shared fit "
-                "(Fig. 2b).",
-                lambda: plotting.plot_collapse(context.collapse).figure,
+                lambda: (
+                    plotting.plot_collapse(context.collapse),
+                    "Start-ups at several velocities against slip, with the shared fit of "
+                    "Eq. 3; inset: the short slips (Fig. 2b).",
+                ),
             )
         )
     if context.amontons is not None:
@@ -251,76 +246,71 @@ def _figure_specs(context):
             (
                 "amontons",
                 "Amontons' law",
-                "a, αv and F_d against the normal load, means with standard errors over the "
-                "repeats and lines through the origin (Fig. 2c).",
-                lambda: plotting.plot_amontons(context.amontons)[0].figure,
+                lambda: (
+                    plotting.plot_amontons(context.amontons),
+                    "a, αv and F_d against the normal load: means over the repeats with "
+                    "standard errors, F_d with its line through the origin (Fig. 2c).",
+                ),
             )
         )
-    ramp = getattr(plotting, "plot_stress_ramp", None)
-    for item in context.items:
-        if (
-            ramp is not None
-            and item.kind == "ramp"
-            and item.record
-            and item.record["status"] == "ok"
-        ):
-            params = context.ramp_params.get(item.name)
-            specs.append(
-                (
-                    "stress_ramp",
-                    "Stress ramp",
-                    "Slip and stress against time under a stress ramp, with the predicted static "
-                    "yield (Fig. 3a).",
-                    lambda i=item, p=params: _figure_of(ramp(i.run, p)),
-                )
+    ramps = _ok_items(context, "ramp")
+    if ramps:
+        specs.append(
+            (
+                "stress_ramp",
+                "Stress ramp",
+                lambda: (
+                    plotting.plot_stress_ramp(ramps[0].run, context.ramp_params.get(ramps[0].name)),
+                    f"{ramps[0].name}: slip and imposed force against time under a stress "
+                    "ramp, with the predicted static yield F_peak at its load (Fig. 3a).",
+                ),
             )
-            break
-    creep = getattr(plotting, "plot_creep", None)
-    creeps = [
-        i for i in context.items if i.kind == "creep" and i.record and i.record["status"] == "ok"
-    ]
-    if creep is not None and creeps:
+        )
+    creeps = _ok_items(context, "creep")
+    if creeps:
         specs.append(
             (
                 "creep",
                 "Creep",
-                "Slip against time under constant stresses below the peak, with logarithmic "
-                "fits (Fig. 3b).",
-                lambda: _figure_of(
-                    creep(
+                lambda: (
+                    plotting.plot_creep(
                         [i.run for i in creeps],
                         [_creep_from_record(i.record, i.run) for i in creeps],
-                    )
+                    ),
+                    "Slip against time under constant forces, with fits of "
+                    "δ = B ln(1 + t/τ_c) (Fig. 3b).",
                 ),
             )
         )
-    switch = getattr(plotting, "plot_switch", None)
-    for item in context.items:
-        if (
-            switch is not None
-            and item.kind == "switch"
-            and item.record
-            and item.record["status"] == "ok"
-        ):
-            params = context.switch_params.get(item.name)
-            specs.append(
-                (
-                    "switch",
-                    "Switch from rate to stress control",
-                    "Force and slip against time, the switch marked, with the rate-controlled "
-                    "curve of the fitted parameters (Fig. 3c).",
-                    lambda i=item, p=params: _figure_of(switch(i.run, p)),
-                )
+    switches = _ok_items(context, "switch")
+    if switches:
+        item = switches[0]
+        specs.append(
+            (
+                "switch",
+                "Switch from rate to stress control",
+                lambda: (
+                    plotting.plot_switch(
+                        item.run,
+                        context.switch_params.get(item.name),
+                        switch_time=item.record["switch"]["switch_time"],
+                    ),
+                    f"{item.name}: slip and force against time, the switch marked, with the "
+                    "rate-controlled curve of the fitted parameters (Fig. 3c).",
+                ),
             )
-            break
+        )
     if context.stability is not None:
         specs.append(
             (
                 "stability_map",
                 "Stability map",
-                "Predicted outcome of switching to stress control, over the switch time and the "
-                "ratio of imposed to current force (quasi-static, slip clock).",
-                lambda: plotting.plot_stability_map(context.stability).figure,
+                lambda: (
+                    plotting.plot_stability_map(context.stability),
+                    "Predicted outcome of a switch to force control, over the switch time and "
+                    "the ratio of imposed to current force (quasi-static, slip clock): failure "
+                    "(grey) or the slip to the stop.",
+                ),
             )
         )
     if context.posterior is not None:
@@ -328,9 +318,11 @@ def _figure_specs(context):
             (
                 "corner",
                 "Posterior (MCMC)",
-                f"Posterior of the Eq. 3 fit of {context.representative.item.name} (emcee), "
-                "with the least-squares values marked.",
-                lambda: plotting.plot_corner(context.posterior),
+                lambda: (
+                    plotting.plot_corner(context.posterior),
+                    f"Posterior of the Eq. 3 fit of {context.representative.item.name} "
+                    "(emcee), the least-squares values marked.",
+                ),
             )
         )
     return specs
@@ -340,66 +332,36 @@ def _display_load(load):
     return "an unknown load" if load is None else f"F_N = {load * 1e3:.4g} mN"
 
 
-def _figure_of(axes):
-    """The Figure of whatever a plot function returned (Axes, array of Axes, Figure)."""
-    if hasattr(axes, "savefig"):
-        return axes
-    if hasattr(axes, "figure"):
-        return axes.figure
-    return np.ravel(axes)[0].figure
-
-
-def _save_figure(figure, folder, stem):
-    try:
-        from granflow.plotting import save_figure
-    except ImportError:
-        paths = {}
-        for suffix, options in (("png", {"dpi": 150}), ("svg", {})):
-            paths[suffix] = folder / f"{stem}.{suffix}"
-            figure.savefig(paths[suffix], **options)
-        return paths
-    return save_figure(figure, folder, stem)
-
-
 def _make_figures(output, context, warnings_list):
-    """Draw every figure the campaign allows into OUTPUT/figures; returns results["figures"]."""
+    """Draw every figure the campaign allows into OUTPUT/figures (PNG and SVG, each written
+    atomically); returns the entries of results["figures"]."""
     import matplotlib.pyplot as plt
 
+    from granflow.plotting import save_figure
+
     folder = output / FIGURES_DIR
-    folder.mkdir(exist_ok=True)
     figures = []
-    with tempfile.TemporaryDirectory(prefix=".figures-", dir=output) as scratch:
-        for name, title, caption, draw in _figure_specs(context):
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    figure = draw()
-                    paths = _save_figure(figure, Path(scratch), name)
-                plt.close(figure)
-            except Exception as exc:  # a figure that fails must not cost the results
-                warnings_list.append(
-                    f"figure {name!r} could not be drawn: {type(exc).__name__}: {exc}"
-                )
-                plt.close("all")
-                continue
-            entry = {"name": name, "title": title, "caption": caption}
-            for suffix, path in sorted(paths.items()):
-                os.replace(path, folder / f"{name}.{suffix}")
-                entry[suffix] = f"{FIGURES_DIR}/{name}.{suffix}"
-            figures.append(entry)
+    for name, title, draw in _figure_specs(context):
+        before = set(plt.get_fignums())
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                drawn, caption = draw()
+                paths = save_figure(drawn, folder, name)
+        except Exception as exc:  # a figure that fails must not cost the results
+            warnings_list.append(f"figure {name!r} could not be drawn: {type(exc).__name__}: {exc}")
+            continue
+        finally:  # close what this figure opened, never the caller's own figures
+            for number in set(plt.get_fignums()) - before:
+                plt.close(number)
+        entry = {"name": name, "title": title, "caption": caption}
+        entry.update({suffix: f"{FIGURES_DIR}/{path.name}" for suffix, path in paths.items()})
+        figures.append(entry)
     return figures
 
 
-def _report_renderer():
-    try:
-        from granflow.report import render_report
-    except ImportError:
-        return None
-    return render_report
+def _write_report(output, results):
+    """report.html (written atomically by granflow.report.render_report)."""
+    from granflow.report import render_report
 
-
-def _write_report(output, results, render):
-    """Render report.html atomically (into a temporary file, then moved into place)."""
-    return _write_atomic(
-        output / REPORT_FILE, lambda temporary: render(results, output, path=temporary)
-    )
+    return render_report(results, output)

@@ -14,10 +14,11 @@ import numpy as np
 from granflow._json import json_safe
 from granflow.errors import ConvergenceWarning, FitError, GranflowError, InvalidDataError
 
-__all__ = ["FAILURE_FACTOR", "StartupData", "analyse_run", "classify", "startup_data"]
+__all__ = ["RUNAWAY_FACTOR", "StartupData", "analyse_run", "classify", "startup_data"]
 
-#: A slip velocity this many times the reference velocity is a runaway (failure).
-FAILURE_FACTOR = 1000.0
+#: A slip velocity this many times the reference velocity is a runaway (failure): well above
+#: any creep (slower than the drive), well below the flow after a failure.
+RUNAWAY_FACTOR = 10.0
 _RAMP_TOLERANCE = 5.0  # noise standard deviations for the elastic ramp's straight line
 _LEVEL_POINTS = 10  # points at one velocity that make a stress-controlled run a switch
 
@@ -273,41 +274,66 @@ def _last_finite_force(run, index):
     return (float(run.force[finite[-1]]), int(finite[-1])) if finite.size else (math.nan, index)
 
 
-def _analyse_ramp(run, options):
-    velocity = _slip_velocity(run)
-    threshold = FAILURE_FACTOR * options["reference_velocity"]
-    fast = np.flatnonzero(np.isfinite(velocity) & (velocity >= threshold))
+def _runaway(velocity, threshold):
+    """Index of the first runaway point and why, or None: a slip velocity at or above
+    ``threshold``, or a velocity missing from some point to the end of the run."""
     candidates = []
+    fast = np.flatnonzero(np.isfinite(velocity) & (velocity >= threshold))
     if fast.size:
         candidates.append((int(fast[0]), f"slip velocity above {threshold:.3g} m/s"))
     missing = _missing_to_end(velocity)
     if missing is not None:
-        candidates.append((missing, "velocity missing to the end of the run (runaway)"))
-    finite = velocity[np.isfinite(velocity)]
-    positive = finite[finite > 0]
-    if not candidates and positive.size and finite[-1] > 100.0 * float(np.median(positive)):
-        candidates.append((int(np.flatnonzero(np.isfinite(velocity))[-1]), "run ends accelerating"))
+        candidates.append((missing, "velocity missing to the end of the run"))
+    return min(candidates) if candidates else None
+
+
+def _analyse_ramp(run, options):
+    threshold = RUNAWAY_FACTOR * options["reference_velocity"]
+    runaway = _runaway(_slip_velocity(run), threshold)
     rows = _increasing_time(run, ("force",))
     out = {"warnings": []}
     if rows.size >= 2:
-        before = rows[: max(2, rows.size // 2)]
-        slope = np.polyfit(run.t[before], run.force[before], 1)[0]
-        out["loading_rate"] = float(slope)
-    if not candidates:
-        out["failure"] = {"observed": False, "reason": "the slip does not run away in this run"}
+        end = rows.size if runaway is None else max(2, int(np.searchsorted(rows, runaway[0])))
+        out["loading_rate"] = float(np.polyfit(run.t[rows[:end]], run.force[rows[:end]], 1)[0])
+    if runaway is None:
+        out["failure"] = None
         out["warnings"].append(f"{run.name}: no failure observed in the stress ramp")
         return out
-    index, criterion = min(candidates)
-    force, where = _last_finite_force(run, index)
+    index, criterion = runaway
+    # the failure force is the largest the layer held: the last point before the runaway
+    force, where = _last_finite_force(run, max(index - 1, 0))
     out["failure"] = {
-        "observed": True,
         "criterion": criterion,
-        "index": index,
+        "index": where,
         "time": float(run.t[where]),
         "slip": float(run.slip[where]) if np.isfinite(run.slip[where]) else None,
         "force": force,
+        "runaway_time": float(run.t[index]),
     }
     return out
+
+
+def _switch_index(run, nominal):
+    """(index of the first point under stress control, how it was found)."""
+    declared = run.meta.get("switch_time")
+    if declared is not None:
+        after = np.flatnonzero(run.t > float(declared))
+        if after.size == 0:
+            raise InvalidDataError(
+                f"{run.name}: the run ends before the switch time {float(declared):g} s"
+            )
+        return int(after[0]), "manifest switch_time"
+    velocity = run.velocity
+    departs = ~np.isfinite(velocity) | (np.abs(velocity - nominal) > 0.5 * nominal)
+    # the drive may need a few points to reach the velocity: look from the first point at it
+    level = np.flatnonzero(~departs)
+    after = np.flatnonzero(departs[level[0] :]) + level[0] if level.size else level
+    if after.size == 0:
+        raise InvalidDataError(
+            f"{run.name}: no switch from rate to stress control found (the velocity never "
+            "departs from the nominal one, and the manifest gives no switch_time)"
+        )
+    return int(after[0]), "velocity departs from the nominal one"
 
 
 def _analyse_switch(run, options):
@@ -319,16 +345,7 @@ def _analyse_switch(run, options):
     if nominal is None or not nominal > 0:
         raise InvalidDataError(f"{run.name}: no nominal velocity for the rate-controlled part")
     nominal = float(nominal)
-    departs = ~np.isfinite(velocity) | (np.abs(velocity - nominal) > 0.5 * nominal)
-    # the drive may need a few points to reach the velocity: look from the first point at it
-    level = np.flatnonzero(~departs)
-    after = np.flatnonzero(departs[level[0] :]) + level[0] if level.size else level
-    if after.size == 0:
-        raise InvalidDataError(
-            f"{run.name}: no switch from rate to stress control found (the velocity never "
-            "departs from the nominal one)"
-        )
-    switch = int(after[0])
+    switch, found = _switch_index(run, nominal)
     if switch < 2:
         raise InvalidDataError(f"{run.name}: the switch comes before any rate-controlled data")
     force_before, where = _last_finite_force(run, switch - 1)
@@ -336,23 +353,23 @@ def _analyse_switch(run, options):
     imposed = imposed[np.isfinite(imposed)]
     level = float(np.median(imposed)) if imposed.size else force_before
     tail = velocity[switch:]
-    threshold = FAILURE_FACTOR * nominal
-    if np.any(np.isfinite(tail) & (tail >= threshold)) or _missing_to_end(velocity) is not None:
+    if _runaway(tail, RUNAWAY_FACTOR * nominal) is not None:
         outcome = "failure"
     elif np.isfinite(tail[-1]) and abs(tail[-1]) <= 0.01 * nominal:
         outcome = "stop"
     else:
         outcome = "creep"
-    t_switch = float(run.t[where])
+    switch_time = float(run.meta.get("switch_time", run.t[where]))
     out = {
         "switch": {
+            "switch_time": switch_time,
+            "found_by": found,
             "index": switch,
-            "time": t_switch,
             "velocity": nominal,
-            "force_before": force_before,
+            "switch_force": force_before,
             "imposed_force": level,
             "factor": level / force_before if force_before > 0 else None,
-            "hold": float(np.nanmax(run.t[switch:]) - t_switch),
+            "hold_time": float(np.nanmax(run.t[switch:]) - switch_time),
             "outcome": outcome,
         },
         "warnings": [],

@@ -24,16 +24,18 @@ one whose force stays level is a creep test.
   line (the kink where the layer starts to slide).
 * *creep*: :func:`granflow.fit_creep` on the slip from the first point at which the force has
   reached 98 % of its level (the median of the second half), time and slip counted from it.
-* *stress ramp*: the observed failure, where the slip runs away: the first point whose slip
-  velocity (the velocity column, or the slip's derivative) reaches ``FAILURE_FACTOR`` (1000)
-  times the campaign's reference velocity (the median start-up velocity, 1 µm/s without
-  start-ups), or from which on the velocity is missing to the end (the runaway marker of an
-  export); otherwise the last point, when its slip velocity exceeds 100 times the run's
-  median. The failure force is the force there.
-* *switch*: the switch is the first point whose velocity departs from the nominal one by
-  more than half of it (or is missing); the points before it are fitted as a start-up, and
-  the outcome after it is *failure* (velocity at least ``FAILURE_FACTOR`` times the nominal
-  one, or missing to the end), *stop* (last velocity below 1 % of it) or *creep*.
+* *stress ramp*: the observed failure. The slip *runs away* at the first point whose slip
+  velocity (the velocity column, or the slip's derivative) reaches ``RUNAWAY_FACTOR`` (10)
+  times the campaign's reference velocity (the median start-up velocity; 1 µm/s without
+  start-ups), or from which on the velocity is missing to the end (an export's runaway
+  marker). Creep is slower than the drive and the flow after a failure much faster, so the
+  factor need not be fine-tuned. The failure force is the largest force the layer held: the
+  force at the last point before the runaway.
+* *switch*: the switch is at the manifest's ``switch_time`` when given, else at the first
+  point whose velocity departs from the nominal one by more than half of it (or is missing).
+  The points before it are fitted as a start-up; the outcome after it is *failure* (a
+  runaway as above, relative to the nominal velocity), *stop* (last velocity below 1 % of
+  the nominal one) or *creep*.
 
 A run that cannot be analysed (an error, or a fit with ``success=False``) is a failed run; a
 file that cannot be read is one too; the rest goes on.
@@ -66,6 +68,7 @@ import contextlib
 import datetime
 import hashlib
 import json
+import math
 import os
 import re
 import sys
@@ -86,7 +89,6 @@ from granflow._analysis_outputs import (
     _dump,
     _make_figures,
     _read_json,
-    _report_renderer,
     _write_json,
     _write_report,
     _write_tables,
@@ -94,7 +96,7 @@ from granflow._analysis_outputs import (
 from granflow._analysis_runs import (
     _ANALYSES,
     _RAMP_TOLERANCE,
-    FAILURE_FACTOR,
+    RUNAWAY_FACTOR,
     StartupData,
     analyse_run,
     classify,
@@ -106,7 +108,7 @@ from granflow.errors import InvalidParameterError
 from granflow.run import Run
 
 __all__ = [
-    "FAILURE_FACTOR",
+    "RUNAWAY_FACTOR",
     "AnalysisResult",
     "StartupData",
     "analyze",
@@ -407,10 +409,11 @@ class AnalysisResult:
         failed runs, and where the output is (display units)."""
         results = self.results
         campaign = results["campaign"]
+        counts = campaign["counts"]
         lines = [
-            f"campaign: {campaign['runs']} runs"
+            f"campaign: {counts['runs']} runs"
             + (" (synthetic data)" if results["synthetic"] else "")
-            + f", {campaign['analysed']} analysed, {campaign['failed']} failed "
+            + f", {counts['analysed']} analysed, {counts['failed']} failed "
             f"({self.fitted_now} analysed now, {self.reused} reused)"
         ]
         material = results["material"]
@@ -440,18 +443,20 @@ class AnalysisResult:
             )
             lines.append(f"static yield F_peak: {text}" + (" ..." if len(yields) > 6 else ""))
         for row in results["analyses"].get("stress_ramp", []):
-            observed = row["observed"]
-            if observed.get("observed") and "predicted" in row:
+            if "observed" in row and "predicted" in row:
                 lines.append(
-                    f"stress ramp {row['run']}: failed at {observed['force'] * 1e3:.4g} mN, "
-                    f"predicted {row['predicted']['F_peak'] * 1e3:.4g} mN"
-                    + (" (consistent)" if row.get("consistent") else " (not consistent)")
+                    f"stress ramp {row['run']}: failed at "
+                    f"{row['observed']['failure_force'] * 1e3:.4g} mN, predicted F_peak "
+                    f"{row['predicted']['failure_force'] * 1e3:.4g} +/- "
+                    f"{math.hypot(row['F_peak_stderr'], row['F_peak_spread']) * 1e3:.2g} mN"
+                    + (" (consistent)" if row["consistent"] else " (NOT consistent)")
                 )
         for row in results["analyses"].get("switch", []):
-            if "predicted_outcome" in row:
+            if "predicted" in row:
                 lines.append(
-                    f"switch {row['run']}: observed {row['outcome']}, predicted "
-                    f"{row['predicted_outcome']}" + (" (agree)" if row["agree"] else " (DISAGREE)")
+                    f"switch {row['run']}: observed {row['observed']['outcome']}, predicted "
+                    f"{row['predicted']['outcome']}"
+                    + (" (agree)" if row["agree"] else " (DISAGREE)")
                 )
         if results["warnings"]:
             lines.append(f"warnings: {len(results['warnings'])} (see results.json or the report)")
@@ -532,20 +537,22 @@ def _campaign_summary(items, manifest, material):
     )
     summary = {
         "manifest": None if manifest is None else str(manifest.resolve()),
-        "entries": len(items),
-        "runs": len(items),
         "analysed": len(ok),
-        "failed": len(items) - len(ok),
-        "tests": {kind: sum(1 for i in runs if i.kind == kind) for kind in _ANALYSES},
-        "normal_loads": loads,
-        "velocities": speeds,
-        "preparations": preparations,
+        "counts": {
+            "runs": len(items),
+            "analysed": len(ok),
+            "failed": len(items) - len(ok),
+            "tests": {kind: sum(1 for i in runs if i.kind == kind) for kind in _ANALYSES},
+            "normal_loads": loads,
+            "velocities": speeds,
+            "preparations": preparations,
+        },
+        "problems": [item.reason for item in items if item.run is None],
     }
     path, truth = _truth(manifest)
     synthetic = bool(truth and truth.get("synthetic", True)) or any(
         "synthetic" in str(i.run.meta.get("notes", "")).lower() for i in runs
     )
-    summary["synthetic"] = synthetic
     if isinstance(truth, dict) and all(n in truth for n in ("mu_a", "mu_d", "alpha")):
         contained = {}
         for name in ("mu_a", "mu_d", "alpha"):
@@ -556,7 +563,7 @@ def _campaign_summary(items, manifest, material):
             "values": {n: truth[n] for n in ("mu_a", "mu_d", "alpha")},
             "contained": contained,
         }
-    return summary
+    return summary, synthetic
 
 
 def analyze(
@@ -668,9 +675,6 @@ def analyze(
     results["tables"] = _write_tables(output, results, results["warnings"])
     reporter.line("figures")
     results["figures"] = _make_figures(output, context, results["warnings"])
-    render = _report_renderer()
-    if render is None:
-        results["warnings"].append("no HTML report: granflow.report is not available")
     _remove_stale_records(output, items)
     stages["outputs_s"] = time.perf_counter() - clock_stage
     results["timing"] = {
@@ -684,11 +688,9 @@ def analyze(
         "stages_s": stages,
     }
     results = json_safe(results)
-    report = None
-    if render is not None:
-        reporter.line("report")
-        _finish_timing(results, clock)
-        report = _write_report(output, results, render)
+    reporter.line("report")
+    _finish_timing(results, clock)
+    report = _write_report(output, results)
     _finish_timing(results, clock)
     _write_json(output / RESULTS_FILE, results)
     return AnalysisResult(
@@ -802,10 +804,10 @@ def _assemble(items, manifest, inputs, context, mcmc, seed, reference):
     provenance_inputs = [
         {"file": file, "sha256": _sha256_file(folder / file if folder else file)} for file in inputs
     ]
-    campaign = _campaign_summary(items, manifest, context.material)
+    campaign, synthetic = _campaign_summary(items, manifest, context.material)
     return {
         "granflow_version": granflow.__version__,
-        "synthetic": campaign["synthetic"],
+        "synthetic": synthetic,
         "campaign": campaign,
         "runs": entries,
         "failed_runs": failed,
@@ -823,7 +825,7 @@ def _assemble(items, manifest, inputs, context, mcmc, seed, reference):
                 "mcmc": mcmc,
                 "seed": seed,
                 "analysis_version": ANALYSIS_VERSION,
-                "failure_factor": FAILURE_FACTOR,
+                "runaway_factor": RUNAWAY_FACTOR,
                 "reference_velocity": reference,
                 "elastic_ramp_tolerance": _RAMP_TOLERANCE,
                 "stability_map": {
