@@ -4,6 +4,7 @@ Model evaluation, simulation of rheometer protocols, fits with uncertainties, in
 readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
 """
 
+from granflow.analysis import AnalysisResult, analyze
 from granflow.campaign import Campaign
 from granflow.compare import ModelComparison, compare_models
 from granflow.creep import CurveFitResult, fit_creep
@@ -67,6 +68,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AmontonsResult",
+    "AnalysisResult",
     "Annulus",
     "Campaign",
     "CollapseResult",
@@ -103,6 +105,7 @@ __all__ = [
     "VelocitySteps",
     "VelocityTable",
     "__version__",
+    "analyze",
     "compare_models",
     "fit",
     "fit_amontons",

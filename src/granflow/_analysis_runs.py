@@ -29,14 +29,15 @@ _LEVEL_POINTS = 10  # points at one velocity that make a stress-controlled run a
 def classify(run):
     """The kind of test a run is: ``"startup"``, ``"ramp"``, ``"creep"`` or ``"switch"``.
 
-    The metadata's ``test`` (from the manifest) wins; otherwise the rule in the module's
-    documentation decides from the control mode, the velocity and the force.
+    The metadata's ``test`` (from the manifest) wins; otherwise the rule documented in
+    :mod:`granflow.analysis` decides from the control mode, the velocity and the force.
 
     Examples
     --------
     >>> import numpy as np, granflow
+    >>> from granflow.analysis import classify
     >>> t = np.arange(50.0)
-    >>> ramp = granflow.Run(t=t, slip=1e-9 * t, velocity=np.full(50, 1e-9),
+    >>> ramp = granflow.Run(t=t, slip=np.zeros(50), velocity=np.zeros(50),
     ...                     force=1e-4 * t, control="stress")
     >>> classify(ramp)
     'ramp'

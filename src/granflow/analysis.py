@@ -182,6 +182,12 @@ class _Progress:
     def start(self, total):
         self.total, self.done = total, 0
 
+    def finish(self):
+        """End an unfinished bar (after an interruption), so that what follows starts a line."""
+        if self.terminal and not self.quiet and 0 < self.done < self.total:
+            self.stream.write("\n")
+            self.stream.flush()
+
     def step(self, name):
         self.done += 1
         if self.callback is not None:
@@ -597,7 +603,7 @@ def analyze(
     scheduler : str or dask.distributed.Client or cluster, optional
         Run the per-run work on Dask distributed instead: a scheduler address
         (``"tcp://host:8786"``), a Client, or a cluster object (``LocalCluster``). Needs
-        the extra ``granflow[dask]``.
+        the extra ``granflow[dask]``, and granflow installed on the workers.
     resume : bool
         Reuse the saved result of every run whose data and options still match (after an
         interrupted analysis); False starts clean.
@@ -629,7 +635,7 @@ def analyze(
     Examples
     --------
     >>> import granflow
-    >>> result = granflow.analyze("campaign/manifest.yaml", "out", jobs=2)  # doctest: +SKIP
+    >>> result = granflow.analyze("campaign/", "out", jobs=2)  # doctest: +SKIP
     >>> result.material["alpha"]["value"], result.exit_code  # doctest: +SKIP
     """
     started = datetime.datetime.now(datetime.UTC)
@@ -741,19 +747,23 @@ def _run_all(todo, executor, output, reporter):
     """
     reporter.start(len(todo))
     tasks = [(item.run, item.kind, options) for item, options in todo]
-    for position, result in executor.run(analyse_run, tasks):
-        item = todo[position][0]
-        if isinstance(result, Exception):  # the worker died: not saved, so retried on resume
-            item.record = {
-                "status": "failed",
-                "reason": f"the worker failed: {type(result).__name__}: {result}",
-                "warnings": [],
-            }
-        else:
-            record = json.loads(_dump({_MARKER: ANALYSIS_VERSION, "key": item.key, **result}))
-            _write_json(output / RUNS_DIR / f"{item.key}.json", record)
-            item.record = record
-        reporter.step(item.name)
+    try:
+        for position, result in executor.run(analyse_run, tasks):
+            item = todo[position][0]
+            if isinstance(result, Exception):  # the worker died: not saved, retried on resume
+                item.record = {
+                    "status": "failed",
+                    "reason": f"the worker failed: {type(result).__name__}: {result}",
+                    "warnings": [],
+                }
+            else:
+                record = {_MARKER: ANALYSIS_VERSION, "key": item.key, **result}
+                record = json.loads(_dump(record))
+                _write_json(output / RUNS_DIR / f"{item.key}.json", record)
+                item.record = record
+            reporter.step(item.name)
+    finally:
+        reporter.finish()
 
 
 def _remove_stale_records(output, items):
