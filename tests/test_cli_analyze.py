@@ -1,5 +1,7 @@
 """The analyze and demo commands: exit codes, messages, help, interruption and --resume."""
 
+import contextlib
+import io
 import json
 import os
 import shutil
@@ -11,6 +13,7 @@ from pathlib import Path
 
 import pytest
 from conftest import write_small_campaign
+from test_report_browser import browser, page_problems  # noqa: F401 (browser: a fixture)
 
 import granflow as gf
 from granflow.cli import main
@@ -174,9 +177,18 @@ def test_stopped_analysis_resumes_with_the_same_results(campaign, reference, tmp
     assert without_timing(output) == without_timing(reference)
 
 
-def test_demo_end_to_end_recovers_the_constants_it_was_made_with(tmp_path, capsys):
-    output = tmp_path / "demo"
-    assert main(["demo", "-o", str(output), "--jobs", "2", "--quiet"]) == 0
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    """``granflow demo`` run once: (output folder, exit code, stdout)."""
+    output = tmp_path_factory.mktemp("demo") / "demo"
+    with contextlib.redirect_stdout(io.StringIO()) as out:
+        code = main(["demo", "-o", str(output), "--jobs", "2", "--quiet"])
+    return output, code, out.getvalue()
+
+
+def test_demo_end_to_end_recovers_the_constants_it_was_made_with(demo):
+    output, code, out = demo
+    assert code == 0
     for name in ("report.html", "results.json", "synthetic_truth.json"):
         assert (output / name).stat().st_size > 0
     results = json.loads((output / "results.json").read_text(encoding="utf-8"))
@@ -185,9 +197,26 @@ def test_demo_end_to_end_recovers_the_constants_it_was_made_with(tmp_path, capsy
     for name in ("mu_a", "mu_d", "alpha"):
         low, high = results["material"][name]["ci95"]
         assert low <= truth[name] <= high, name
-    assert "SYNTHETIC" in (output / "report.html").read_text(encoding="utf-8")
-    out = capsys.readouterr().out
     assert "synthetic truth: mu_a inside, mu_d inside, alpha inside" in out
     # the observed stress-controlled behaviour agrees with the predictions from the fits
     assert results["analyses"]["switch"][0]["agree"] is True
     assert results["analyses"]["stress_ramp"][0]["consistent"] is True
+
+
+def test_demo_report_opens_in_chromium_with_every_figure(demo, browser):  # noqa: F811
+    output, _, _ = demo
+    results = json.loads((output / "results.json").read_text(encoding="utf-8"))
+    problems, images = page_problems(browser, output / "report.html")
+    assert problems == []
+    assert {image["alt"] for image in images} == {f["title"] for f in results["figures"]}
+    names = {figure["name"] for figure in results["figures"]}
+    assert names == {
+        "startup",
+        "collapse",
+        "amontons",
+        "stress_ramp",
+        "creep",
+        "switch",
+        "stability_map",
+    }
+    assert browser.title.startswith("[SYNTHETIC DATA]")
