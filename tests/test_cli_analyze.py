@@ -92,6 +92,22 @@ def test_a_bad_manifest_is_one_line_and_debug_shows_the_traceback(tmp_path, caps
     assert "Traceback (most recent call last)" in err and "FileFormatError" in err
 
 
+def test_an_internal_error_is_one_line_unless_debug(campaign, tmp_path, capsys, monkeypatch):
+    import granflow.analysis
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(granflow.analysis, "analyze", broken)
+    assert main(["analyze", str(campaign), "-o", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err == (
+        "granflow analyze: error: ZeroDivisionError: a bug (run with --debug for the traceback)\n"
+    )
+    assert main(["--debug", "analyze", str(campaign), "-o", str(tmp_path)]) == 1
+    assert "Traceback (most recent call last)" in capsys.readouterr().err
+
+
 def test_scheduler_without_dask_names_the_extra(campaign, tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
     args = ["analyze", str(campaign), "-o", str(tmp_path), "--scheduler", "tcp://127.0.0.1:1"]
@@ -107,6 +123,16 @@ def test_version_and_help_with_examples(capsys):
         out = capsys.readouterr().out
         assert "examples:" in out
         assert ("granflow demo" if command != ["analyze"] else "granflow analyze campaign/") in out
+
+
+def test_every_command_has_examples_in_its_help(capsys):
+    from granflow.cli import build_parser
+
+    commands = build_parser()._subparsers._group_actions[0].choices
+    assert {"analyze", "demo", "curve", "fit"} <= set(commands)
+    for command in commands:
+        assert main([command, "--help"]) == 0
+        assert "example" in capsys.readouterr().out, command
 
 
 def test_python_m_granflow(tmp_path):
