@@ -1,13 +1,11 @@
 """The files :func:`granflow.analyze` writes (each atomically): tables, figures, report."""
 
-import contextlib
 import json
-import os
-import uuid
 import warnings
 from pathlib import Path
 
 from granflow._analysis_runs import _creep_from_record
+from granflow._files import write_atomic
 
 RESULTS_FILE = "results.json"
 REPORT_FILE = "report.html"
@@ -19,29 +17,13 @@ FIGURES_DIR = "figures"
 # ---------------------------------------------------------------- files written atomically
 
 
-def _write_atomic(path, write):
-    """Call ``write(temporary_path)``, then move the file into place (same folder)."""
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp")
-    # made with os.open so that the file gets the usual permissions (umask), not mkstemp's 0600
-    os.close(os.open(temporary, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
-    try:
-        write(temporary)
-        os.replace(temporary, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(temporary)
-        raise
-    return path
-
-
 def _dump(value):
     return json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
 
 def _write_json(path, value):
     text = _dump(value)
-    return _write_atomic(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
+    return write_atomic(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
 
 
 def _read_json(path):
@@ -179,13 +161,13 @@ def _write_tables(output, results, warnings_list):
     for name, rows in tables.items():
         frame = pd.DataFrame(rows)
         paths = {"csv": f"{TABLES_DIR}/{name}.csv"}
-        _write_atomic(
+        write_atomic(
             output / paths["csv"],
             lambda temporary, f=frame: f.to_csv(temporary, index=False, float_format="%.17g"),
         )
         if parquet:
             paths["parquet"] = f"{TABLES_DIR}/{name}.parquet"
-            _write_atomic(
+            write_atomic(
                 output / paths["parquet"],
                 lambda temporary, f=frame: f.astype(
                     {c: "string" for c in f.columns if f[c].dtype == object}

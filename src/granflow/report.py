@@ -34,10 +34,10 @@ import math
 import numbers
 import os
 import re
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 
+from granflow._files import write_text_atomic
 from granflow.errors import InvalidParameterError
 
 __all__ = [
@@ -998,12 +998,5 @@ def render_report(results, output_dir, *, path=None):
     path = Path(path) if path is not None else output_dir / "report.html"
     html = render_html(results, output_dir, report_dir=path.parent)
     path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8", newline="\n") as stream:
-            stream.write(html)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    write_text_atomic(path, html)
     return path

@@ -9,7 +9,6 @@ axis), model grey, F_peak and failure red, F_d green, the switch orange.
 """
 
 import os
-import uuid
 from pathlib import Path
 
 import numpy as np
@@ -763,15 +762,9 @@ def _figure_of(figure):
 
 def _atomic_save(figure, path, **options):
     """Write to a temporary file beside ``path``, then rename it (no half-written figure)."""
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex}.tmp")
-    # made with os.open so that the file gets the usual permissions (umask), not mkstemp's 0600
-    os.close(os.open(temporary, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
-    try:
-        figure.savefig(temporary, **options)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    from granflow._files import write_atomic
+
+    write_atomic(path, lambda temporary: figure.savefig(temporary, **options))
 
 
 def save_figure(figure, directory, stem):
