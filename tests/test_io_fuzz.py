@@ -1,8 +1,11 @@
 """Fuzzing the readers: mutated real and written exports raise FileFormatError (naming the
 file and a line) or read; nothing else escapes, nothing hangs, and inputs are not modified."""
 
+import atexit
 import hashlib
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -37,11 +40,12 @@ def _written(directory):
 
 
 SOURCES = sorted(path for path in _exports().glob("*.*") if path.suffix != ".md")
-_WRITTEN_DIR = Path(os.environ.get("TMPDIR", "/tmp")) / f"granflow-fuzz-{os.getpid()}"
+# written at collection time (the files are parameters); removed when the process ends
+_WRITTEN_DIR = Path(tempfile.mkdtemp(prefix="granflow-fuzz-"))
+atexit.register(shutil.rmtree, _WRITTEN_DIR, ignore_errors=True)
 
 
 def _sources():
-    _WRITTEN_DIR.mkdir(exist_ok=True)
     return SOURCES + _written(_WRITTEN_DIR)
 
 
