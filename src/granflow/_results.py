@@ -35,3 +35,10 @@ def statistics_lines(result, *, title, extra=()):
         ("Bayesian info crit", f"{result.bic:.6g}"),
     ]
     return [f"[[{title}]]", *(f"    {label:<18} = {value}" for label, value in rows)]
+
+
+def variable_line(name, value, stderr, interval, *, unit="", width=6):
+    """One ``[[Variables]]`` line: ``name = value +/- stderr unit  95%: [low, high]``."""
+    unit = f" {unit}" if unit else ""
+    low, high = interval
+    return f"    {name:<{width}} = {value:.8g} +/- {stderr:.4g}{unit}  95%: [{low:.6g}, {high:.6g}]"

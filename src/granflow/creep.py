@@ -13,7 +13,7 @@ from scipy.optimize import least_squares
 
 from granflow._fitcore import WALD_Z, FrozenMap
 from granflow._json import json_safe
-from granflow._results import estimates, statistics
+from granflow._results import estimates, statistics, variable_line
 from granflow.errors import InvalidDataError
 
 __all__ = ["CurveFitResult", "fit_creep"]
@@ -75,12 +75,16 @@ class CurveFitResult:
             f"    chi-square = {self.chisqr:.6g}; reduced chi-square = {self.redchi:.6g}",
             f"    AIC = {self.aic:.6g}; BIC = {self.bic:.6g}",
         ]
-        for name in self.names:
-            low, high = self.ci95[name]
-            lines.append(
-                f"    {name:<6} = {self.params[name]:.8g} +/- {self.stderr[name]:.4g} "
-                f"{self.units[name]}  95%: [{low:.6g}, {high:.6g}]"
+        lines += [
+            variable_line(
+                name,
+                self.params[name],
+                self.stderr[name],
+                self.ci95[name],
+                unit=self.units[name],
             )
+            for name in self.names
+        ]
         return "\n".join(lines)
 
     def to_dict(self):

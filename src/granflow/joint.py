@@ -22,7 +22,7 @@ from scipy.stats import pearsonr
 
 from granflow._fitcore import WALD_Z, Curve, FrozenMap, GlobalParameter, Problem, covariance
 from granflow._json import json_safe
-from granflow._results import estimates, statistics, statistics_lines
+from granflow._results import estimates, statistics, statistics_lines, variable_line
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
 from granflow.fitting import FitResult, _prepare, _Solution, fit, parameter_names
 from granflow.model import peak
@@ -111,10 +111,8 @@ class JointFitResult:
             if name in self.fixed:
                 lines.append(f"    {name:<10} = {self.params[name]:.8g} (fixed)")
                 continue
-            low, high = self.ci95[name]
             lines.append(
-                f"    {name:<10} = {self.params[name]:.8g} +/- {self.stderr[name]:.4g}  "
-                f"95%: [{low:.6g}, {high:.6g}]"
+                variable_line(name, self.params[name], self.stderr[name], self.ci95[name], width=10)
             )
         return "\n".join(lines)
 
