@@ -19,7 +19,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import granflow as gf
-from granflow.simulate import DEFAULT_MASS
+from granflow.simulation.driver import DEFAULT_MASS
 
 V = 0.86e-6
 RAMP_RATE = 0.05e-3

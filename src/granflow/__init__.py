@@ -2,134 +2,90 @@
 
 Model evaluation, simulation of rheometer protocols, fits with uncertainties, instrument
 readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
+
+The subpackages follow the flow of data: :mod:`granflow.model` (the ground floor),
+:mod:`granflow.simulation`, :mod:`granflow.fitting` and :mod:`granflow.io` on it,
+:mod:`granflow.analysis` (the campaign pipeline) on those, :mod:`granflow.cli` on top;
+:mod:`granflow.plotting` is a leaf. The public names below resolve on first use, so
+``import granflow`` loads neither SciPy nor Numba.
 """
 
-from granflow.analysis import AnalysisResult, analyze
-from granflow.campaign import Campaign
-from granflow.compare import ModelComparison, compare_models
-from granflow.creep import CurveFitResult, fit_creep
-from granflow.errors import (
-    ConvergenceWarning,
-    FileFormatError,
-    FitError,
-    GranflowError,
-    InvalidDataError,
-    InvalidParameterError,
-    InvalidProtocolError,
-)
-from granflow.fitting import FitResult, fit, fit_many
-from granflow.geometry import Annulus
-from granflow.io import read, read_runs
-from granflow.joint import (
-    AmontonsResult,
-    CollapseResult,
-    JointFitResult,
-    PreparationSpread,
-    fit_amontons,
-    fit_joint,
-    preparation_spread,
-    velocity_collapse,
-)
-from granflow.mcmc import PosteriorResult, sample_posterior
-from granflow.model import (
-    NoPeakError,
-    Peak,
-    friction_aging,
-    friction_asymptote,
-    friction_slip,
-    friction_slip_jacobian,
-    friction_time,
-    has_peak,
-    initial_force,
-    peak,
-    rhs_slip,
-    rhs_time,
-    steady_state,
-)
-from granflow.params import MaterialConstants, Params
-from granflow.protocol import (
-    Force,
-    ForceRamp,
-    ForceSteps,
-    ForceTable,
-    Hold,
-    Protocol,
-    SwitchToForce,
-    Velocity,
-    VelocitySteps,
-    VelocityTable,
-)
-from granflow.run import Run
-from granflow.simulate import DirectEffect, Event, SimulationResult, simulate
-from granflow.special import scaled_ei, scaled_ei_diff
-from granflow.stability import StabilityMap, stability_map
+from granflow._lazy import attach
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "AmontonsResult",
-    "AnalysisResult",
-    "Annulus",
-    "Campaign",
-    "CollapseResult",
-    "ConvergenceWarning",
-    "CurveFitResult",
-    "DirectEffect",
-    "Event",
-    "FileFormatError",
-    "FitError",
-    "FitResult",
-    "Force",
-    "ForceRamp",
-    "ForceSteps",
-    "ForceTable",
-    "GranflowError",
-    "Hold",
-    "InvalidDataError",
-    "InvalidParameterError",
-    "InvalidProtocolError",
-    "JointFitResult",
-    "MaterialConstants",
-    "ModelComparison",
-    "NoPeakError",
-    "Params",
-    "Peak",
-    "PosteriorResult",
-    "PreparationSpread",
-    "Protocol",
-    "Run",
-    "SimulationResult",
-    "StabilityMap",
-    "SwitchToForce",
-    "Velocity",
-    "VelocitySteps",
-    "VelocityTable",
-    "__version__",
-    "analyze",
-    "compare_models",
-    "fit",
-    "fit_amontons",
-    "fit_creep",
-    "fit_joint",
-    "fit_many",
-    "friction_aging",
-    "friction_asymptote",
-    "friction_slip",
-    "friction_slip_jacobian",
-    "friction_time",
-    "has_peak",
-    "initial_force",
-    "peak",
-    "preparation_spread",
-    "read",
-    "read_runs",
-    "rhs_slip",
-    "rhs_time",
-    "sample_posterior",
-    "scaled_ei",
-    "scaled_ei_diff",
-    "simulate",
-    "stability_map",
-    "steady_state",
-    "velocity_collapse",
-]
+__getattr__, __dir__, _names = attach(
+    __name__,
+    {
+        "granflow.analysis": ["AnalysisResult", "analyze"],
+        "granflow.io": ["Campaign", "read", "read_runs"],
+        "granflow.errors": [
+            "ConvergenceWarning",
+            "FileFormatError",
+            "FitError",
+            "GranflowError",
+            "InvalidDataError",
+            "InvalidParameterError",
+            "InvalidProtocolError",
+        ],
+        "granflow.fitting": [
+            "AmontonsResult",
+            "CollapseResult",
+            "CurveFitResult",
+            "FitResult",
+            "JointFitResult",
+            "ModelComparison",
+            "PosteriorResult",
+            "PreparationSpread",
+            "compare_models",
+            "fit",
+            "fit_amontons",
+            "fit_creep",
+            "fit_joint",
+            "fit_many",
+            "preparation_spread",
+            "sample_posterior",
+            "velocity_collapse",
+        ],
+        "granflow.model": [
+            "Annulus",
+            "MaterialConstants",
+            "NoPeakError",
+            "Params",
+            "Peak",
+            "Run",
+            "friction_aging",
+            "friction_asymptote",
+            "friction_slip",
+            "friction_slip_jacobian",
+            "friction_time",
+            "has_peak",
+            "initial_force",
+            "peak",
+            "rhs_slip",
+            "rhs_time",
+            "scaled_ei",
+            "scaled_ei_diff",
+            "steady_state",
+        ],
+        "granflow.simulation": [
+            "DirectEffect",
+            "Event",
+            "Force",
+            "ForceRamp",
+            "ForceSteps",
+            "ForceTable",
+            "Hold",
+            "Protocol",
+            "SimulationResult",
+            "StabilityMap",
+            "SwitchToForce",
+            "Velocity",
+            "VelocitySteps",
+            "VelocityTable",
+            "simulate",
+            "stability_map",
+        ],
+    },
+)
+__all__ = [*_names, "__version__"]

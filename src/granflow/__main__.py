@@ -2,6 +2,6 @@
 
 import sys
 
-from granflow.cli import main
+from granflow.cli.app import main
 
 sys.exit(main())

@@ -13,7 +13,7 @@ import re
 import unicodedata
 
 from granflow.errors import InvalidParameterError
-from granflow.units import to_si
+from granflow.model.units import to_si
 
 __all__ = [
     "KEYWORDS",
@@ -280,7 +280,7 @@ def si_factor(quantity, unit):
         return 1.0
     if text == "":
         raise InvalidParameterError(f"{quantity}: no unit given, expected one like {target!r}")
-    from granflow.units import unit_registry
+    from granflow.model.units import unit_registry
 
     registry = unit_registry()
     try:

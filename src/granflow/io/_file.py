@@ -303,7 +303,7 @@ def metadata_value(key, cells, numbers):
         unit = parts[1].strip("[]")
     if number is None:
         return known, text
-    from granflow.units import to_si
+    from granflow.model.units import to_si
 
     try:
         return known, float(to_si(number, unit or si_unit, known)) if unit else number

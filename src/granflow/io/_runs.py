@@ -4,7 +4,7 @@ import numpy as np
 
 from granflow.io import _columns
 from granflow.io._text import fail
-from granflow.run import Run
+from granflow.model.run import Run
 
 __all__ = ["control_mode", "interval_to_run", "runs_from_file"]
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from granflow.errors import InvalidParameterError
 from granflow.io import _columns
-from granflow.run import Run
+from granflow.model.run import Run
 
 __all__ = ["ENCODINGS", "write_rheocompass", "write_trios"]
 
@@ -186,7 +186,7 @@ def write_rheocompass(
     >>> bool(np.allclose(back.force, run.force, rtol=1e-9)), back.meta["normal_load"]
     (True, 0.05)
     """
-    from granflow.geometry import Annulus
+    from granflow.model.geometry import Annulus
 
     runs = _runs(runs)
     geometry = geometry or Annulus.paper()
@@ -241,7 +241,7 @@ def write_trios(
     >>> granflow.read(path).format
     'trios'
     """
-    from granflow.geometry import Annulus
+    from granflow.model.geometry import Annulus
 
     runs = _runs(runs)
     geometry = geometry or Annulus.paper()

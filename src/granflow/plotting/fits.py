@@ -127,8 +127,8 @@ def _velocity_groups(result):
 
 def _short_slip_window(run_params, fallback):
     """Upper end [m] of the short-slip inset: 1.5 times the largest peak slip."""
-    from granflow.model import NoPeakError, peak
-    from granflow.params import Params
+    from granflow.model.friction import NoPeakError, peak
+    from granflow.model.params import Params
 
     slips = []
     for values in run_params:
@@ -169,9 +169,9 @@ def plot_collapse(result, ax=None, *, inset=True):
     import matplotlib
     from matplotlib.lines import Line2D
 
-    from granflow.joint import CollapseResult
-    from granflow.model import friction_slip
-    from granflow.params import Params
+    from granflow.fitting.joint import CollapseResult
+    from granflow.model.friction import friction_slip
+    from granflow.model.params import Params
 
     if not isinstance(result, CollapseResult):
         raise InvalidParameterError(
@@ -297,7 +297,7 @@ def plot_amontons(result, axes=None):
     InvalidParameterError
         If ``result`` is not an AmontonsResult or ``axes`` not three Axes.
     """
-    from granflow.joint import AmontonsResult
+    from granflow.fitting.joint import AmontonsResult
 
     if not isinstance(result, AmontonsResult):
         raise InvalidParameterError(

@@ -55,7 +55,7 @@ RUNAWAY_FACTOR = 50.0
 
 
 def _as_run(run, name):
-    from granflow.run import Run
+    from granflow.model.run import Run
 
     if not isinstance(run, Run):
         raise InvalidParameterError(f"{name} must be a granflow.Run, got {type(run).__name__}")
@@ -64,7 +64,7 @@ def _as_run(run, name):
 
 def _as_runs(runs, name):
     """A list of Runs from one Run or a sequence of them."""
-    from granflow.run import Run
+    from granflow.model.run import Run
 
     if isinstance(runs, Run):
         return [runs]
@@ -105,7 +105,7 @@ def _as_fits(fits, count, name, kind):
 
 
 def _as_params(params, name="params"):
-    from granflow.params import Params
+    from granflow.model.params import Params
 
     if params is not None and not isinstance(params, Params):
         raise InvalidParameterError(
@@ -175,7 +175,7 @@ def _small_axes(ax, xlabel, ylabel):
 
 
 def _peak_or_none(params):
-    from granflow.model import NoPeakError, peak
+    from granflow.model.friction import NoPeakError, peak
 
     try:
         return peak(params)
@@ -185,7 +185,7 @@ def _peak_or_none(params):
 
 def _rising_branch(params, top, points=2000):
     """Slip grid from x0 to ``top`` [m] and the friction on it (increasing up to the peak)."""
-    from granflow.model import friction_slip
+    from granflow.model.friction import friction_slip
 
     slip = np.geomspace(params.x0, max(top, params.x0 * (1 + 1e-9)), points)
     return slip, friction_slip(slip, params)
@@ -225,7 +225,7 @@ def _switch_outcome(params, peak, slip_at_switch, force):
     before the peak, F(x_s) after it, where F only falls); otherwise it slides to the first
     x >= x_s where F(x) reaches the force and stops there.
     """
-    from granflow.model import friction_slip
+    from granflow.model.friction import friction_slip
 
     x_switch = max(slip_at_switch, params.x0)
     current = float(friction_slip(x_switch, params))
@@ -314,7 +314,7 @@ def plot_startup(runs, fits, ax=None, *, residual_ax=None):
     >>> ax.get_ylabel()
     'friction force F [mN]'
     """
-    from granflow.fitting import FitResult
+    from granflow.fitting.single import FitResult
 
     runs = _as_runs(runs, "runs")
     fits = _as_fits(fits, len(runs), "fits", FitResult)
@@ -489,7 +489,7 @@ def _imposed_force(run):
 
 def _creep_inset(parent, params, levels):
     """The rate-controlled overshoot F(x) with the creep forces and F_d (lower right)."""
-    from granflow.model import friction_slip
+    from granflow.model.friction import friction_slip
 
     peak = _peak_or_none(params)
     top = 4.0 * peak.slip if peak is not None else 40.0 / params.alpha
@@ -536,7 +536,7 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
         For runs that are not Runs, fits that are not CurveFitResults or not one per run,
         a params that is not a Params, an ax that is not an Axes.
     """
-    from granflow.creep import CurveFitResult
+    from granflow.fitting.creep import CurveFitResult
 
     runs = _as_runs(runs, "runs")
     fits = _as_fits(fits, len(runs), "fits", CurveFitResult)
@@ -705,7 +705,7 @@ def plot_switch(run, params=None, ax=None, *, switch_time=None):
     velocity = _rate_velocity(run, switch)
     outcome = None
     if params is not None and velocity is not None:
-        from granflow.model import friction_time
+        from granflow.model.friction import friction_time
 
         start = params.t0(velocity)
         end = max(float(np.nanmax(run.t)) if np.isfinite(run.t).any() else 0.0, 2 * start)

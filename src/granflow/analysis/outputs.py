@@ -1,0 +1,349 @@
+"""The files :func:`granflow.analyze` writes (each atomically): tables, figures, report."""
+
+import json
+import warnings
+from pathlib import Path
+
+from granflow._files import write_atomic
+from granflow.analysis.runs import _creep_from_record
+
+RESULTS_FILE = "results.json"
+REPORT_FILE = "report.html"
+RUNS_DIR = "runs"
+TABLES_DIR = "tables"
+FIGURES_DIR = "figures"
+
+
+# ---------------------------------------------------------------- files written atomically
+
+
+def _dump(value):
+    return json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+
+
+def _write_json(path, value):
+    text = _dump(value)
+    return write_atomic(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
+
+
+def _read_json(path):
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+
+
+# --------------------------------------------------------------------------- tables
+
+
+_TABLE_PARAMS = ("a", "alpha", "Fd", "x0", "B", "tau_c")
+
+
+def _runs_table(entries):
+    rows = []
+    for entry in entries:
+        row = {
+            key: entry.get(key)
+            for key in (
+                "index",
+                "name",
+                "source",
+                "interval",
+                "test",
+                "status",
+                "reason",
+                "normal_load",
+                "velocity",
+                "preparation",
+                "points",
+            )
+        }
+        fit = entry.get("fit") or {}
+        for name in _TABLE_PARAMS:
+            value = (fit.get("params") or {}).get(name)
+            row[name] = value
+            row[f"{name}_stderr"] = (
+                (fit.get("stderr") or {}).get(name) if value is not None else None
+            )
+            low, high = (fit.get("ci95") or {}).get(name) or (None, None)
+            row[f"{name}_ci95_low"], row[f"{name}_ci95_high"] = low, high
+        row["redchi"] = fit.get("redchi")
+        row["peak_force"] = (entry.get("peak") or {}).get("force")
+        row["failure_force"] = (entry.get("failure") or {}).get("force")
+        row["switch_outcome"] = (entry.get("switch") or {}).get("outcome")
+        rows.append(row)
+    return rows
+
+
+def _loads_table(results):
+    amontons = results["analyses"].get("amontons") or {}
+    per_load = {row["normal_load"]: row for row in amontons.get("per_load", [])}
+    yields = {row["normal_load"]: row for row in results["predictions"].get("static_yield", [])}
+    rows = []
+    for load in sorted(set(per_load) | set(yields)):
+        row = {"normal_load": load}
+        measured = per_load.get(load, {})
+        row["repeats"] = measured.get("repeats")
+        for key in ("a", "alpha", "alpha_v", "Fd"):
+            mean, error = measured.get(key) or (None, None)
+            row[f"{key}_mean"], row[f"{key}_stderr"] = mean, error
+        predicted = yields.get(load, {})
+        row["x0"] = predicted.get("x0")
+        row["x0_stderr"] = (predicted.get("x0_estimate") or {}).get("stderr")
+        row["F_peak"] = predicted.get("F_peak")
+        row["F_peak_stderr"] = predicted.get("stderr")
+        row["F_peak_spread"] = predicted.get("F_peak_spread")
+        rows.append(row)
+    return rows
+
+
+def _material_table(material):
+    return [
+        {
+            "constant": name,
+            "value": material[name]["value"],
+            "stderr": material[name]["stderr"],
+            "ci95_low": material[name]["ci95"][0],
+            "ci95_high": material[name]["ci95"][1],
+            "unit": "1/m" if name == "alpha" else "",
+            "source": material.get("source"),
+        }
+        for name in ("mu_a", "mu_d", "alpha")
+    ]
+
+
+def _predictions_table(predictions):
+    rows = []
+    for row in predictions.get("static_yield", []):
+        flat = {k: v for k, v in row.items() if k not in ("ci95", "x0_estimate")}
+        flat["ci95_low"], flat["ci95_high"] = row["ci95"]
+        flat["x0_stderr"] = row["x0_estimate"]["stderr"]
+        flat["x0_from"] = row["x0_estimate"]["from"]
+        rows.append(flat)
+    return rows
+
+
+def _write_tables(output, results, warnings_list):
+    """CSV and Parquet of runs, loads, material and predictions; returns results["tables"]."""
+    import pandas as pd
+
+    folder = output / TABLES_DIR
+    folder.mkdir(exist_ok=True)
+    tables = {
+        "runs": _runs_table(results["runs"]),
+        "loads": _loads_table(results),
+        "material": _material_table(results["material"]),
+        "predictions": _predictions_table(results["predictions"]),
+    }
+    stability = results["predictions"].get("stability_map")
+    if stability:
+        tables["stability_map"] = [
+            {
+                "switch_point": point,
+                "stress_ratio": ratio,
+                "outcome": stability["outcome"][i][j],
+                "stop_slip": stability["stop_slip"][i][j],
+                "failure_time": stability["failure_time"][i][j],
+            }
+            for i, point in enumerate(stability["switch_points"])
+            for j, ratio in enumerate(stability["stress_ratios"])
+        ]
+    try:
+        import pyarrow  # noqa: F401
+
+        parquet = True
+    except ImportError:
+        parquet = False
+        warnings_list.append(
+            "tables written as CSV only: Parquet needs pyarrow (pip install granflow[parquet])"
+        )
+    written = {}
+    for name, rows in tables.items():
+        frame = pd.DataFrame(rows)
+        paths = {"csv": f"{TABLES_DIR}/{name}.csv"}
+        write_atomic(
+            output / paths["csv"],
+            lambda temporary, f=frame: f.to_csv(temporary, index=False, float_format="%.17g"),
+        )
+        if parquet:
+            paths["parquet"] = f"{TABLES_DIR}/{name}.parquet"
+            write_atomic(
+                output / paths["parquet"],
+                lambda temporary, f=frame: f.astype(
+                    {c: "string" for c in f.columns if f[c].dtype == object}
+                ).to_parquet(temporary, index=False),
+            )
+        written[name] = paths
+    return written
+
+
+# --------------------------------------------------------------------------- figures and report
+
+
+def _ok_items(context, kind):
+    return [
+        item
+        for item in context.items
+        if item.kind == kind and item.record is not None and item.record["status"] == "ok"
+    ]
+
+
+def _startup_figure(context):
+    """Fig. 2a: the start-ups of the representative load and velocity (at most six)."""
+    from granflow.plotting import plot_startup
+
+    chosen = context.representative
+    group = [s for s in context.startups if (s.load, s.velocity) == (chosen.load, chosen.velocity)]
+    group = group[:6]
+    axes = plot_startup([s.item.run for s in group], [s.fit for s in group])
+    caption = (
+        f"Friction force during start-up at {_display_load(chosen.load)} and "
+        f"{chosen.velocity * 1e6:.4g} µm/s: data (points), fits of Eq. 3 (lines) and "
+        "residuals (Fig. 2a)."
+    )
+    return axes, caption
+
+
+def _figure_specs(context):
+    """(name, title, draw) for each figure the campaign allows; draw() -> (figure, caption)."""
+    from granflow import plotting
+
+    specs = []
+    if context.startups:
+        specs.append(("startup", "Start-up curves and fits", lambda: _startup_figure(context)))
+    if context.collapse is not None:
+        specs.append(
+            (
+                "collapse",
+                "Velocity collapse",
+                lambda: (
+                    plotting.plot_collapse(context.collapse),
+                    "Start-ups at several velocities against slip, with the shared fit of "
+                    "Eq. 3; inset: the short slips (Fig. 2b).",
+                ),
+            )
+        )
+    if context.amontons is not None:
+        specs.append(
+            (
+                "amontons",
+                "Amontons' law",
+                lambda: (
+                    plotting.plot_amontons(context.amontons),
+                    "a, αv and F_d against the normal load: means over the repeats with "
+                    "standard errors, F_d with its line through the origin (Fig. 2c).",
+                ),
+            )
+        )
+    ramps = _ok_items(context, "ramp")
+    if ramps:
+        specs.append(
+            (
+                "stress_ramp",
+                "Stress ramp",
+                lambda: (
+                    plotting.plot_stress_ramp(ramps[0].run, context.ramp_params.get(ramps[0].name)),
+                    f"{ramps[0].name}: slip and imposed force against time under a stress "
+                    "ramp, with the predicted static yield F_peak at its load (Fig. 3a).",
+                ),
+            )
+        )
+    creeps = _ok_items(context, "creep")
+    if creeps:
+        specs.append(
+            (
+                "creep",
+                "Creep",
+                lambda: (
+                    plotting.plot_creep(
+                        [i.run for i in creeps],
+                        [_creep_from_record(i.record, i.run) for i in creeps],
+                    ),
+                    "Slip against time under constant forces, with fits of "
+                    "δ = B ln(1 + t/τ_c) (Fig. 3b).",
+                ),
+            )
+        )
+    switches = _ok_items(context, "switch")
+    if switches:
+        item = switches[0]
+        specs.append(
+            (
+                "switch",
+                "Switch from rate to stress control",
+                lambda: (
+                    plotting.plot_switch(
+                        item.run,
+                        context.switch_params.get(item.name),
+                        switch_time=item.record["switch"]["switch_time"],
+                    ),
+                    f"{item.name}: slip and force against time, the switch marked, with the "
+                    "rate-controlled curve of the fitted parameters (Fig. 3c).",
+                ),
+            )
+        )
+    if context.stability is not None:
+        specs.append(
+            (
+                "stability_map",
+                "Stability map",
+                lambda: (
+                    plotting.plot_stability_map(context.stability),
+                    "Predicted outcome of a switch to force control, over the switch time and "
+                    "the ratio of imposed to current force (quasi-static, slip clock): failure "
+                    "(grey) or the slip to the stop.",
+                ),
+            )
+        )
+    if context.posterior is not None:
+        specs.append(
+            (
+                "corner",
+                "Posterior (MCMC)",
+                lambda: (
+                    plotting.plot_corner(context.posterior),
+                    f"Posterior of the Eq. 3 fit of {context.representative.item.name} "
+                    "(emcee), the least-squares values marked.",
+                ),
+            )
+        )
+    return specs
+
+
+def _display_load(load):
+    return "an unknown load" if load is None else f"F_N = {load * 1e3:.4g} mN"
+
+
+def _make_figures(output, context, warnings_list):
+    """Draw every figure the campaign allows into OUTPUT/figures (PNG and SVG, each written
+    atomically); returns the entries of results["figures"]."""
+    import matplotlib.pyplot as plt
+
+    from granflow.plotting import save_figure
+
+    folder = output / FIGURES_DIR
+    figures = []
+    for name, title, draw in _figure_specs(context):
+        before = set(plt.get_fignums())
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                drawn, caption = draw()
+                paths = save_figure(drawn, folder, name)
+        except Exception as exc:  # a figure that fails must not cost the results
+            warnings_list.append(f"figure {name!r} could not be drawn: {type(exc).__name__}: {exc}")
+            continue
+        finally:  # close what this figure opened, never the caller's own figures
+            for number in set(plt.get_fignums()) - before:
+                plt.close(number)
+        entry = {"name": name, "title": title, "caption": caption}
+        entry.update({suffix: f"{FIGURES_DIR}/{path.name}" for suffix, path in paths.items()})
+        figures.append(entry)
+    return figures
+
+
+def _write_report(output, results):
+    """report.html (written atomically by granflow.report.render_report)."""
+    from granflow.analysis.report import render_report
+
+    return render_report(results, output)

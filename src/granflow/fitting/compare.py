@@ -1,0 +1,213 @@
+"""Model comparison on one curve: Eq. 3 against pure logarithmic aging and a single exponential.
+
+Each model is fitted by least squares to the same points; the table ranks them by AIC and
+BIC (lmfit's definitions, ``n ln(chi2/n) + 2 k`` and ``n ln(chi2/n) + k ln n``). A model that
+cannot be fitted (Eq. 3 on a curve without overshoot) stays in the table with its reason.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow._json import json_safe
+from granflow.errors import GranflowError, InvalidParameterError
+from granflow.fitting.creep import fit_curve
+from granflow.fitting.engine import FrozenMap
+from granflow.fitting.single import _prepare, fit
+
+__all__ = ["ModelComparison", "compare_models"]
+
+MODELS = ("eq3", "log_aging", "exponential")
+_FORMULAS = {
+    "eq3": "Eq. 3: a e^-s [Ei(s) - Ei(s0)] + Fd (1 - e^-s)",
+    "log_aging": "F = F1 + a ln(x / x1), x1 the first point (alpha -> 0)",
+    "exponential": "F = Fd + (F_init - Fd) e^(-alpha x)",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class ModelComparison:
+    """An AIC/BIC table of the models fitted to one curve.
+
+    Attributes
+    ----------
+    rows : tuple of dict
+        Per model: ``model``, ``formula``, ``nfree``, ``chisqr``, ``aic``, ``bic``,
+        ``delta_aic``, ``delta_bic`` (from the best), ``success``, ``message``.
+    fits : mapping
+        The fit result of each model (None where it could not be fitted).
+    best_aic, best_bic : str
+        The model with the smallest AIC, BIC.
+    """
+
+    rows: tuple
+    fits: FrozenMap
+    best_aic: str
+    best_bic: str
+
+    def report(self):
+        """The table as text."""
+        lines = [f"{'model':<12} {'k':>2} {'chi-square':>12} {'AIC':>12} {'dAIC':>9} {'dBIC':>9}"]
+        for row in self.rows:
+            if row["aic"] is None:
+                lines.append(f"{row['model']:<12} {row['nfree']:>2}  not fitted: {row['message']}")
+                continue
+            lines.append(
+                f"{row['model']:<12} {row['nfree']:>2} {row['chisqr']:12.5g} {row['aic']:12.6g} "
+                f"{row['delta_aic']:9.2f} {row['delta_bic']:9.2f}"
+            )
+        lines.append(f"best by AIC: {self.best_aic}; by BIC: {self.best_bic}")
+        return "\n".join(lines)
+
+    def to_dict(self):
+        """JSON-safe mapping: the rows and the winners."""
+        return json_safe(
+            {
+                "rows": [dict(r) for r in self.rows],
+                "best_aic": self.best_aic,
+                "best_bic": self.best_bic,
+            }
+        )
+
+    def to_frame(self):
+        """The table as a pandas DataFrame."""
+        import pandas as pd
+
+        return pd.DataFrame(list(self.rows)).set_index("model")
+
+
+def _log_aging(x, a, F1):
+    return F1 + a * np.log(x / x[0])
+
+
+def _exponential(x, Fd, F_init, alpha):
+    return Fd + (F_init - Fd) * np.exp(-alpha * x)
+
+
+def _fit_log_aging(z, y, sigma):
+    design = np.column_stack([np.log(z / z[0]), np.ones_like(z)])
+    (a, F1), *_ = np.linalg.lstsq(design, y, rcond=None)
+    return fit_curve(
+        _log_aging,
+        name="log_aging",
+        formula=_FORMULAS["log_aging"],
+        names=("a", "F1"),
+        units={"a": "N", "F1": "N"},
+        log=(False, False),
+        start=(a, F1),
+        x=z,
+        y=y,
+        sigma=sigma,
+    )
+
+
+def _fit_exponential(z, y, sigma):
+    Fd = float(np.mean(y[int(0.9 * y.size) :]))
+    best = None
+    for alpha in np.geomspace(0.1 / z[-1], 100 / z[-1], 13):
+        decay = np.exp(-alpha * z)
+        design = np.column_stack([1 - decay, decay])
+        coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
+        cost = float(np.sum((design @ coefficients - y) ** 2))
+        if best is None or cost < best[0]:
+            best = (cost, coefficients, alpha)
+    _, (Fd, F_init), alpha = best
+    return fit_curve(
+        _exponential,
+        name="exponential",
+        formula=_FORMULAS["exponential"],
+        names=("Fd", "F_init", "alpha"),
+        units={"Fd": "N", "F_init": "N", "alpha": "1/m"},
+        log=(False, False, True),
+        start=(Fd, F_init if F_init != 0 else 1e-12, alpha),
+        x=z,
+        y=y,
+        sigma=sigma,
+    )
+
+
+def compare_models(data, *, domain="slip", velocity=None, window=None, sigma=None):
+    """Compare Eq. 3 with pure logarithmic aging and a single-exponential approach.
+
+    Parameters
+    ----------
+    data : Run or (array_like, array_like)
+        As for :func:`granflow.fit`.
+    domain : {"slip", "time"}
+        Abscissa slip [m] or time [s]; the rival models are written in the same variable.
+    velocity : float, optional
+        Sliding velocity [m/s] (time domain).
+    window : (float, float), optional
+        Fit window, the same for every model.
+    sigma : float, optional
+        Known noise [N].
+
+    Returns
+    -------
+    ModelComparison
+
+    Examples
+    --------
+    >>> import numpy as np, granflow
+    >>> p = granflow.Params(3.3e-3, 4.2e4, 10e-3, 2e-7)
+    >>> x = np.linspace(3e-7, 5e-4, 500)
+    >>> y = granflow.friction_slip(x, p) + np.random.default_rng(0).normal(0, 5e-5, 500)
+    >>> granflow.compare_models((x, y)).best_aic
+    'eq3'
+    """
+    if domain not in ("slip", "time"):
+        raise InvalidParameterError(f"domain must be 'slip' or 'time', got {domain!r}")
+    prepared = _prepare(data, domain, velocity, window, None, sigma)
+    z, y = prepared.z, prepared.y
+    fits, rows = {}, []
+    for model in MODELS:
+        try:
+            if model == "eq3":
+                result = fit(
+                    (z, y), domain=domain, velocity=prepared.velocity, sigma=sigma, profile=False
+                )
+            elif model == "log_aging":
+                result = _fit_log_aging(z, y, sigma)
+            else:
+                result = _fit_exponential(z, y, sigma)
+        except GranflowError as exc:
+            fits[model] = None
+            nfree = {"eq3": 4, "log_aging": 2, "exponential": 3}[model]
+            rows.append(
+                {
+                    "model": model,
+                    "formula": _FORMULAS[model],
+                    "nfree": nfree,
+                    "chisqr": None,
+                    "aic": None,
+                    "bic": None,
+                    "success": False,
+                    "message": str(exc),
+                }
+            )
+            continue
+        fits[model] = result
+        rows.append(
+            {
+                "model": model,
+                "formula": _FORMULAS[model],
+                "nfree": result.nfree,
+                "chisqr": result.chisqr,
+                "aic": result.aic,
+                "bic": result.bic,
+                "success": result.success,
+                "message": result.message,
+            }
+        )
+    fitted = [r for r in rows if r["aic"] is not None]
+    best_aic = min(fitted, key=lambda r: r["aic"])
+    best_bic = min(fitted, key=lambda r: r["bic"])
+    for row in rows:
+        row["delta_aic"] = None if row["aic"] is None else row["aic"] - best_aic["aic"]
+        row["delta_bic"] = None if row["bic"] is None else row["bic"] - best_bic["bic"]
+    return ModelComparison(
+        rows=tuple(rows),
+        fits=FrozenMap(fits),
+        best_aic=best_aic["model"],
+        best_bic=best_bic["model"],
+    )

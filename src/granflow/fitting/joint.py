@@ -1,0 +1,761 @@
+"""Joint fits of Eq. 3 over many runs, with parameters tied by name, and the paper's analyses.
+
+* :func:`fit_joint` -- runs share some parameters (``alpha``), keep others per run (``x0_3``)
+  or per group (``alpha_v1``);
+* :func:`velocity_collapse` -- Fig. 2b: one shared curve in slip against per-velocity a and
+  alpha, with a likelihood-ratio test of "a and alpha do not depend on the velocity";
+* :func:`fit_amontons` -- Fig. 2c: a = mu_a F_N and Fd = mu_d F_N with alpha shared, plus the
+  per-load summary of repeats and lines through the origin;
+* :func:`preparation_spread` -- the spread of x0 (t0) over repeats, its correlation with the
+  peak force, and the spread of Fd.
+
+Every run is fitted alone first (no initial guess needed); those fits start the joint fit.
+"""
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.stats import chi2 as chi2_distribution
+from scipy.stats import pearsonr
+
+from granflow._json import json_safe
+from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
+from granflow.fitting.engine import WALD_Z, Curve, FrozenMap, GlobalParameter, Problem, covariance
+from granflow.fitting.single import FitResult, _prepare, _Solution, fit, parameter_names
+from granflow.fitting.statistics import estimates, statistics, statistics_lines, variable_line
+from granflow.model.friction import peak
+from granflow.model.run import Run
+
+__all__ = [
+    "AmontonsResult",
+    "CollapseResult",
+    "JointFitResult",
+    "PreparationSpread",
+    "fit_amontons",
+    "fit_joint",
+    "preparation_spread",
+    "velocity_collapse",
+]
+
+_LOG_SLOTS = (False, True, False, True)
+_TIME_ALIASES = {"alpha": "k", "x0": "t0"}
+
+
+@dataclass(frozen=True, eq=False)
+class JointFitResult:
+    """The outcome of :func:`fit_joint` (or of :func:`fit_amontons`).
+
+    Attributes
+    ----------
+    domain : {"slip", "time"}
+    names : tuple of str
+        Global parameter names: shared ones as is (``alpha``), per run with the run index
+        (``x0_3``), per group with the group label (``alpha_v1``).
+    params, stderr : mapping of str to float
+        Values and standard errors [SI].
+    ci95 : mapping of str to (float, float)
+        95 % Wald intervals.
+    covar, correl : mapping of str to mapping of str to float
+        Covariance and correlation of the free parameters, by name.
+    run_params : tuple of mapping
+        The four model parameters of each run as the joint fit sets them.
+    run_names : tuple of str
+    individual : tuple of FitResult
+        The separate fit of each run that started the joint fit (whose ``x`` and ``data``
+        hold the points each run contributed).
+    success, message, nfev, ndata, nfree, chisqr, redchi, aic, bic, sigma_known
+        As in :class:`granflow.FitResult`.
+    """
+
+    domain: str
+    names: tuple
+    params: FrozenMap
+    stderr: FrozenMap
+    ci95: FrozenMap
+    covar: FrozenMap
+    correl: FrozenMap
+    fixed: tuple
+    run_params: tuple
+    run_names: tuple
+    individual: tuple
+    success: bool
+    message: str
+    nfev: int
+    ndata: int
+    nfree: int
+    chisqr: float
+    redchi: float
+    aic: float
+    bic: float
+    sigma_known: bool
+
+    def __repr__(self):
+        return (
+            f"JointFitResult({len(self.run_names)} runs, {self.nfree} free parameters, "
+            f"success={self.success}, redchi={self.redchi:.3g})"
+        )
+
+    def report(self):
+        """A text report in the manner of lmfit's ``fit_report``."""
+        lines = statistics_lines(
+            self,
+            title="Joint Fit Statistics",
+            extra=(("domain", self.domain), ("runs", len(self.run_names))),
+        )
+        lines += [
+            "[[Variables]]",
+        ]
+        for name in self.names:
+            if name in self.fixed:
+                lines.append(f"    {name:<10} = {self.params[name]:.8g} (fixed)")
+                continue
+            lines.append(
+                variable_line(name, self.params[name], self.stderr[name], self.ci95[name], width=10)
+            )
+        return "\n".join(lines)
+
+    def to_dict(self):
+        """JSON-safe mapping of the result."""
+        return json_safe(
+            {
+                "domain": self.domain,
+                "names": list(self.names),
+                **estimates(self),
+                "fixed": list(self.fixed),
+                "run_params": [dict(p) for p in self.run_params],
+                "run_names": list(self.run_names),
+                "nfev": self.nfev,
+                **statistics(self),
+            }
+        )
+
+
+@dataclass
+class _Spec:
+    """Global parameters: name -> (slot, start), and per run the (name, factor) of each slot."""
+
+    globals: dict
+    links: list
+
+
+def _individual_fits(datasets, domain, sigma, window):
+    prepared, fits = [], []
+    for index, data in enumerate(datasets):
+        try:
+            prepared.append(_prepare(data, domain, None, window, None, sigma))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                fits.append(fit(data, domain=domain, sigma=sigma, window=window, profile=False))
+        except GranflowError as exc:
+            raise type(exc)(f"run {index}: {exc}") from exc
+    return prepared, fits
+
+
+def _run_names(datasets, fits):
+    names = []
+    for index, (data, result) in enumerate(zip(datasets, fits, strict=True)):
+        names.append(data.name if isinstance(data, Run) else (result.name or f"run {index}"))
+    return tuple(names)
+
+
+def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
+    parameters, index_of = [], {}
+    for name in names_order:
+        slot, start = spec.globals[name]
+        lower = 0.0
+        parameters.append(
+            GlobalParameter(
+                name=name,
+                value=fixed.get(name, start),
+                log=_LOG_SLOTS[slot],
+                fixed=name in fixed,
+                lower=lower if not _LOG_SLOTS[slot] else 0.0,
+            )
+        )
+        index_of[name] = len(parameters) - 1
+    curves = [
+        Curve(data.z, data.y, data.w, tuple((index_of[g], factor) for g, factor in links))
+        for data, links in zip(prepared, spec.links, strict=True)
+    ]
+    problem = Problem(curves, parameters)
+    u, _, converged, steps, _ = problem.lm(problem.internal(), max_iter=300)
+    if converged:
+        solution = _Solution(u, 1, "converged (Levenberg-Marquardt)", steps)
+    else:
+        try:
+            solution = problem.solve(u, max_nfev=400)
+        except ValueError as exc:  # e.g. residuals that are not finite at the start
+            solution = _Solution(u, 0, f"the optimiser failed: {exc}", steps)
+    values = problem.values(solution.x)
+    chisqr = problem.chisqr(values)
+    n, nfree = problem.ndata, len(problem.free)
+    redchi = chisqr / max(n - nfree, 1)
+    covar_free, invertible = covariance(problem, values, 1.0 if sigma_known else redchi)
+    free_names = [names_order[i] for i in problem.free]
+    stderr = dict.fromkeys(names_order, 0.0)
+    for k, name in enumerate(free_names):
+        stderr[name] = math.sqrt(max(covar_free[k, k], 0.0))
+    params = {name: float(values[i]) for i, name in enumerate(names_order)}
+    ci95 = {
+        name: (params[name] - WALD_Z * stderr[name], params[name] + WALD_Z * stderr[name])
+        for name in names_order
+    }
+    covar = {
+        p: FrozenMap({q: float(covar_free[i, j]) for j, q in enumerate(free_names)})
+        for i, p in enumerate(free_names)
+    }
+    correl = {
+        p: FrozenMap(
+            {
+                q: covar[p][q] / (stderr[p] * stderr[q]) if stderr[p] * stderr[q] > 0 else 0.0
+                for q in free_names
+            }
+        )
+        for p in free_names
+    }
+    model_names = parameter_names(domain)
+    run_params = tuple(
+        FrozenMap({model_names[slot]: factor * params[g] for slot, (g, factor) in enumerate(links)})
+        for links in spec.links
+    )
+    messages = [solution.message]
+    if not invertible:
+        messages.append("the parameters are not all determined by the data (singular J^T J)")
+    log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf
+    return dict(
+        domain=domain,
+        names=tuple(names_order),
+        params=FrozenMap(params),
+        stderr=FrozenMap(stderr),
+        ci95=FrozenMap(ci95),
+        covar=FrozenMap(covar),
+        correl=FrozenMap(correl),
+        fixed=tuple(n_ for n_ in names_order if n_ in fixed),
+        run_params=run_params,
+        individual=tuple(fits),
+        success=bool(solution.status > 0 and invertible),
+        message="; ".join(messages),
+        nfev=int(solution.nfev),
+        ndata=n,
+        nfree=nfree,
+        chisqr=chisqr,
+        redchi=redchi,
+        aic=log_term + 2 * nfree,
+        bic=log_term + math.log(n) * nfree,
+        sigma_known=sigma_known,
+    )
+
+
+def fit_joint(
+    datasets,
+    *,
+    domain="slip",
+    shared=("a", "alpha", "Fd"),
+    per_run=("x0",),
+    groups=None,
+    per_group=(),
+    fixed=None,
+    sigma=None,
+    window=None,
+):
+    """Fit Eq. 3 to several runs at once, with parameters tied by name.
+
+    Parameters
+    ----------
+    datasets : sequence
+        Runs or ``(x, force)`` pairs, as :func:`granflow.fit` takes them.
+    domain : {"slip", "time"}
+        Parameter names ``a, alpha, Fd, x0`` or ``a, k, Fd, t0``.
+    shared : sequence of str
+        Parameters common to every run (named as is: ``alpha``). In the time domain ``alpha``
+        and ``x0`` may be written for ``k`` and ``t0``.
+    per_run : sequence of str
+        Parameters of each run (named with the run's index: ``x0_0``, ``x0_1``, ...).
+    groups : sequence, optional
+        A label per run (e.g. the velocity); with ``per_group``.
+    per_group : sequence of str
+        Parameters common to the runs of a group (named ``alpha_<label>``).
+    fixed : mapping of str to float, optional
+        Global parameters held fixed, by their global name.
+    sigma : float, optional
+        Known noise [N] (unscaled covariance); default: the residual variance.
+    window : (float, float), optional
+        Fit window, the same for every run (see :func:`granflow.fit`).
+
+    Returns
+    -------
+    JointFitResult
+
+    Examples
+    --------
+    >>> import numpy as np, granflow
+    >>> x = np.linspace(2e-7, 4e-4, 400)
+    >>> runs = [(x, granflow.friction_slip(x, granflow.Params(3e-3, 4e4, 10e-3, x0)))
+    ...         for x0 in (1e-7, 1.5e-7)]
+    >>> joint = granflow.fit_joint(runs)
+    >>> round(joint.params["alpha"]), round(joint.params["x0_1"] * 1e7, 3)
+    (40000, 1.5)
+    """
+    model_names = parameter_names(domain)
+    datasets = list(datasets)
+    if not datasets:
+        raise InvalidParameterError("fit_joint needs at least one run")
+    if domain == "time":  # the slip names (the defaults) stand for their time-domain twins
+        shared, per_run, per_group = (
+            tuple(_TIME_ALIASES.get(name, name) for name in names)
+            for names in (shared, per_run, per_group)
+        )
+    roles = {}
+    for role, names in (("shared", shared), ("per_run", per_run), ("per_group", per_group)):
+        for name in names:
+            if name not in model_names:
+                raise InvalidParameterError(
+                    f"{role}: unknown parameter {name!r}; the parameters are "
+                    f"{', '.join(model_names)}"
+                )
+            if name in roles:
+                raise InvalidParameterError(f"{name!r} is both {roles[name]} and {role}")
+            roles[name] = role
+    missing = [n for n in model_names if n not in roles]
+    if missing:
+        raise InvalidParameterError(
+            f"every parameter must be shared, per_run or per_group; missing: {', '.join(missing)}"
+        )
+    if per_group and (groups is None or len(groups) != len(datasets)):
+        raise InvalidParameterError("per_group needs groups: one label per run")
+    prepared, fits = _individual_fits(datasets, domain, sigma, window)
+    labels = [str(g) for g in groups] if groups is not None else [""] * len(datasets)
+    spec = _Spec(globals={}, links=[])
+    order = []
+    for index, _result in enumerate(fits):
+        links = []
+        for slot, name in enumerate(model_names):
+            role = roles[name]
+            if role == "shared":
+                key = name
+                members = range(len(fits))
+            elif role == "per_run":
+                key = f"{name}_{index}"
+                members = [index]
+            else:
+                key = f"{name}_{labels[index]}"
+                members = [i for i, label in enumerate(labels) if label == labels[index]]
+            if key not in spec.globals:
+                start = float(np.median([fits[i].params[name] for i in members]))
+                spec.globals[key] = (slot, start)
+                order.append(key)
+            links.append((key, 1.0))
+        spec.links.append(tuple(links))
+    fixed = dict(fixed or {})
+    for key in fixed:
+        if key not in spec.globals:
+            raise InvalidParameterError(
+                f"fixed: unknown parameter {key!r}; the parameters are {', '.join(order)}"
+            )
+    fields = _solve(spec, prepared, fits, domain, fixed, sigma is not None, order)
+    return JointFitResult(run_names=_run_names(datasets, fits), **fields)
+
+
+# --------------------------------------------------------------------------- velocity collapse
+
+
+@dataclass(frozen=True, eq=False)
+class CollapseResult:
+    """Velocity collapse (Fig. 2b): shared fit, per-velocity fit and a likelihood-ratio test.
+
+    Attributes
+    ----------
+    velocities : tuple of float
+        The distinct velocities [m/s]; group ``v<i>`` is ``velocities[i]``.
+    shared : JointFitResult
+        a, alpha, Fd shared by every run; x0 per run.
+    per_velocity : JointFitResult
+        a and alpha per velocity (``a_v0``, ``alpha_v0``, ...), Fd shared, x0 per run.
+    statistic : float
+        Likelihood-ratio statistic: ``n ln(chi2_shared / chi2_per_velocity)`` (noise
+        estimated) or ``chi2_shared - chi2_per_velocity`` (known sigma).
+    df : int
+        Degrees of freedom, 2 (number of velocities - 1).
+    p_value : float
+        Chance of a statistic this large if a and alpha do not depend on the velocity.
+    collapses : bool
+        True when the test does not reject the collapse at the 5 % level.
+    """
+
+    velocities: tuple
+    shared: JointFitResult
+    per_velocity: JointFitResult
+    statistic: float
+    df: int
+    p_value: float
+    collapses: bool
+
+    def report(self):
+        """Summary of the test, then the per-velocity values."""
+        lines = [
+            "[[Velocity collapse]]",
+            f"    velocities    = {', '.join(f'{v * 1e6:.4g}' for v in self.velocities)} um/s",
+            f"    LR statistic  = {self.statistic:.4g} (df = {self.df})",
+            f"    p-value       = {self.p_value:.4g}",
+            f"    collapse      = {'not rejected' if self.collapses else 'rejected'} at 5 %",
+        ]
+        for i, v in enumerate(self.velocities):
+            p, e = self.per_velocity.params, self.per_velocity.stderr
+            lines.append(
+                f"    v = {v * 1e6:.4g} um/s: a = {p[f'a_v{i}']:.5g} +/- {e[f'a_v{i}']:.2g} N, "
+                f"alpha = {p[f'alpha_v{i}']:.5g} +/- {e[f'alpha_v{i}']:.2g} 1/m"
+            )
+        return "\n".join(lines)
+
+    def to_dict(self):
+        """JSON-safe mapping."""
+        return json_safe(
+            {
+                "velocities": list(self.velocities),
+                "shared": self.shared.to_dict(),
+                "per_velocity": self.per_velocity.to_dict(),
+                "statistic": self.statistic,
+                "df": self.df,
+                "p_value": self.p_value,
+                "collapses": self.collapses,
+            }
+        )
+
+
+def _likelihood_ratio(null, alternative):
+    if null.sigma_known:
+        return max(null.chisqr - alternative.chisqr, 0.0)
+    return max(null.ndata * math.log(null.chisqr / alternative.chisqr), 0.0)
+
+
+def velocity_collapse(datasets, velocities=None, *, sigma=None, window=None):
+    """Test whether runs at several velocities follow one curve in slip (Fig. 2b).
+
+    Parameters
+    ----------
+    datasets : sequence
+        Runs or ``(slip, force)`` pairs (slip domain).
+    velocities : sequence of float, optional
+        The velocity of each run [m/s]; default each Run's ``nominal_velocity``.
+    sigma : float, optional
+        Known noise [N].
+    window : (float, float), optional
+        Fit window in slip [m].
+
+    Returns
+    -------
+    CollapseResult
+    """
+    datasets = list(datasets)
+    if velocities is None:
+        if not all(isinstance(d, Run) for d in datasets):
+            raise InvalidParameterError("give velocities, or Runs with a nominal velocity")
+        velocities = [d.nominal_velocity for d in datasets]
+    if len(velocities) != len(datasets):
+        raise InvalidParameterError(
+            f"velocities has {len(velocities)} values for {len(datasets)} runs"
+        )
+    distinct = sorted({float(v) for v in velocities})
+    if len(distinct) < 2:
+        raise InvalidParameterError("velocity_collapse needs runs at two velocities or more")
+    labels = [f"v{distinct.index(float(v))}" for v in velocities]
+    null = fit_joint(datasets, sigma=sigma, window=window)
+    alternative = fit_joint(
+        datasets,
+        shared=("Fd",),
+        per_group=("a", "alpha"),
+        per_run=("x0",),
+        groups=labels,
+        sigma=sigma,
+        window=window,
+    )
+    statistic = _likelihood_ratio(null, alternative)
+    df = 2 * (len(distinct) - 1)
+    p_value = float(chi2_distribution.sf(statistic, df))
+    return CollapseResult(
+        velocities=tuple(distinct),
+        shared=null,
+        per_velocity=alternative,
+        statistic=float(statistic),
+        df=df,
+        p_value=p_value,
+        collapses=p_value >= 0.05,
+    )
+
+
+# --------------------------------------------------------------------------- Amontons
+
+
+@dataclass(frozen=True, eq=False)
+class AmontonsResult:
+    """Amontons' law over normal loads (Fig. 2c).
+
+    Attributes
+    ----------
+    joint : JointFitResult
+        ``mu_a``, ``mu_d`` [-] and ``alpha`` shared, ``x0_<i>`` per run.
+    per_load : tuple of mapping
+        Per distinct load: ``normal_load`` [N], ``repeats``, and the mean and standard error
+        over the repeats' separate fits of ``a`` [N], ``alpha`` [1/m], ``alpha_v`` [1/s]
+        (when velocities are known, else None) and ``Fd`` [N].
+    lines : mapping
+        Lines through the origin of the per-load means against the load: ``"a"`` and
+        ``"Fd"`` map to (slope, standard error), i.e. mu_a and mu_d with uncertainties.
+    """
+
+    joint: JointFitResult
+    per_load: tuple
+    lines: FrozenMap
+
+    def report(self):
+        """The per-load table and the lines through the origin."""
+        lines = ["[[Amontons]]", self.joint.report(), "[[Per load: mean +/- standard error]]"]
+        for row in self.per_load:
+            lines.append(
+                f"    F_N = {row['normal_load'] * 1e3:.4g} mN (n = {row['repeats']}): "
+                f"a = {row['a'][0] * 1e3:.4g} +/- {row['a'][1] * 1e3:.2g} mN, "
+                f"alpha = {row['alpha'][0]:.4g} +/- {row['alpha'][1]:.2g} 1/m, "
+                f"Fd = {row['Fd'][0] * 1e3:.4g} +/- {row['Fd'][1] * 1e3:.2g} mN"
+            )
+        for key, (slope, error) in self.lines.items():
+            lines.append(f"    {key} = ({slope:.5g} +/- {error:.2g}) F_N")
+        return "\n".join(lines)
+
+    def to_dict(self):
+        """JSON-safe mapping."""
+        return json_safe(
+            {
+                "joint": self.joint.to_dict(),
+                "per_load": [dict(row) for row in self.per_load],
+                "lines": {k: list(v) for k, v in self.lines.items()},
+            }
+        )
+
+
+def _mean_and_error(values):
+    values = np.asarray(values, dtype=float)
+    if values.size < 2:
+        return (float(values.mean()), math.nan)
+    return (float(values.mean()), float(values.std(ddof=1) / math.sqrt(values.size)))
+
+
+def _line_through_origin(loads, means, errors):
+    """Weighted slope through the origin, its error scaled by the Birge ratio when > 1."""
+    loads, means, errors = (np.asarray(v, dtype=float) for v in (loads, means, errors))
+    if np.all(np.isfinite(errors)) and np.all(errors > 0):
+        weights = 1.0 / errors**2
+    else:
+        weights = np.ones_like(loads)
+    slope = float(np.sum(weights * loads * means) / np.sum(weights * loads**2))
+    error = math.sqrt(1.0 / np.sum(weights * loads**2))
+    if loads.size > 1:
+        birge = np.sum(weights * (means - slope * loads) ** 2) / (loads.size - 1)
+        if not np.all(weights == 1.0):
+            error *= math.sqrt(max(birge, 1.0))
+        else:
+            error *= math.sqrt(birge)
+    return slope, float(error)
+
+
+def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, window=None):
+    """Joint fit with a = mu_a F_N and Fd = mu_d F_N, alpha shared, x0 per run (Fig. 2c).
+
+    Parameters
+    ----------
+    datasets : sequence
+        Runs or ``(slip, force)`` pairs (slip domain).
+    normal_loads : sequence of float, optional
+        Normal load of each run [N]; default each Run's ``normal_load``.
+    velocities : sequence of float, optional
+        Velocity of each run [m/s], for the per-load alpha v; default the Runs' nominal
+        velocity when there is one.
+    sigma : float, optional
+        Known noise [N].
+    window : (float, float), optional
+        Fit window in slip [m].
+
+    Returns
+    -------
+    AmontonsResult
+    """
+    datasets = list(datasets)
+    if normal_loads is None:
+        if not all(isinstance(d, Run) and d.normal_load for d in datasets):
+            raise InvalidParameterError("give normal_loads, or Runs with a normal_load")
+        normal_loads = [d.normal_load for d in datasets]
+    if len(normal_loads) != len(datasets):
+        raise InvalidParameterError(
+            f"normal_loads has {len(normal_loads)} values for {len(datasets)} runs"
+        )
+    loads = [float(v) for v in normal_loads]
+    if any(not (v > 0 and math.isfinite(v)) for v in loads):
+        raise InvalidParameterError("normal loads must be positive and finite")
+    if velocities is None and all(isinstance(d, Run) for d in datasets):
+        velocities = [d.nominal_velocity for d in datasets]
+    prepared, fits = _individual_fits(datasets, "slip", sigma, window)
+    spec = _Spec(globals={}, links=[])
+    spec.globals["mu_a"] = (
+        0,
+        float(np.median([f.params["a"] / F for f, F in zip(fits, loads, strict=True)])),
+    )
+    spec.globals["alpha"] = (1, float(np.median([f.params["alpha"] for f in fits])))
+    spec.globals["mu_d"] = (
+        2,
+        float(np.median([f.params["Fd"] / F for f, F in zip(fits, loads, strict=True)])),
+    )
+    order = ["mu_a", "alpha", "mu_d"]
+    for index, (result, load) in enumerate(zip(fits, loads, strict=True)):
+        spec.globals[f"x0_{index}"] = (3, result.params["x0"])
+        order.append(f"x0_{index}")
+        spec.links.append((("mu_a", load), ("alpha", 1.0), ("mu_d", load), (f"x0_{index}", 1.0)))
+    fields = _solve(spec, prepared, fits, "slip", {}, sigma is not None, order)
+    joint = JointFitResult(run_names=_run_names(datasets, fits), **fields)
+    per_load = []
+    for load in sorted(set(loads)):
+        members = [i for i, v in enumerate(loads) if v == load]
+        row = {"normal_load": load, "repeats": len(members)}
+        for key in ("a", "alpha", "Fd"):
+            row[key] = _mean_and_error([fits[i].params[key] for i in members])
+        if velocities is not None and all(velocities[i] for i in members):
+            row["alpha_v"] = _mean_and_error(
+                [fits[i].params["alpha"] * velocities[i] for i in members]
+            )
+        else:
+            row["alpha_v"] = None
+        per_load.append(FrozenMap(row))
+    lines = {}
+    for key in ("a", "Fd"):
+        lines[key] = _line_through_origin(
+            [row["normal_load"] for row in per_load],
+            [row[key][0] for row in per_load],
+            [row[key][1] for row in per_load],
+        )
+    return AmontonsResult(joint=joint, per_load=tuple(per_load), lines=FrozenMap(lines))
+
+
+# --------------------------------------------------------------------------- preparation
+
+
+@dataclass(frozen=True, eq=False)
+class PreparationSpread:
+    """How repeats with nominally identical preparation differ.
+
+    Attributes
+    ----------
+    domain : {"slip", "time"}
+    repeats : int
+    start : mapping
+        Statistics of x0 [m] (or t0 [s]): ``mean``, ``std``, ``min``, ``max``, ``relative``
+        (std / mean).
+    Fd : mapping
+        The same for Fd [N].
+    peak_force : tuple of float
+        Model peak force of each repeat [N].
+    correlation : float
+        Pearson correlation of x0 (t0) with the peak force.
+    p_value : float
+        Two-sided p-value of that correlation (nan with fewer than three repeats).
+    """
+
+    domain: str
+    repeats: int
+    start: FrozenMap
+    Fd: FrozenMap
+    peak_force: tuple
+    correlation: float
+    p_value: float
+
+    def report(self):
+        """A short text summary."""
+        name = "x0" if self.domain == "slip" else "t0"
+        return "\n".join(
+            [
+                f"[[Preparation spread over {self.repeats} repeats]]",
+                f"    {name}: mean {self.start['mean']:.4g}, std {self.start['std']:.3g} "
+                f"({100 * self.start['relative']:.1f} %), range [{self.start['min']:.4g}, "
+                f"{self.start['max']:.4g}]",
+                f"    Fd: mean {self.Fd['mean']:.5g} N, std {self.Fd['std']:.3g} N "
+                f"({100 * self.Fd['relative']:.2f} %)",
+                f"    corr({name}, peak force) = {self.correlation:+.3f} (p = {self.p_value:.3g})",
+            ]
+        )
+
+    def to_dict(self):
+        """JSON-safe mapping."""
+        return json_safe(
+            {
+                "domain": self.domain,
+                "repeats": self.repeats,
+                "start": dict(self.start),
+                "Fd": dict(self.Fd),
+                "peak_force": list(self.peak_force),
+                "correlation": self.correlation,
+                "p_value": self.p_value,
+            }
+        )
+
+
+def _spread(values):
+    values = np.asarray(values, dtype=float)
+    mean = float(values.mean())
+    std = float(values.std(ddof=1)) if values.size > 1 else 0.0
+    return FrozenMap(
+        {
+            "mean": mean,
+            "std": std,
+            "min": float(values.min()),
+            "max": float(values.max()),
+            "relative": std / mean if mean else math.nan,
+        }
+    )
+
+
+def preparation_spread(results, *, domain="slip"):
+    """Spread of x0 (t0) and Fd over repeats, and how x0 correlates with the peak force.
+
+    Parameters
+    ----------
+    results : sequence of FitResult, Run or (x, force)
+        Fits of the repeats, or data to fit (with :func:`granflow.fit` in ``domain``).
+    domain : {"slip", "time"}
+        Used when data (not fits) are given.
+
+    Returns
+    -------
+    PreparationSpread
+    """
+    fits = [r if isinstance(r, FitResult) else fit(r, domain=domain) for r in results]
+    if len(fits) < 2:
+        raise InvalidParameterError("preparation_spread needs at least two repeats")
+    domains = {f.domain for f in fits}
+    if len(domains) > 1:
+        raise InvalidParameterError("the fits mix slip and time domains")
+    domain = domains.pop()
+    start_name = "x0" if domain == "slip" else "t0"
+    peaks = []
+    for result in fits:
+        values = [result.params[n] for n in result.names]
+        # the time domain is the slip domain with x -> t, so its peak has the same force
+        peaks.append(peak(_unit_params(values)).force)
+    starts = [f.params[start_name] for f in fits]
+    if len(fits) >= 3 and np.std(starts) > 0 and np.std(peaks) > 0:
+        correlation, p_value = pearsonr(starts, peaks)
+    else:
+        correlation, p_value = math.nan, math.nan
+    return PreparationSpread(
+        domain=domain,
+        repeats=len(fits),
+        start=_spread(starts),
+        Fd=_spread([f.params["Fd"] for f in fits]),
+        peak_force=tuple(float(p) for p in peaks),
+        correlation=float(correlation),
+        p_value=float(p_value),
+    )
+
+
+def _unit_params(values):
+    from granflow.model.params import Params
+
+    return Params(*values)

@@ -1,0 +1,282 @@
+"""Bayesian posterior of an Eq. 3 fit with emcee (the optional extra ``granflow[mcmc]``).
+
+The likelihood is Gaussian with the noise of the least-squares fit: the known sigma when the
+fit had one, otherwise the residual standard deviation. Scale parameters (a, alpha or k, x0
+or t0) get log-uniform priors by default, Fd a uniform one; walkers move in log coordinates
+for log-uniform parameters, so the prior is flat there.
+"""
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow._json import json_safe
+from granflow.errors import ConvergenceWarning, InvalidParameterError
+from granflow.fitting.engine import FrozenMap, model_only
+from granflow.fitting.single import FitResult
+
+__all__ = ["PosteriorResult", "sample_posterior"]
+
+_SCALE_PARAMETERS = {"a", "alpha", "x0", "k", "t0"}
+_PRIOR_KINDS = ("log-uniform", "uniform")
+_PRIOR_WIDTH = 1e3  # default log-uniform prior: [value / 1e3, value * 1e3]
+_TAU_FACTOR = 50  # chains shorter than 50 autocorrelation times are flagged
+
+
+def _emcee():
+    try:
+        import emcee
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "sample_posterior needs emcee: install the extra with "
+            "`pip install granflow[mcmc]` (emcee and corner)"
+        ) from exc
+    return emcee
+
+
+@dataclass(frozen=True, eq=False)
+class PosteriorResult:
+    """Samples of the posterior of an Eq. 3 fit.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The sampled (free) parameters.
+    chain : numpy.ndarray
+        Samples after burn-in, shape (steps, walkers, parameters), natural SI units.
+    medians, std : mapping of str to float
+        Posterior median and standard deviation.
+    ci68, ci95 : mapping of str to (float, float)
+        Central 68 % and 95 % credible intervals.
+    autocorr : mapping of str to float
+        Integrated autocorrelation time [steps].
+    acceptance_fraction : float
+        Mean acceptance fraction of the walkers.
+    converged : bool
+        Whether the chain is longer than 50 autocorrelation times.
+    least_squares : mapping of str to float
+        The least-squares values the sampler started from.
+    priors : mapping of str to (str, float, float)
+    seed : int or None
+    """
+
+    names: tuple
+    chain: np.ndarray
+    medians: FrozenMap
+    std: FrozenMap
+    ci68: FrozenMap
+    ci95: FrozenMap
+    autocorr: FrozenMap
+    acceptance_fraction: float
+    converged: bool
+    least_squares: FrozenMap
+    priors: FrozenMap
+    seed: int | None
+
+    @property
+    def samples(self):
+        """The chain flattened over walkers, shape (steps * walkers, parameters)."""
+        return self.chain.reshape(-1, len(self.names))
+
+    def __repr__(self):
+        values = ", ".join(f"{n}={self.medians[n]:.4g}" for n in self.names)
+        steps, walkers, _ = self.chain.shape
+        return f"PosteriorResult({steps} steps x {walkers} walkers, {values})"
+
+    def report(self):
+        """Medians with 68 % and 95 % intervals, autocorrelation times."""
+        lines = [
+            f"[[Posterior]] {self.chain.shape[0]} steps x {self.chain.shape[1]} walkers, "
+            f"acceptance {self.acceptance_fraction:.2f}, "
+            f"{'converged' if self.converged else 'CHAINS TOO SHORT'}"
+        ]
+        for n in self.names:
+            lines.append(
+                f"    {n:<5} = {self.medians[n]:.6g}  68%: [{self.ci68[n][0]:.6g}, "
+                f"{self.ci68[n][1]:.6g}]  95%: [{self.ci95[n][0]:.6g}, {self.ci95[n][1]:.6g}]  "
+                f"tau = {self.autocorr[n]:.1f}  (least squares {self.least_squares[n]:.6g})"
+            )
+        return "\n".join(lines)
+
+    def to_dict(self):
+        """JSON-safe summary (without the chain)."""
+        return json_safe(
+            {
+                "names": list(self.names),
+                "medians": dict(self.medians),
+                "std": dict(self.std),
+                "ci68": {k: list(v) for k, v in self.ci68.items()},
+                "ci95": {k: list(v) for k, v in self.ci95.items()},
+                "autocorr": dict(self.autocorr),
+                "acceptance_fraction": self.acceptance_fraction,
+                "converged": self.converged,
+                "least_squares": dict(self.least_squares),
+                "priors": {k: list(v) for k, v in self.priors.items()},
+                "seed": self.seed,
+                "shape": list(self.chain.shape),
+            }
+        )
+
+    def plot_corner(self, **kwargs):
+        """Corner plot of the samples; see :func:`granflow.plotting.plot_corner`."""
+        from granflow.plotting.fits import plot_corner
+
+        return plot_corner(self, **kwargs)
+
+
+def _priors(result, free, priors):
+    chosen = {}
+    priors = dict(priors or {})
+    for name in priors:
+        if name not in free:
+            raise InvalidParameterError(
+                f"priors: {name!r} is not a free parameter of the fit ({', '.join(free)})"
+            )
+    for name in free:
+        value = result.params[name]
+        if name in priors:
+            kind, low, high = priors[name]
+            if kind not in _PRIOR_KINDS:
+                raise InvalidParameterError(
+                    f"priors[{name!r}]: kind must be 'log-uniform' or 'uniform', got {kind!r}"
+                )
+            low, high = float(low), float(high)
+            if not low < high or (kind == "log-uniform" and low <= 0):
+                raise InvalidParameterError(f"priors[{name!r}]: need 0 < low < high for {kind}")
+        elif name in _SCALE_PARAMETERS and value > 0:
+            kind, low, high = "log-uniform", value / _PRIOR_WIDTH, value * _PRIOR_WIDTH
+        else:
+            kind, low, high = "uniform", 0.0, max(10.0 * abs(value), 1e-12)
+        if not low <= value <= high:
+            raise InvalidParameterError(
+                f"priors[{name!r}]: the least-squares value {value:.6g} lies outside "
+                f"[{low:.6g}, {high:.6g}]"
+            )
+        chosen[name] = (kind, low, high)
+    return chosen
+
+
+def sample_posterior(
+    fit_result, *, priors=None, nwalkers=32, nsteps=2000, burn=None, seed=None, progress=False
+):
+    """Sample the posterior of a single-curve fit with emcee's affine-invariant ensemble.
+
+    Parameters
+    ----------
+    fit_result : FitResult
+        A result of :func:`granflow.fit`; its free parameters are sampled, fixed ones stay.
+    priors : mapping of str to (kind, low, high), optional
+        ``kind`` is ``"log-uniform"`` or ``"uniform"``, bounds in SI. Defaults: log-uniform on
+        [value/1000, value*1000] for a, alpha (k), x0 (t0); uniform on [0, 10 value] for Fd.
+    nwalkers : int
+        Walkers (at least twice the number of free parameters).
+    nsteps : int
+        Steps per walker.
+    burn : int, optional
+        Steps discarded at the start; default ``nsteps // 4``.
+    seed : int, optional
+        Seed of the initial positions and of the sampler: a seeded run is reproducible exactly.
+    progress : bool
+        Show emcee's progress bar.
+
+    Returns
+    -------
+    PosteriorResult
+
+    Warns
+    -----
+    ConvergenceWarning
+        When the chain after burn-in is shorter than 50 autocorrelation times.
+
+    Examples
+    --------
+    >>> import numpy as np, granflow
+    >>> x = np.linspace(3e-7, 4e-4, 300)
+    >>> p = granflow.Params(3e-3, 4e4, 10e-3, 2e-7)
+    >>> y = granflow.friction_slip(x, p) + np.random.default_rng(0).normal(0, 5e-5, 300)
+    >>> post = granflow.sample_posterior(granflow.fit((x, y)), nsteps=300, seed=1)  # doctest: +SKIP
+    """
+    emcee = _emcee()
+    if not isinstance(fit_result, FitResult):
+        raise InvalidParameterError(
+            f"fit_result must be a granflow.FitResult, got {type(fit_result).__name__}"
+        )
+    free = [n for n in fit_result.names if n not in fit_result.fixed]
+    ndim = len(free)
+    if isinstance(nwalkers, bool) or not isinstance(nwalkers, int) or nwalkers < 2 * ndim:
+        raise InvalidParameterError(f"nwalkers must be an integer >= {2 * ndim}, got {nwalkers!r}")
+    if isinstance(nsteps, bool) or not isinstance(nsteps, int) or nsteps < 10:
+        raise InvalidParameterError(f"nsteps must be an integer >= 10, got {nsteps!r}")
+    burn = nsteps // 4 if burn is None else int(burn)
+    if not 0 <= burn < nsteps:
+        raise InvalidParameterError(f"burn must lie in [0, nsteps), got {burn}")
+    chosen = _priors(fit_result, free, priors)
+    log_axis = np.array([chosen[n][0] == "log-uniform" for n in free])
+    low = np.array([chosen[n][1] for n in free])
+    high = np.array([chosen[n][2] for n in free])
+    low_u = np.where(log_axis, np.log(np.where(log_axis, low, 1.0)), low)
+    high_u = np.where(log_axis, np.log(np.where(log_axis, high, 1.0)), high)
+    x = np.ascontiguousarray(fit_result.x)
+    data = np.asarray(fit_result.data)
+    noise = 1.0 if fit_result.sigma_known else math.sqrt(fit_result.redchi)
+    weights = np.asarray(fit_result.weights) / noise
+    slots = [fit_result.names.index(n) for n in free]
+    base = np.array([fit_result.params[n] for n in fit_result.names])
+
+    def natural(u):
+        return np.where(log_axis, np.exp(u), u)
+
+    def log_probability(u):
+        if np.any(u < low_u) or np.any(u > high_u):
+            return -np.inf
+        values = base.copy()
+        values[slots] = natural(u)
+        residual = weights * (model_only(x, *values) - data)
+        return -0.5 * float(residual @ residual)
+
+    seeds = np.random.SeedSequence(seed)
+    start_rng, sampler_seed = np.random.default_rng(seeds.spawn(1)[0]), seeds.generate_state(1)[0]
+    centre = np.where(log_axis, np.log(np.maximum(base[slots], 1e-300)), base[slots])
+    spread = np.array([fit_result.stderr[n] for n in free])
+    spread_u = np.where(log_axis, spread / np.abs(base[slots]), spread)
+    spread_u = np.where(spread_u > 0, spread_u, 1e-6 * np.maximum(np.abs(centre), 1e-12))
+    start = centre + 0.1 * spread_u * start_rng.standard_normal((nwalkers, ndim))
+    start = np.clip(start, low_u, high_u)
+    sampler = emcee.EnsembleSampler(nwalkers, ndim, log_probability)
+    sampler.random_state = np.random.RandomState(int(sampler_seed)).get_state()
+    sampler.run_mcmc(start, nsteps, progress=progress)
+    chain_u = sampler.get_chain(discard=burn)
+    chain = np.where(log_axis, np.exp(chain_u), chain_u)
+    chain.flags.writeable = False
+    flat = chain.reshape(-1, ndim)
+    tau = emcee.autocorr.integrated_time(chain_u, tol=0)
+    converged = bool(chain.shape[0] >= _TAU_FACTOR * np.max(tau))
+    if not converged:
+        warnings.warn(
+            f"the chains after burn-in ({chain.shape[0]} steps) are shorter than "
+            f"{_TAU_FACTOR} autocorrelation times (max tau = {np.max(tau):.1f} steps): "
+            "run more steps before trusting the intervals",
+            ConvergenceWarning,
+            stacklevel=2,
+        )
+    percentiles = np.percentile(flat, [2.5, 16, 50, 84, 97.5], axis=0)
+    return PosteriorResult(
+        names=tuple(free),
+        chain=chain,
+        medians=FrozenMap({n: float(percentiles[2, i]) for i, n in enumerate(free)}),
+        std=FrozenMap({n: float(flat[:, i].std(ddof=1)) for i, n in enumerate(free)}),
+        ci68=FrozenMap(
+            {n: (float(percentiles[1, i]), float(percentiles[3, i])) for i, n in enumerate(free)}
+        ),
+        ci95=FrozenMap(
+            {n: (float(percentiles[0, i]), float(percentiles[4, i])) for i, n in enumerate(free)}
+        ),
+        autocorr=FrozenMap({n: float(tau[i]) for i, n in enumerate(free)}),
+        acceptance_fraction=float(np.mean(sampler.acceptance_fraction)),
+        converged=converged,
+        least_squares=FrozenMap({n: fit_result.params[n] for n in free}),
+        priors=FrozenMap(chosen),
+        seed=seed,
+    )

@@ -1,0 +1,124 @@
+"""Format detection and the two entry points, :func:`read` and :func:`read_runs`."""
+
+from dataclasses import replace
+from pathlib import Path
+
+from granflow.errors import FileFormatError
+from granflow.io._runs import runs_from_file
+from granflow.io._text import decode, fail
+from granflow.io.generic import parse_csv
+from granflow.io.rheocompass import looks_like_rheocompass, parse_rheocompass
+from granflow.io.rheoplus import looks_like_rheoplus, parse_rheoplus
+from granflow.io.trios import looks_like_trios, parse_trios
+
+_PARSERS = {
+    "rheocompass": parse_rheocompass,
+    "rheoplus": parse_rheoplus,
+    "trios": parse_trios,
+    "csv": parse_csv,
+}
+FORMATS = tuple(_PARSERS)
+
+
+def detect_format(text):
+    """ "rheoplus", "rheocompass", "trios" or "csv" from the keywords in the text."""
+    lines = text.split("\n", 5000)[:5000]
+    if looks_like_rheoplus(lines):
+        return "rheoplus"
+    if looks_like_rheocompass(lines):
+        return "rheocompass"
+    if looks_like_trios(lines):
+        return "trios"
+    return "csv"
+
+
+def parse(text, source="<text>", format=None, encoding="str", **options):
+    """Parse decoded text in the given (or detected) format; ``options`` go to parse_csv."""
+    form = format or detect_format(text)
+    if form not in _PARSERS:
+        raise FileFormatError(f"{source}: unknown format {form!r}; known: {', '.join(FORMATS)}")
+    if form == "csv":
+        return parse_csv(text, source=source, encoding=encoding, **options)
+    if options:
+        raise FileFormatError(f"{source}: options {sorted(options)} apply to CSV files only")
+    return _PARSERS[form](text, source=source, encoding=encoding)
+
+
+def read(path, format=None, **options):
+    """Read an instrument export, detecting its encoding and format.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The export file; never modified.
+    format : {"rheocompass", "rheoplus", "trios", "csv"}, optional
+        Skip detection.
+    **options
+        ``column_map`` and ``units`` for generic CSV (see :func:`parse_csv`).
+
+    Returns
+    -------
+    ParsedFile
+        ``format``, ``encoding``, ``tests``, ``intervals`` (columns with units, values in file
+        units, metadata), ``problems``; ``report()`` prints it.
+
+    Raises
+    ------
+    granflow.FileFormatError
+        The file cannot be read; the message names the file and the line.
+
+    Examples
+    --------
+    >>> import granflow, tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "run.csv"
+    >>> _ = path.write_text("Time [s];Torque [mN·m]\\n0,5;1,25\\n1,5;1,5\\n", encoding="utf-8")
+    >>> parsed = granflow.read(path)
+    >>> parsed.decimal, parsed.intervals[0].si("torque")
+    (',', array([0.00125, 0.0015 ]))
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot read the file ({exc.strerror})") from None
+    text, encoding, problems = decode(raw, str(path))
+    del raw  # a million-row export: do not hold the bytes and the text at once
+    if not text.strip():
+        raise fail(str(path), 1, "the file is empty")
+    parsed = parse(text, source=str(path), format=format, encoding=encoding, **options)
+    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed
+
+
+def read_runs(path, geometry=None, format=None, **options):
+    """Read an export and turn each interval into a :class:`granflow.Run`.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The export file.
+    geometry : granflow.Annulus, optional
+        The contact; default ``Annulus.paper()``. Torque -> force with its effective radius,
+        deflection angle -> slip and rotational speed -> velocity at its mean radius.
+
+    Returns
+    -------
+    list of granflow.Run
+        One per interval: ``t`` [s], ``slip`` [m] (zero at the first angle of the interval),
+        ``velocity`` [m/s], ``force`` [N], NaN where the file has no value or no column;
+        ``control`` "rate" or "stress"; ``meta`` with ``source``, ``interval`` (1-based, in
+        file order), ``test``, and what the file says (sample, normal_load, ...).
+
+    Examples
+    --------
+    >>> import granflow, tempfile, pathlib
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "run.csv"
+    >>> _ = path.write_text("Time [s],Torque [mN m],Deflection Angle [mrad]\\n"
+    ...                     "0,0.1,1\\n1,0.2,2\\n", encoding="utf-8")
+    >>> run = granflow.read_runs(path)[0]
+    >>> [round(float(value) * 1e6, 6) for value in run.slip]  # um
+    [0.0, 13.7]
+    """
+    from granflow.model.geometry import Annulus
+
+    parsed = read(path, format=format, **options)
+    return runs_from_file(parsed, geometry or Annulus.paper())

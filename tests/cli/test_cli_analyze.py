@@ -1,0 +1,248 @@
+"""The analyze and demo commands: exit codes, messages, help, interruption and --resume."""
+
+import contextlib
+import io
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from browser import browser, page_problems  # noqa: F401 (browser: a fixture)
+from conftest import write_small_campaign
+
+import granflow as gf
+from granflow.cli import main
+
+SOURCE = Path(__file__).resolve().parents[2] / "src"
+RUNS = 14  # runs in the small campaign
+
+
+def without_timing(folder):
+    results = json.loads((folder / "results.json").read_text(encoding="utf-8"))
+    results.pop("timing")
+    return results
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    return write_small_campaign(tmp_path_factory.mktemp("campaign"))
+
+
+@pytest.fixture(scope="module")
+def reference(campaign, tmp_path_factory):
+    """An uninterrupted analysis through the command line."""
+    output = tmp_path_factory.mktemp("reference")
+    assert main(["analyze", str(campaign.parent), "-o", str(output), "--jobs", "1", "--quiet"]) == 0
+    return output
+
+
+def test_analyze_prints_the_summary(reference, campaign, capsys):
+    output = reference.parent / "again"
+    code = main(["analyze", str(campaign), "-o", str(output), "--jobs", "1", "--quiet"])
+    assert code == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    assert "material constants (amontons joint fit)" in out
+    for name in ("mu_a", "mu_d", "alpha"):
+        assert f"  {name}" in out and "95%: [" in out
+    assert f"output: {output.resolve()}" in out
+    assert len(out.splitlines()) <= 24  # one screen
+
+
+def test_analyze_with_a_corrupt_file_exits_1_and_names_it(campaign, tmp_path, capsys):
+    folder = tmp_path / "campaign"
+    shutil.copytree(campaign.parent, folder)
+    (folder / "ramp.txt").write_text("Project:\tnothing here\n\ngarbage\n", encoding="utf-8")
+    code = main(["analyze", str(folder), "-o", str(tmp_path / "out"), "--jobs", "2", "--quiet"])
+    assert code == 1
+    assert "ramp.txt" in capsys.readouterr().out
+    results = json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
+    assert [entry["source"] for entry in results["failed_runs"]] == ["ramp.txt"]
+    assert [run["status"] for run in results["runs"]].count("ok") == RUNS - 1
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["analyze", "no-such-campaign"], "no-such-campaign: no such manifest or folder"),
+        (["analyze", "{campaign}", "--jobs", "0"], "expected a positive integer, got 0"),
+        (["analyze"], "the following arguments are required: campaign"),
+    ],
+)
+def test_analyze_usage_errors_exit_2(campaign, tmp_path, capsys, args, message):
+    args = [arg.format(campaign=campaign) for arg in args]
+    assert main([*args, "-o", str(tmp_path)]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_a_bad_manifest_is_one_line_and_debug_shows_the_traceback(tmp_path, capsys):
+    manifest = tmp_path / "manifest.yaml"
+    manifest.write_text("runs:\n  - file: a.txt\n    colour: blue\n", encoding="utf-8")
+    assert main(["analyze", str(manifest), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "unknown field 'colour'" in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert main(["--debug", "analyze", str(manifest), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback (most recent call last)" in err and "FileFormatError" in err
+
+
+def test_an_internal_error_is_one_line_unless_debug(campaign, tmp_path, capsys, monkeypatch):
+    import granflow.analysis
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(granflow.analysis, "analyze", broken)
+    assert main(["analyze", str(campaign), "-o", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err == (
+        "granflow analyze: error: ZeroDivisionError: a bug (run with --debug for the traceback)\n"
+    )
+    assert main(["--debug", "analyze", str(campaign), "-o", str(tmp_path)]) == 1
+    assert "Traceback (most recent call last)" in capsys.readouterr().err
+
+
+def test_scheduler_without_dask_names_the_extra(campaign, tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
+    args = ["analyze", str(campaign), "-o", str(tmp_path), "--scheduler", "tcp://127.0.0.1:1"]
+    assert main(args) == 2
+    assert "granflow[dask]" in capsys.readouterr().err
+
+
+def test_version_and_help_with_examples(capsys):
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"granflow {gf.__version__}"
+    for command in ([], ["analyze"], ["demo"]):
+        assert main([*command, "--help"]) == 0
+        out = capsys.readouterr().out
+        assert "examples:" in out
+        assert ("granflow demo" if command != ["analyze"] else "granflow analyze campaign/") in out
+
+
+def test_every_command_has_examples_in_its_help(capsys):
+    from granflow.cli import build_parser
+
+    commands = build_parser()._subparsers._group_actions[0].choices
+    assert {"analyze", "demo", "curve", "fit"} <= set(commands)
+    for command in commands:
+        assert main([command, "--help"]) == 0
+        assert "example" in capsys.readouterr().out, command
+
+
+def test_python_m_granflow(tmp_path):
+    completed = subprocess.run(
+        [sys.executable, "-m", "granflow", "--version"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(SOURCE)},
+        check=False,
+    )
+    assert completed.returncode == 0
+    assert completed.stdout.strip() == f"granflow {gf.__version__}"
+
+
+# The analysis of the small campaign takes well under a second, too fast to stop from the
+# outside: the subprocess slows each run down before calling the real command line.
+_SLOW_CLI = """
+import sys, time
+import granflow.analysis.engine as analysis
+analyse_run = analysis.analyse_run
+def slow(task):
+    time.sleep(0.4)
+    return analyse_run(task)
+analysis.analyse_run = slow
+from granflow.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_stopped_analysis_resumes_with_the_same_results(campaign, reference, tmp_path, stop):
+    output = tmp_path / "out"
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            _SLOW_CLI,
+            "analyze",
+            str(campaign),
+            "-o",
+            str(output),
+            "--jobs",
+            "1",
+        ],
+        env={**os.environ, "PYTHONPATH": str(SOURCE)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while len(list((output / "runs").glob("*.json"))) < 3:
+        assert process.poll() is None, process.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    process.send_signal(stop)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "--resume" in err
+    records = list((output / "runs").glob("*.json"))
+    assert 3 <= len(records) < RUNS
+    for record in records:
+        json.loads(record.read_text(encoding="utf-8"))  # complete, never half-written
+    assert not list(output.rglob("*.tmp"))
+    code = main(["analyze", str(campaign), "-o", str(output), "--resume", "--jobs", "2", "--quiet"])
+    assert code == 0
+    timing = json.loads((output / "results.json").read_text(encoding="utf-8"))["timing"]
+    assert (timing["fitted_now"], timing["reused"]) == (RUNS - len(records), len(records))
+    assert without_timing(output) == without_timing(reference)
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    """``granflow demo`` run once: (output folder, exit code, stdout)."""
+    output = tmp_path_factory.mktemp("demo") / "demo"
+    with contextlib.redirect_stdout(io.StringIO()) as out:
+        code = main(["demo", "-o", str(output), "--jobs", "2", "--quiet"])
+    return output, code, out.getvalue()
+
+
+def test_demo_end_to_end_recovers_the_constants_it_was_made_with(demo):
+    output, code, out = demo
+    assert code == 0
+    for name in ("report.html", "results.json", "synthetic_truth.json"):
+        assert (output / name).stat().st_size > 0
+    results = json.loads((output / "results.json").read_text(encoding="utf-8"))
+    truth = json.loads((output / "synthetic_truth.json").read_text(encoding="utf-8"))
+    assert results["synthetic"] is True and results["failed_runs"] == []
+    for name in ("mu_a", "mu_d", "alpha"):
+        low, high = results["material"][name]["ci95"]
+        assert low <= truth[name] <= high, name
+    assert "synthetic truth: mu_a inside, mu_d inside, alpha inside" in out
+    # the observed stress-controlled behaviour agrees with the predictions from the fits
+    assert results["analyses"]["switch"][0]["agree"] is True
+    assert results["analyses"]["stress_ramp"][0]["consistent"] is True
+
+
+def test_demo_report_opens_in_chromium_with_every_figure(demo, browser):  # noqa: F811
+    output, _, _ = demo
+    results = json.loads((output / "results.json").read_text(encoding="utf-8"))
+    problems, images = page_problems(browser, output / "report.html")
+    assert problems == []
+    assert {image["alt"] for image in images} == {f["title"] for f in results["figures"]}
+    names = {figure["name"] for figure in results["figures"]}
+    assert names == {
+        "startup",
+        "collapse",
+        "amontons",
+        "stress_ramp",
+        "creep",
+        "switch",
+        "stability_map",
+    }
+    assert browser.title.startswith("[SYNTHETIC DATA]")

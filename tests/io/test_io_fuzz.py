@@ -1,0 +1,129 @@
+"""Fuzzing the readers: mutated real and written exports raise FileFormatError (naming the
+file and a line) or read; nothing else escapes, nothing hangs, and inputs are not modified."""
+
+import atexit
+import hashlib
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import granflow
+from granflow.io import write_rheocompass, write_trios
+
+
+def _exports():
+    beside = Path(__file__).resolve().parents[2].parent / "shared"
+    root = Path(os.environ.get("GRANFLOW_SHARED", beside))
+    return root / "data" / "instrument-exports"
+
+
+def _written(directory):
+    time = np.linspace(0.0, 20.0, 15)
+    run = granflow.Run(
+        t=time,
+        slip=1e-6 * time,
+        velocity=np.full(15, 1e-6),
+        force=0.01 + 1e-4 * time,
+        meta={"normal_load": 0.05, "sample": "s"},
+    )
+    french = write_rheocompass(
+        directory / "fr.csv", [run, run], language="fr", decimal=",", units={"torque": "µN·m"}
+    )
+    german = write_rheocompass(directory / "de.txt", run, language="de", encoding="cp1252")
+    trios = write_trios(directory / "trios.txt", [run, run])
+    return [french, german, trios]
+
+
+SOURCES = sorted(path for path in _exports().glob("*.*") if path.suffix != ".md")
+# written at collection time (the files are parameters); removed when the process ends
+_WRITTEN_DIR = Path(tempfile.mkdtemp(prefix="granflow-fuzz-"))
+atexit.register(shutil.rmtree, _WRITTEN_DIR, ignore_errors=True)
+
+
+def _sources():
+    return SOURCES + _written(_WRITTEN_DIR)
+
+
+ALL_SOURCES = _sources()
+HASHES = {path: hashlib.sha256(path.read_bytes()).hexdigest() for path in ALL_SOURCES}
+
+
+def _encoding(raw):
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return "utf-16"
+    try:
+        raw.decode("utf-8")
+        return "utf-8"
+    except UnicodeDecodeError:
+        return "cp1252"
+
+
+def _mutate(raw, kind, where, payload):
+    if kind == "truncate":
+        return raw[: int(where * len(raw))]
+    if kind == "random bytes":
+        at = int(where * len(raw))
+        return raw[:at] + payload + raw[at:]
+    encoding = _encoding(raw)
+    lines = raw.decode(encoding, errors="replace").split("\n")
+    at = min(int(where * len(lines)), len(lines) - 1)
+    if kind == "delete line":
+        del lines[at]
+    elif kind == "duplicate line":
+        lines.insert(at, lines[at])
+    elif kind == "swap delimiters":
+        lines = [line.replace("\t", ";" if payload[:1] < b"\x80" else ",") for line in lines]
+    elif kind == "swap one line's delimiter":
+        lines[at] = lines[at].replace("\t", ",")
+    return "\n".join(lines).encode(encoding, errors="replace")
+
+
+KINDS = (
+    "truncate",
+    "random bytes",
+    "delete line",
+    "duplicate line",
+    "swap delimiters",
+    "swap one line's delimiter",
+)
+
+
+@settings(
+    max_examples=300,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+    derandomize=True,
+)
+@given(
+    source=st.sampled_from(ALL_SOURCES),
+    kinds=st.lists(st.sampled_from(KINDS), min_size=1, max_size=3),
+    where=st.floats(0.0, 1.0),
+    payload=st.binary(min_size=1, max_size=12),
+)
+def test_mutated_exports_raise_only_file_format_errors(tmp_path, source, kinds, where, payload):
+    raw = source.read_bytes()
+    for kind in kinds:
+        raw = _mutate(raw, kind, where, payload)
+    copy = tmp_path / f"mutated{source.suffix}"
+    copy.write_bytes(raw)
+    try:
+        runs = granflow.read_runs(copy)
+    except granflow.FileFormatError as exc:
+        message = str(exc)
+        assert str(copy) in message, message
+        assert "line " in message, message
+    else:
+        assert all(isinstance(run, granflow.Run) for run in runs)
+    assert hashlib.sha256(source.read_bytes()).hexdigest() == HASHES[source]
+
+
+def test_inputs_are_never_modified():
+    for path in ALL_SOURCES:
+        granflow.read(path)
+        granflow.read_runs(path)
+        assert hashlib.sha256(path.read_bytes()).hexdigest() == HASHES[path]

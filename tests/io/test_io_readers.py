@@ -1,0 +1,263 @@
+"""The readers on the real exports in shared/data/instrument-exports and on small texts.
+
+Expected values are copied from the files by hand (spot checks), not from the reader.
+"""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import granflow
+from granflow.io import parse_csv, parse_rheocompass, parse_rheoplus, parse_trios
+from granflow.io._text import NumberFormat, decode, sniff_numbers
+
+
+def _exports():
+    beside = Path(__file__).resolve().parents[2].parent / "shared"
+    root = Path(os.environ.get("GRANFLOW_SHARED", beside))
+    return root / "data" / "instrument-exports"
+
+
+EXPORTS = _exports()
+
+
+def export(name):
+    return EXPORTS / name
+
+
+def test_utf16_shear_file_columns_units_and_values():
+    parsed = granflow.read(export("rheocompass-en-utf16-shear.txt"))
+    assert (parsed.format, parsed.encoding, parsed.delimiter) == ("rheocompass", "utf-16", "\t")
+    assert parsed.tests == ("Test",)
+    (interval,) = parsed.intervals
+    assert interval.rows == 20
+    names = [column.name for column in interval.columns]
+    units = [column.unit for column in interval.columns]
+    assert names == [
+        "Point No.",
+        "Time",
+        "Shear Rate",
+        "Shear Stress",
+        "Viscosity",
+        "Torque",
+        "Status",
+    ]
+    assert units == ["", "s", "1/s", "Pa", "mPa·s", "mN·m", ""]
+    # line 9 of the file: 1  6.0  50  3608.4  72195  3.5868
+    assert interval.si("torque")[0] == pytest.approx(3.5868e-3, rel=1e-15)
+    assert interval.si("time")[-1] == 120.0
+    assert interval.values[3][17] == 3448.0
+    assert parsed.metadata["project"] == "Shear Test | DESKTOP-4HEH0CM, 2/24/2020 | 2"
+
+
+def test_multiple_tests_split_into_intervals_with_point_numbers_restarting():
+    parsed = granflow.read(export("rheocompass-en-utf16-multiple-tests.csv"))
+    assert parsed.tests == ("Stress Relaxation 1", "Stress Relaxation")
+    assert [interval.rows for interval in parsed.intervals] == [451, 155]
+    second = parsed.intervals[1]
+    assert second.values[0][0] == 1.0  # point numbers restart
+    assert second.si("torque")[0] == pytest.approx(-0.040448e-3, rel=1e-14)
+    assert second.si("time")[-1] == pytest.approx(42.458)
+    status = second.columns.index(next(c for c in second.columns if c.quantity == "status"))
+    assert set(second.text[status]) == {"Dy_auto"}
+    assert second.metadata["result"] == "Step strain 1"
+    runs = granflow.read_runs(export("rheocompass-en-utf16-multiple-tests.csv"))
+    assert [run.meta["interval"] for run in runs] == [1, 2]
+    assert runs[1].meta["test"] == "Stress Relaxation"
+
+
+def test_viscosity_curve_micro_newton_metre_and_meaning_row():
+    parsed = granflow.read(export("rheocompass-en-utf16-viscosity-curve.csv"))
+    assert len(parsed.intervals) == 11
+    assert all(interval.rows == 25 for interval in parsed.intervals)
+    first = parsed.intervals[0]
+    torque = next(column for column in first.columns if column.quantity == "torque")
+    assert torque.unit == "µN·m"
+    assert first.si("torque")[2] == pytest.approx(-0.002733e-6, rel=1e-14)
+    assert first.values[3][2] == pytest.approx(-8.3392e-05, rel=1e-15)
+    assert (first.columns[1].name, first.columns[1].meaning) == ("Time", "Constant component")
+    assert parsed.intervals[-1].si("torque")[-1] == pytest.approx(120.21e-6, rel=1e-14)
+
+
+def test_spreadsheet_resaved_cp1252_file_is_read():
+    parsed = granflow.read(export("rheocompass-en-cp1252-excel-resaved.txt"))
+    assert parsed.encoding == "cp1252"
+    assert len(parsed.intervals) == 12
+    assert [interval.rows for interval in parsed.intervals] == [25] * 12
+    torque = next(c for c in parsed.intervals[0].columns if c.quantity == "torque")
+    assert torque.unit == "µN·m"
+    assert parsed.intervals[-1].si("torque")[-1] == pytest.approx(143.88e-6, rel=1e-14)
+    assert parsed.metadata["project"] == "Viscosity Curve | DESKTOP-4HEH0CM, 8/1/2019 | 1"
+
+
+def test_rheoplus_series_missing_markers_and_units():
+    parsed = granflow.read(export("rheoplus-en-utf8-stress-relaxation.txt"))
+    assert parsed.format == "rheoplus"
+    assert [interval.rows for interval in parsed.intervals] == [100, 100, 100, 99, 100, 100]
+    first = parsed.intervals[0]
+    assert first.test == "5perc 8arm 10kDa PEGMAL + 2kDa PEGSH sample 1 day 0 sr 1"
+    assert np.isnan(first.values[1]).all()  # Angular Frequency: ******
+    assert any(
+        "Angular Frequency" in problem and "100 missing" in problem for problem in first.problems
+    )
+    assert first.si("torque")[0] == pytest.approx(-1.51e-3, rel=1e-14)  # -1.51E+3 µNm
+    assert first.si("angle")[0] == pytest.approx(1.14e-3, rel=1e-14)  # 1.14E0 mrad
+    assert first.metadata["Norm. Css [Pa/mNm]"] == 9945.692  # thousands comma in the header
+    assert first.metadata["profile"] == "Strain gamma = 1 %"
+    assert parsed.intervals[3].metadata["declared_points"] == 99
+    runs = granflow.read_runs(export("rheoplus-en-utf8-stress-relaxation.txt"))
+    tube = granflow.Annulus.paper()
+    assert runs[0].slip[0] == 0.0
+    assert runs[0].slip[1] == pytest.approx((1.77e-3 - 1.14e-3) * tube.mean_radius, rel=1e-12)
+    assert runs[0].force[0] == pytest.approx(-1.51e-3 / tube.effective_radius, rel=1e-12)
+    assert np.isnan(runs[0].velocity).all()  # no speed column
+    assert runs[0].control == "rate"  # the profile imposes a strain
+
+
+def test_every_export_gives_runs_with_source_and_interval():
+    for path in sorted(EXPORTS.glob("*.*")):
+        if path.suffix == ".md":
+            continue
+        runs = granflow.read_runs(path)
+        assert runs, path
+        for ordinal, run in enumerate(runs, start=1):
+            assert run.meta["source"] == str(path)
+            assert run.meta["interval"] == ordinal
+            assert run.control in ("rate", "stress")
+
+
+def test_decimal_comma_semicolon_csv_and_quoted_fields():
+    text = 'Time [s];Torque [mN·m];Note\n0,5;1,25;"a;b"\n1,5;1 ;c\n'
+    parsed = parse_csv(text)
+    assert (parsed.delimiter, parsed.decimal) == (";", ",")
+    torque = parsed.intervals[0].si("torque")
+    assert torque[0] == pytest.approx(1.25e-3)
+    assert torque[1] == pytest.approx(1e-3)
+    assert parsed.intervals[0].text[2].tolist() == ["a;b", "c"]
+
+
+def test_missing_markers_become_nan_and_are_reported():
+    text = "Time [s]\tTorque [mN m]\n1\t******\n2\t \n3\t\n4\t1.5\n"
+    interval = parse_csv(text).intervals[0]
+    torque = interval.si("torque")
+    assert np.isnan(torque[:3]).all() and torque[3] == pytest.approx(1.5e-3)
+    assert any(
+        "3 missing values" in problem and "line 2" in problem for problem in interval.problems
+    )
+
+
+def test_invalid_cells_become_nan_with_their_line():
+    text = "Time [s]\tTorque [mN m]\n1\t1.0\n2\tabc\n3\t2.0\n4\t3.0\n"
+    interval = parse_csv(text).intervals[0]
+    assert np.isnan(interval.si("torque")[1])
+    assert any("'abc' at line 3" in problem for problem in interval.problems)
+
+
+@pytest.mark.parametrize(
+    ("cells", "expected"),
+    [
+        (["0,0073", "12"], NumberFormat(",", None)),
+        (["1,5E+3"], NumberFormat(",", None)),
+        (["12.5", "3"], NumberFormat(".", None)),
+        (["9,945.692", "1.5"], NumberFormat(".", ",")),
+        (["1.234,5"], NumberFormat(",", ".")),
+        (["1,234", "17"], NumberFormat(".", None)),  # ambiguous alone: dot, no thousands
+    ],
+)
+def test_number_format_is_decided_from_the_data(cells, expected):
+    assert sniff_numbers([(1, cells)], "\t", "f.txt") == expected
+
+
+def test_mixed_decimal_marks_are_an_error_naming_both_lines():
+    with pytest.raises(granflow.FileFormatError, match=r"line 3.*line 7"):
+        sniff_numbers([(3, ["0,5"]), (7, ["0.25"])], "\t", "f.txt")
+
+
+def test_unknown_unit_is_an_error_that_names_it():
+    text = "Time [s]\tTorque [furlongs]\n1\t2\n"
+    with pytest.raises(granflow.FileFormatError, match=r"line 1.*'furlongs'"):
+        parse_csv(text, source="x.csv")
+
+
+@pytest.mark.parametrize(
+    ("unit", "factor"),
+    [("µN·m", 1e-6), ("mN·m", 1e-3), ("µNm", 1e-6), ("N m", 1.0), ("µN.m", 1e-6)],
+)
+def test_torque_units(unit, factor):
+    interval = parse_csv(f"Time [s]\tTorque [{unit}]\n1\t2.5\n").intervals[0]
+    assert interval.si("torque")[0] == pytest.approx(2.5 * factor, rel=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("quantity", "label", "unit", "si"),
+    [
+        ("speed", "Rotational Speed", "1/min", 2.5 / 60),
+        ("speed", "Drehzahl", "1/s", 2.5),
+        ("speed", "Vitesse de Rotation", "rad/s", 2.5 / (2 * np.pi)),
+        ("angle", "Auslenkwinkel", "mrad", 2.5e-3),
+        ("angle", "Angle de Déflexion", "°", 2.5 * np.pi / 180),
+        ("time", "Zeit", "min", 150.0),
+        ("normal_force", "Force Normale", "mN", 2.5e-3),
+        ("normal_force", "Normalkraft", "N", 2.5),
+    ],
+)
+def test_localized_labels_and_units(quantity, label, unit, si):
+    interval = parse_csv(f"n\t{label} [{unit}]\n1\t2.5\n").intervals[0]
+    assert interval.si(quantity)[0] == pytest.approx(si, rel=1e-14)
+
+
+def test_rheocompass_french_labels_parse():
+    text = (
+        "Projet:\tP\nTest:\tessai\nIntervalle et points de données:\t1\t2\n"
+        "Données d'intervalle:\tN° de point\tTemps\tCouple\tAngle de Déflexion\n"
+        "\t\t\t\t\n\t\t[s]\t[µN·m]\t[mrad]\n\t1\t0,5\t12,5\t0,25\n\t2\t1,5\t13,5\t0,75\n"
+    )
+    interval = parse_rheocompass(text).intervals[0]
+    assert interval.si("torque").tolist() == pytest.approx([12.5e-6, 13.5e-6], rel=1e-14)
+    assert interval.si("angle").tolist() == pytest.approx([0.25e-3, 0.75e-3], rel=1e-14)
+
+
+def test_trios_and_rheoplus_parsers_from_text():
+    trios = parse_trios("Filename\tx\n[step]\nhold\nStep time\tTorque\ns\tmN.m\n1\t2\n\n")
+    assert trios.intervals[0].si("torque")[0] == pytest.approx(2e-3)
+    plus = parse_rheoplus(
+        "Data Series Information\nName:\t\t\td\n\nMeas. Pts.\tTime\n\t[min]\n1\t2E0\n"
+    )
+    assert plus.intervals[0].si("time")[0] == 120.0
+
+
+def test_encodings_are_detected_from_bytes():
+    text = "Time [s]\tTorque [µN·m]\n1\t2\n"
+    for encoding, raw in [
+        ("utf-16", b"\xff\xfe" + text.encode("utf-16-le")),
+        ("utf-16", b"\xfe\xff" + text.encode("utf-16-be")),
+        ("utf-8-sig", text.encode("utf-8-sig")),
+        ("utf-8", text.encode("utf-8")),
+        ("cp1252", text.encode("cp1252")),
+    ]:
+        decoded, found, problems = decode(raw, "f.txt")
+        assert (decoded, found, problems) == (text, encoding, [])
+
+
+def test_stress_control_told_from_constant_torque():
+    rows = "\n".join(f"{t}\t{0.1 + 0.05 * t}\t2.0" for t in range(1, 11))
+    text = f"Time [s]\tRotational Speed [1/min]\tTorque [mN m]\n{rows}\n"
+    parsed = parse_csv(text)
+    assert granflow.io.control_mode(parsed.intervals[0]) == "stress"
+
+
+def test_read_missing_file_is_a_file_format_error(tmp_path):
+    with pytest.raises(granflow.FileFormatError, match="cannot read"):
+        granflow.read(tmp_path / "nothing.txt")
+
+
+def test_report_and_to_dict(tmp_path):
+    parsed = granflow.read(export("rheocompass-en-utf16-shear.txt"))
+    report = parsed.report()
+    assert "utf-16" in report and "Torque [mN·m] -> torque" in report and "20 rows" in report
+    import json
+
+    summary = json.loads(json.dumps(parsed.to_dict()))
+    assert summary["intervals"][0]["rows"] == 20
