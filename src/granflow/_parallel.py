@@ -1,15 +1,37 @@
-"""Tasks over local processes or a Dask cluster, for :func:`granflow.analyze`.
+"""The one way granflow runs work in parallel: local processes or a Dask cluster.
 
-Results come back as each task finishes (so that they can be saved at once) together with
-the task's position, so that callers order them by their input, never by completion.
+:class:`Executor` serves :func:`granflow.fit_many`, :func:`granflow.stability_map` and
+:func:`granflow.analyze`. ``map`` returns results in the order of the input; ``run`` yields
+them as each task finishes (so that they can be saved at once) together with the task's
+position, so that callers order them by their input, never by completion. With one job (or
+one task) everything runs in this process, with no pool.
 """
 
+from granflow.errors import InvalidParameterError
 
-class _Executor:
-    """Per-run tasks over local processes or a Dask cluster; results come as they finish."""
 
-    def __init__(self, jobs, scheduler):
-        self.jobs = jobs
+def check_jobs(jobs, name="jobs"):
+    """``jobs`` as a positive int, or an :class:`InvalidParameterError` naming it."""
+    import numbers
+
+    if isinstance(jobs, bool) or not isinstance(jobs, numbers.Integral) or jobs < 1:
+        raise InvalidParameterError(f"{name} must be a positive integer, got {jobs!r}")
+    return int(jobs)
+
+
+class Executor:
+    """Tasks over local processes or a Dask cluster; use as a context manager.
+
+    Parameters
+    ----------
+    jobs : int
+        Local worker processes (1: in this process).
+    scheduler : str or distributed.Client, optional
+        A Dask scheduler address (``"tcp://host:8786"``) or a client; overrides ``jobs``.
+    """
+
+    def __init__(self, jobs=1, scheduler=None):
+        self.jobs = check_jobs(jobs)
         self.scheduler = scheduler
         self._pool = None
         self._client = None
@@ -70,14 +92,20 @@ class _Executor:
         for future in as_completed(futures):
             yield futures[future], _outcome(future.result)
 
-    def map(self, function, items):
-        """``[function(item) for item in items]``, on the same workers."""
+    def map(self, function, items, chunksize=1):
+        """``[function(item) for item in items]``, on the same workers, in input order."""
         items = list(items)
         if self._client is not None:
             return self._client.gather(self._client.map(function, items, pure=False))
-        if self.jobs == 1 or len(items) == 1:
+        if self.jobs == 1 or len(items) <= 1:
             return [function(item) for item in items]
-        return list(self._local_pool().map(function, items))
+        return list(self._local_pool().map(function, items, chunksize=chunksize))
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc_info):
+        self.close()
 
     def close(self):
         for future in self._futures:

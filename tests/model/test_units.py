@@ -52,3 +52,25 @@ def test_to_si(value, unit, expected):
 def test_unknown_unit_is_named():
     with pytest.raises(gf.InvalidParameterError, match="'bogons'"):
         to_si(1.0, "bogons", "torque")
+
+
+def test_the_unit_table_scales_agree_with_pint():
+    """Every display scale of the one unit table is pint's conversion from the SI unit."""
+    from granflow.model.units import QUANTITIES, unit_registry
+
+    registry = unit_registry()
+    for name, entry in QUANTITIES.items():
+        if entry.si in ("", "1"):
+            assert entry.scale == 1.0, name
+            continue
+        si = entry.si.replace("rev", "turn")
+        display = entry.display.replace("rev", "turn").replace("µ", "u")
+        factor = registry.Quantity(1.0, si).to(display).magnitude
+        assert abs(factor / entry.scale - 1) < 1e-12, name
+
+
+def test_unknown_quantity_is_named():
+    from granflow.model.units import si_unit
+
+    with pytest.raises(gf.InvalidParameterError, match="unknown quantity 'bogus'"):
+        si_unit("bogus")

@@ -80,7 +80,7 @@ from types import MappingProxyType
 import numpy as np
 
 from granflow._json import json_safe
-from granflow._parallel import _Executor
+from granflow._parallel import Executor
 from granflow.analysis.joint import _MAP_HOLD, _MAP_POINTS, _MAP_RATIOS, _joint_stage, _rounded
 from granflow.analysis.outputs import (
     FIGURES_DIR,
@@ -653,7 +653,7 @@ def analyze(
     stages = {}
     items, manifest, inputs = _load(source)
     stages["read_s"] = time.perf_counter() - clock
-    executor = _Executor(jobs, scheduler)
+    executor = Executor(jobs, scheduler)
     try:
         output.mkdir(parents=True, exist_ok=True)
         (output / RUNS_DIR).mkdir(exist_ok=True)

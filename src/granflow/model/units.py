@@ -1,14 +1,133 @@
-"""Quantities with units from text ("3.31mN", "0.86 um/s", "0.036/s") to SI floats, via pint.
+"""The one unit table of granflow, and quantities from text ("3.31mN", "0.86 um/s") to SI.
 
-The registry is created on first use (pint takes a fraction of a second to load it).
+:data:`QUANTITIES` names every physical quantity granflow reads, computes or shows, with its
+SI unit (the unit of every number inside granflow) and the unit it is displayed in (tables,
+reports, figures). Readers, protocols, fits, results and the report look units up here
+instead of keeping tables of their own. pint converts text with units; its registry is
+created on first use (pint takes a fraction of a second to load it).
 """
 
 import functools
 import math
+from dataclasses import dataclass
 
 from granflow.errors import InvalidParameterError
 
-__all__ = ["parse_quantity", "to_si", "unit_registry"]
+__all__ = [
+    "QUANTITIES",
+    "Quantity",
+    "display_unit",
+    "parse_quantity",
+    "quantity",
+    "si_unit",
+    "to_display",
+    "to_si",
+    "unit_registry",
+]
+
+
+@dataclass(frozen=True, slots=True)
+class Quantity:
+    """A physical quantity: its SI unit and how it is shown.
+
+    Attributes
+    ----------
+    si : str
+        The SI unit of the value inside granflow ("" for a pure number, "1" for a ratio).
+    display : str
+        The unit it is shown in.
+    scale : float
+        Display value = SI value * ``scale``.
+    label : str
+        A short description, for tables and axis labels.
+    """
+
+    si: str
+    display: str
+    scale: float
+    label: str
+
+
+def _q(si, display=None, scale=1.0, label=""):
+    return Quantity(si, si if display is None else display, scale, label)
+
+
+#: Every quantity granflow knows, by the name it has in the code (SI inside, display outside).
+QUANTITIES = {
+    # the model (Eq. 3), slip and time forms
+    "a": _q("N", "mN", 1e3, "aging amplitude"),
+    "alpha": _q("1/m", "1/m", 1.0, "rejuvenation constant"),
+    "Fd": _q("N", "mN", 1e3, "dynamic friction"),
+    "x0": _q("m", "µm", 1e6, "initial-state slip"),
+    "k": _q("1/s", "1/s", 1.0, "rejuvenation rate"),
+    "t0": _q("s", "s", 1.0, "initial-state time"),
+    "F_init": _q("N", "mN", 1e3, "initial force"),
+    # material constants (Amontons)
+    "mu_a": _q("", "", 1.0, "aging coefficient"),
+    "mu_d": _q("", "", 1.0, "dynamic friction coefficient"),
+    # creep
+    "B": _q("m", "µm", 1e6, "creep amplitude"),
+    "tau_c": _q("s", "s", 1.0, "creep time"),
+    # records
+    "t": _q("s", "s", 1.0, "time"),
+    "time": _q("s", "s", 1.0, "time"),
+    "interval_time": _q("s", "s", 1.0, "interval time"),
+    "slip": _q("m", "µm", 1e6, "slip"),
+    "displacement": _q("m", "µm", 1e6, "drive displacement"),
+    "velocity": _q("m/s", "µm/s", 1e6, "sliding velocity"),
+    "force": _q("N", "mN", 1e3, "friction force"),
+    "normal_load": _q("N", "mN", 1e3, "normal load"),
+    "normal_force": _q("N", "mN", 1e3, "normal force"),
+    "state": _q("N", "mN", 1e3, "friction state"),
+    "age": _q("m", "µm", 1e6, "aging coordinate"),
+    # the instrument
+    "torque": _q("N m", "mN m", 1e3, "torque"),
+    "speed": _q("rev/s", "rev/s", 1.0, "rotational speed"),
+    "angle": _q("rad", "mrad", 1e3, "deflection angle"),
+    "shear_stress": _q("Pa", "Pa", 1.0, "shear stress"),
+    "shear_rate": _q("1/s", "1/s", 1.0, "shear rate"),
+    "strain": _q("1", "1", 1.0, "strain"),
+    "radius": _q("m", "mm", 1e3, "radius"),
+    # protocols and the simulator
+    "duration": _q("s", "s", 1.0, "duration"),
+    "rate": _q("N/s", "mN/s", 1e3, "force rate"),
+    "level": _q("N", "mN", 1e3, "force level"),
+    "mass": _q("kg", "kg", 1.0, "effective mass"),
+    "damping": _q("N s/m", "N s/m", 1.0, "damping"),
+    "stiffness": _q("N/m", "N/m", 1.0, "machine stiffness"),
+    "factor": _q("", "", 1.0, "ratio"),
+}
+
+
+def quantity(name):
+    """The :class:`Quantity` called ``name`` (a key of :data:`QUANTITIES`).
+
+    Raises
+    ------
+    granflow.InvalidParameterError
+        ``name`` is not a known quantity.
+    """
+    try:
+        return QUANTITIES[name]
+    except KeyError:
+        raise InvalidParameterError(
+            f"unknown quantity {name!r}; known: {', '.join(sorted(QUANTITIES))}"
+        ) from None
+
+
+def si_unit(name):
+    """The SI unit of the quantity ``name`` ("N", "m", "1/m", ...)."""
+    return quantity(name).si
+
+
+def display_unit(name):
+    """The unit the quantity ``name`` is shown in ("mN", "µm", ...)."""
+    return quantity(name).display
+
+
+def to_display(name, value):
+    """``value`` [SI] of the quantity ``name`` in its display unit (arrays too)."""
+    return value * quantity(name).scale
 
 
 @functools.cache
@@ -70,7 +189,7 @@ def parse_quantity(text, unit, name="value"):
 
     Examples
     --------
-    >>> from granflow.units import parse_quantity
+    >>> from granflow.model.units import parse_quantity
     >>> parse_quantity("3.31mN", "N", "a")
     0.00331
     >>> round(parse_quantity("0.86um/s", "m/s", "velocity"), 15)
