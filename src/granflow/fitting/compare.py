@@ -11,8 +11,10 @@ import numpy as np
 
 from granflow.errors import GranflowError, InvalidParameterError
 from granflow.fitting.creep import CurveFitResult, fit_curve
+from granflow.fitting.engine import Model
 from granflow.fitting.results import FrozenMap, ValueEquality, decode, encode
 from granflow.fitting.single import FitResult, _prepare, fit
+from granflow.model.units import si_unit
 
 __all__ = ["ModelComparison", "compare_models"]
 
@@ -99,20 +101,39 @@ def _log_aging(x, a, F1):
     return F1 + a * np.log(x / x[0])
 
 
+def _log_aging_jacobian(x, a, F1):
+    shape = np.log(x / x[0])
+    return F1 + a * shape, np.column_stack([shape, np.ones_like(x)])
+
+
 def _exponential(x, Fd, F_init, alpha):
     return Fd + (F_init - Fd) * np.exp(-alpha * x)
+
+
+def _exponential_jacobian(x, Fd, F_init, alpha):
+    decay = np.exp(-alpha * x)
+    return (
+        Fd + (F_init - Fd) * decay,
+        np.column_stack([-np.expm1(-alpha * x), decay, -(F_init - Fd) * x * decay]),
+    )
+
+
+#: Pure logarithmic aging F1 + a ln(x / x1), x1 the first point.
+LOG_AGING = Model(("a", "F1"), _log_aging, _log_aging_jacobian, log=(False, False))
+#: A single exponential approach Fd + (F_init - Fd) exp(-alpha x).
+EXPONENTIAL = Model(
+    ("Fd", "F_init", "alpha"), _exponential, _exponential_jacobian, log=(False, False, True)
+)
 
 
 def _fit_log_aging(z, y, sigma):
     design = np.column_stack([np.log(z / z[0]), np.ones_like(z)])
     (a, F1), *_ = np.linalg.lstsq(design, y, rcond=None)
     return fit_curve(
-        _log_aging,
+        LOG_AGING,
         name="log_aging",
         formula=_FORMULAS["log_aging"],
-        names=("a", "F1"),
-        units={"a": "N", "F1": "N"},
-        log=(False, False),
+        units={"a": si_unit("a"), "F1": si_unit("force")},
         start=(a, F1),
         x=z,
         y=y,
@@ -132,12 +153,10 @@ def _fit_exponential(z, y, sigma):
             best = (cost, coefficients, alpha)
     _, (Fd, F_init), alpha = best
     return fit_curve(
-        _exponential,
+        EXPONENTIAL,
         name="exponential",
         formula=_FORMULAS["exponential"],
-        names=("Fd", "F_init", "alpha"),
-        units={"Fd": "N", "F_init": "N", "alpha": "1/m"},
-        log=(False, False, True),
+        units={name: si_unit(name) for name in EXPONENTIAL.slots},
         start=(Fd, F_init if F_init != 0 else 1e-12, alpha),
         x=z,
         y=y,

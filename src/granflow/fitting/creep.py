@@ -5,14 +5,12 @@
 :func:`granflow.compare_models`.
 """
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from granflow.errors import InvalidDataError
-from granflow.fitting.engine import WALD_Z
+from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
 from granflow.fitting.results import (
     FrozenMap,
     ValueEquality,
@@ -24,7 +22,8 @@ from granflow.fitting.results import (
     numbers,
     read_only,
 )
-from granflow.fitting.statistics import estimates, statistics, variable_line
+from granflow.fitting.statistics import estimates, fit_statistics, statistics, variable_line
+from granflow.model.units import si_unit
 
 __all__ = ["CurveFitResult", "fit_creep"]
 
@@ -168,86 +167,66 @@ def check_xy(x, y, names, minimum):
     return x, y
 
 
-def fit_curve(model, *, name, formula, names, units, log, start, x, y, sigma=None):
-    """Least squares of ``model(x, *params)`` from ``start``; log-parameterised where asked.
+def fit_curve(model, *, name, formula, units, start, x, y, sigma=None):
+    """Least squares of a small :class:`~granflow.fitting.engine.Model` from ``start``.
 
-    The covariance comes from a central-difference Jacobian in the natural parameters,
-    scaled by the residual variance unless ``sigma`` (the known noise) is given.
+    The engine's Levenberg-Marquardt (trust-region reflective if it does not converge) in the
+    model's coordinates (log for its scale parameters); covariance from the analytic
+    Jacobian, scaled by the residual variance unless ``sigma`` (the known noise) is given.
     """
-    start = np.asarray(start, dtype=float)
-    log = np.asarray(log, dtype=bool)
-    scale = np.where(start != 0, np.abs(start), 1.0)
     weights = np.ones_like(y) if sigma is None else 1.0 / np.broadcast_to(sigma, y.shape)
-    y_scale = float(np.max(np.abs(weights * y))) or 1.0
-
-    def natural(u):
-        return np.where(log, scale * np.exp(u), scale * u)
-
-    def residuals(u):
-        return weights * (model(x, *natural(u)) - y) / y_scale
-
-    u0 = np.where(log, 0.0, start / scale)
-    solution = least_squares(residuals, u0, method="trf", x_scale="jac", xtol=1e-13, ftol=1e-13)
-    values = natural(solution.x)
-    best_fit = model(x, *values)
-    jac = np.empty((x.size, values.size))
-    for k in range(values.size):
-        step = 1e-6 * max(abs(values[k]), 1e-300)
-        up, down = values.copy(), values.copy()
-        up[k] += step
-        down[k] -= step
-        jac[:, k] = weights * (model(x, *up) - model(x, *down)) / (2 * step)
-    resid = weights * (y - best_fit)
-    chisqr = float(resid @ resid)
-    n, nfree = x.size, values.size
-    redchi = chisqr / max(n - nfree, 1)
-    norms = np.sqrt(np.sum(jac**2, axis=0))
-    norms[norms == 0] = 1.0
-    hessian = (jac / norms).T @ (jac / norms)
-    ok = bool(np.all(np.isfinite(hessian)) and np.linalg.cond(hessian) < 1e13)
-    inverse = np.linalg.inv(hessian) / np.outer(norms, norms) if ok else hessian * np.nan
-    cov = inverse * (1.0 if sigma is not None else redchi)
-    stderr = np.sqrt(np.abs(np.diag(cov)))
-    log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf
-    message = solution.message if ok else f"{solution.message}; singular covariance"
-    frozen = FrozenMap
+    parameters = [
+        GlobalParameter(name=slot, value=float(value), log=log)
+        for slot, value, log in zip(model.slots, start, model.log, strict=True)
+    ]
+    identity = tuple((slot, 1.0) for slot in range(len(parameters)))
+    problem = Problem([Curve(x, y, weights, identity)], parameters, model)
+    solution = problem.solve_from(problem.internal(), rtol=1e-13, max_nfev=400)
+    values = problem.values(solution.x)
+    stats = fit_statistics(problem, values, model.slots, sigma_known=sigma is not None)
+    stderr, ci95, covar = stats.stderr, stats.ci95, stats.covar
+    message = solution.message
+    if not stats.invertible:  # no uncertainty rather than a pseudo-inverse's
+        message = f"{message}; singular covariance"
+        stderr = numbers(dict.fromkeys(model.slots))
+        ci95 = intervals({name: (None, None) for name in model.slots})
+        covar = matrix({p: dict.fromkeys(model.slots) for p in model.slots})
     return CurveFitResult(
         model=name,
         formula=formula,
-        names=tuple(names),
-        units=frozen(dict(units)),
-        params=frozen({k: float(v) for k, v in zip(names, values, strict=True)}),
-        stderr=frozen({k: float(v) for k, v in zip(names, stderr, strict=True)}),
-        ci95=frozen(
-            {
-                k: (float(v - WALD_Z * e), float(v + WALD_Z * e))
-                for k, v, e in zip(names, values, stderr, strict=True)
-            }
-        ),
-        covar=frozen(
-            {
-                p: frozen({q: float(cov[i, j]) for j, q in enumerate(names)})
-                for i, p in enumerate(names)
-            }
-        ),
-        success=bool(solution.status > 0 and ok),
+        names=tuple(model.slots),
+        units=FrozenMap(dict(units)),
+        params=stats.params,
+        stderr=stderr,
+        ci95=ci95,
+        covar=covar,
+        success=bool(solution.status > 0 and stats.invertible),
         message=message,
-        ndata=n,
-        nfree=nfree,
-        chisqr=chisqr,
-        redchi=redchi,
-        aic=log_term + 2 * nfree,
-        bic=log_term + math.log(n) * nfree,
+        ndata=stats.ndata,
+        nfree=stats.nfree,
+        chisqr=stats.chisqr,
+        redchi=stats.redchi,
+        aic=stats.aic,
+        bic=stats.bic,
         sigma_known=sigma is not None,
         x=read_only(x),
         data=read_only(y),
-        best_fit=read_only(best_fit),
-        residuals=read_only(y - best_fit),
+        best_fit=read_only(stats.best_fit),
+        residuals=read_only(stats.residuals),
     )
 
 
 def _creep(t, B, tau_c):
     return B * np.log1p(t / tau_c)
+
+
+def _creep_jacobian(t, B, tau_c):
+    shape = np.log1p(t / tau_c)
+    return B * shape, np.column_stack([shape, -B * t / (tau_c * (tau_c + t))])
+
+
+#: Logarithmic creep delta(t) = B ln(1 + t / tau_c), tau_c optimised in log coordinates.
+CREEP = Model(slots=("B", "tau_c"), function=_creep, jacobian=_creep_jacobian, log=(False, True))
 
 
 def fit_creep(t, slip, *, sigma=None):
@@ -296,12 +275,10 @@ def fit_creep(t, slip, *, sigma=None):
             best = (cost, B, tau)
     _, B, tau = best
     return fit_curve(
-        _creep,
+        CREEP,
         name="creep",
         formula="delta(t) = B ln(1 + t/tau_c)",
-        names=("B", "tau_c"),
-        units={"B": "m", "tau_c": "s"},
-        log=(False, True),
+        units={name: si_unit(name) for name in CREEP.slots},
         start=(B, tau),
         x=t,
         y=slip,

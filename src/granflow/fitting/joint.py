@@ -21,7 +21,7 @@ from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
 
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
-from granflow.fitting.engine import WALD_Z, Curve, GlobalParameter, Problem, covariance
+from granflow.fitting.engine import Curve, GlobalParameter, Problem
 from granflow.fitting.results import (
     FrozenMap,
     ValueEquality,
@@ -32,8 +32,14 @@ from granflow.fitting.results import (
     number,
     numbers,
 )
-from granflow.fitting.single import FitResult, _prepare, _Solution, fit, parameter_names
-from granflow.fitting.statistics import estimates, statistics, statistics_lines, variable_line
+from granflow.fitting.single import FitResult, _prepare, fit, parameter_names
+from granflow.fitting.statistics import (
+    estimates,
+    fit_statistics,
+    statistics,
+    statistics_lines,
+    variable_line,
+)
 from granflow.model.friction import peak
 from granflow.model.run import Run
 
@@ -220,70 +226,38 @@ def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
         for data, links in zip(prepared, spec.links, strict=True)
     ]
     problem = Problem(curves, parameters)
-    u, _, converged, steps, _ = problem.lm(problem.internal(), max_iter=300)
-    if converged:
-        solution = _Solution(u, 1, "converged (Levenberg-Marquardt)", steps)
-    else:
-        try:
-            solution = problem.solve(u, max_nfev=400)
-        except ValueError as exc:  # e.g. residuals that are not finite at the start
-            solution = _Solution(u, 0, f"the optimiser failed: {exc}", steps)
+    solution = problem.solve_from(problem.internal(), max_iter=300, max_nfev=400)
     values = problem.values(solution.x)
-    chisqr = problem.chisqr(values)
-    n, nfree = problem.ndata, len(problem.free)
-    redchi = chisqr / max(n - nfree, 1)
-    covar_free, invertible = covariance(problem, values, 1.0 if sigma_known else redchi)
-    free_names = [names_order[i] for i in problem.free]
-    stderr = dict.fromkeys(names_order, 0.0)
-    for k, name in enumerate(free_names):
-        stderr[name] = math.sqrt(max(covar_free[k, k], 0.0))
-    params = {name: float(values[i]) for i, name in enumerate(names_order)}
-    ci95 = {
-        name: (params[name] - WALD_Z * stderr[name], params[name] + WALD_Z * stderr[name])
-        for name in names_order
-    }
-    covar = {
-        p: FrozenMap({q: float(covar_free[i, j]) for j, q in enumerate(free_names)})
-        for i, p in enumerate(free_names)
-    }
-    correl = {
-        p: FrozenMap(
-            {
-                q: covar[p][q] / (stderr[p] * stderr[q]) if stderr[p] * stderr[q] > 0 else 0.0
-                for q in free_names
-            }
-        )
-        for p in free_names
-    }
+    stats = fit_statistics(problem, values, names_order, sigma_known=sigma_known)
+    params = stats.params
     model_names = parameter_names(domain)
     run_params = tuple(
         FrozenMap({model_names[slot]: factor * params[g] for slot, (g, factor) in enumerate(links)})
         for links in spec.links
     )
     messages = [solution.message]
-    if not invertible:
+    if not stats.invertible:
         messages.append("the parameters are not all determined by the data (singular J^T J)")
-    log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf
     return dict(
         domain=domain,
         names=tuple(names_order),
-        params=FrozenMap(params),
-        stderr=FrozenMap(stderr),
-        ci95=FrozenMap(ci95),
-        covar=FrozenMap(covar),
-        correl=FrozenMap(correl),
+        params=params,
+        stderr=stats.stderr,
+        ci95=stats.ci95,
+        covar=stats.covar,
+        correl=stats.correl,
         fixed=tuple(n_ for n_ in names_order if n_ in fixed),
         run_params=run_params,
         individual=tuple(fits),
-        success=bool(solution.status > 0 and invertible),
+        success=bool(solution.status > 0 and stats.invertible),
         message="; ".join(messages),
         nfev=int(solution.nfev),
-        ndata=n,
-        nfree=nfree,
-        chisqr=chisqr,
-        redchi=redchi,
-        aic=log_term + 2 * nfree,
-        bic=log_term + math.log(n) * nfree,
+        ndata=stats.ndata,
+        nfree=stats.nfree,
+        chisqr=stats.chisqr,
+        redchi=stats.redchi,
+        aic=stats.aic,
+        bic=stats.bic,
         sigma_known=sigma_known,
     )
 

@@ -36,11 +36,10 @@ from granflow.errors import (
 )
 from granflow.fitting.engine import (
     SLOTS,
-    WALD_Z,
     Curve,
     GlobalParameter,
     Problem,
-    covariance,
+    Solution,
     model_only,
     profile_interval,
 )
@@ -55,7 +54,13 @@ from granflow.fitting.results import (
     numbers,
     read_only,
 )
-from granflow.fitting.statistics import estimates, statistics, statistics_lines
+from granflow.fitting.statistics import (
+    WALD_Z,
+    estimates,
+    fit_statistics,
+    statistics,
+    statistics_lines,
+)
 from granflow.model.params import Params
 from granflow.model.run import Run
 from granflow.model.special import scaled_ei_diff
@@ -680,15 +685,6 @@ def fit(
     return _result(problem, solution, prepared, domain, names, fixed, profile)
 
 
-@dataclass
-class _Solution:
-    x: np.ndarray
-    status: int
-    message: str
-    nfev: int
-    hessian: np.ndarray | None = None  # J^T J in internal coordinates at x, when known
-
-
 def _held_restart(problem, u):
     """A restart with x0 below the first point when the optimum holds points at F(x0).
 
@@ -754,107 +750,95 @@ def _multistart(problem, starts, noise, rise_points):
                 u, cost, converged, hessian = u_new, cost_new, converged_new, hessian_new
     if converged:
         message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
-        return _Solution(u, 1, message, nfev, hessian)
+        return Solution(u, 1, message, nfev, hessian)
     try:
         solution = problem.solve(u)
     except ValueError as exc:  # e.g. residuals that are not finite at the start
-        return _Solution(u, 0, f"the optimiser failed: {exc}", nfev)
-    return _Solution(solution.x, solution.status, solution.message, nfev + solution.nfev)
+        return Solution(u, 0, f"the optimiser failed: {exc}", nfev)
+    return Solution(solution.x, solution.status, solution.message, nfev + solution.nfev)
+
+
+def _interval(problem, solution, stats, index, name, *, profile, exact_data, variance):
+    """(ci95, method, at_bound, caveat) of one parameter of a single-curve fit."""
+    parameter = problem.parameters[index]
+    value = stats.params[name]
+    if parameter.fixed:
+        return (value, value), "fixed", False, None
+    u = solution.x[problem.free.index(index)]
+    lower_u, upper_u = parameter.internal_bounds()
+    at_bound = bool(
+        (math.isfinite(lower_u) and u - lower_u < 1e-6 * max(1.0, abs(lower_u)))
+        or (math.isfinite(upper_u) and upper_u - u < 1e-6 * max(1.0, abs(upper_u)))
+    )
+    if parameter.log and profile and stats.invertible and not exact_data:
+        sd_u = stats.stderr[name] / parameter.derivative(u)
+        values = problem.values(solution.x)
+        interval, exact = profile_interval(
+            problem, values, index, variance, stats.chisqr, WALD_Z * sd_u, solution.hessian
+        )
+        caveat = None if exact else f"the 95 % profile interval of {name} reaches a search bound"
+        return interval, "profile", at_bound, caveat
+    return stats.ci95[name], "wald", at_bound, None
 
 
 def _result(problem, solution, prepared, domain, names, fixed, profile):
     values = problem.values(solution.x)
-    n, nfree = problem.ndata, len(problem.free)
-    best_fit = model_only(prepared.z, *values)
-    residuals = prepared.y - best_fit
-    chisqr = float(np.sum((prepared.w * residuals) ** 2))
-    dof = max(n - nfree, 1)
-    redchi = chisqr / dof
-    variance = 1.0 if prepared.sigma_known else redchi
-    covar_free, invertible = covariance(problem, values, variance, solution.hessian)
-    free_names = [names[i] for i in problem.free]
-    stderr = dict.fromkeys(names, 0.0)
-    for k, name in enumerate(free_names):
-        stderr[name] = float(math.sqrt(max(covar_free[k, k], 0.0)))
-    covar = {
-        p: {q: float(covar_free[i, j]) for j, q in enumerate(free_names)}
-        for i, p in enumerate(free_names)
-    }
-    correl = {
-        p: {
-            q: float(covar[p][q] / (stderr[p] * stderr[q])) if stderr[p] * stderr[q] > 0 else 0.0
-            for q in free_names
-        }
-        for p in free_names
-    }
-    ci95, ci_method, at_bound = {}, {}, {}
+    stats = fit_statistics(
+        problem, values, names, sigma_known=prepared.sigma_known, hessian=solution.hessian
+    )
     # data fitted to rounding error (synthetic, noise-free): chi-square has no scale left
     # to profile against, so every interval is a Wald interval
-    exact_data = chisqr <= n * (1e-12 * problem.force_scale) ** 2
+    exact_data = stats.chisqr <= stats.ndata * (1e-12 * problem.force_scale) ** 2
     messages = [solution.message]
-    u_all = dict(zip(problem.free, solution.x, strict=True))
+    variance = 1.0 if prepared.sigma_known else stats.redchi
+    ci95, ci_method, at_bound = {}, {}, {}
     for index, name in enumerate(names):
-        parameter = problem.parameters[index]
-        if parameter.fixed:
-            ci95[name] = (values[index], values[index])
-            ci_method[name] = "fixed"
-            at_bound[name] = False
-            continue
-        lower_u, upper_u = parameter.internal_bounds()
-        u = u_all[index]
-        at_bound[name] = bool(
-            (math.isfinite(lower_u) and u - lower_u < 1e-6 * max(1.0, abs(lower_u)))
-            or (math.isfinite(upper_u) and upper_u - u < 1e-6 * max(1.0, abs(upper_u)))
+        interval, method, bound, caveat = _interval(
+            problem,
+            solution,
+            stats,
+            index,
+            name,
+            profile=profile,
+            exact_data=exact_data,
+            variance=variance,
         )
-        if parameter.log and profile and invertible and not exact_data:
-            sd_u = stderr[name] / parameter.derivative(u)
-            interval, exact = profile_interval(
-                problem, values, index, variance, chisqr, WALD_Z * sd_u, solution.hessian
-            )
-            ci95[name] = interval
-            ci_method[name] = "profile"
-            if not exact:
-                messages.append(f"the 95 % profile interval of {name} reaches a search bound")
-        else:
-            half = WALD_Z * stderr[name]
-            ci95[name] = (values[index] - half, values[index] + half)
-            ci_method[name] = "wald"
-    success = bool(solution.status > 0 and invertible)
-    if not invertible:
+        ci95[name], ci_method[name], at_bound[name] = interval, method, bound
+        if caveat:
+            messages.append(caveat)
+    success = bool(solution.status > 0 and stats.invertible)
+    if not stats.invertible:
         messages.append("the parameters are not all determined by the data (singular J^T J)")
     bound_names = [n_ for n_, flag in at_bound.items() if flag]
     if bound_names:
         messages.append(f"at a bound of the search range: {', '.join(bound_names)}")
-    total = float(np.sum((prepared.y - np.mean(prepared.y)) ** 2))
-    rsquared = 1.0 - float(residuals @ residuals) / total if total > 0 else math.nan
-    log_term = n * math.log(chisqr / n) if chisqr > 0 else -math.inf
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
         domain=domain,
         names=names,
-        params=_frozen({name: float(values[i]) for i, name in enumerate(names)}),
-        stderr=_frozen(stderr),
+        params=stats.params,
+        stderr=stats.stderr,
         ci95=_frozen({k: (float(v[0]), float(v[1])) for k, v in ci95.items()}),
         ci_method=_frozen(ci_method),
-        covar=_frozen({k: _frozen(v) for k, v in covar.items()}),
-        correl=_frozen({k: _frozen(v) for k, v in correl.items()}),
+        covar=stats.covar,
+        correl=stats.correl,
         fixed=tuple(n_ for n_ in names if n_ in fixed),
         at_bound=_frozen(at_bound),
         success=success,
         message="; ".join(messages),
         nfev=int(solution.nfev),
-        ndata=n,
-        nfree=nfree,
-        chisqr=chisqr,
-        redchi=redchi,
-        aic=log_term + 2 * nfree,
-        bic=log_term + math.log(n) * nfree,
-        rsquared=rsquared,
+        ndata=stats.ndata,
+        nfree=stats.nfree,
+        chisqr=stats.chisqr,
+        redchi=stats.redchi,
+        aic=stats.aic,
+        bic=stats.bic,
+        rsquared=stats.rsquared,
         x=read_only(prepared.z),
         data=read_only(prepared.y),
-        best_fit=read_only(best_fit),
-        residuals=read_only(residuals),
+        best_fit=read_only(stats.best_fit),
+        residuals=read_only(stats.residuals),
         weights=read_only(prepared.w),
         velocity=prepared.velocity,
         window=prepared.window,

@@ -13,8 +13,10 @@ The paper's initial condition is ``F_init = Fd (1 - exp(-s0))``, which turns the
 imposed velocity v the time-domain form is the same curve at x = v t (k = alpha v,
 t0 = x0 / v): the transient depends on slip only, not on the rate.
 
-The model starts at x0: slips below it are rejected (a relative tolerance of 1e-12 absorbs
-round-off in ``v * t0``).
+The model starts at x0. By default (``below="raise"``) slips below it are rejected (a relative
+tolerance of 1e-12 absorbs round-off in ``v * t0``); ``below="hold"`` holds the force at its
+initial value F(x0) there, the rule the fits use. Every value comes from the compiled point
+kernel :mod:`granflow.model.kernel`.
 """
 
 import math
@@ -26,15 +28,9 @@ from scipy.optimize import brentq
 from granflow import _threads
 from granflow import _validate as check
 from granflow.errors import GranflowError, InvalidParameterError
-from granflow.model import _ei_tables as _t
+from granflow.model import kernel
 from granflow.model.params import Params
-from granflow.model.special import (
-    _SERIES,
-    _horner,
-    _jit,
-    _scaled_ei_diff_scalar,
-    _scaled_ei_scalar,
-)
+from granflow.model.special import scaled_ei_diff_scalar, scaled_ei_scalar
 
 __all__ = [
     "NoPeakError",
@@ -53,108 +49,47 @@ __all__ = [
 ]
 
 _BELOW_X0_TOLERANCE = 1e-12
-_EXPM1_LIMIT = 1e-3  # below this s, 1 - exp(-s) cancels: use its Taylor series instead
 
 
 class NoPeakError(GranflowError, ValueError):
     """The friction curve has no maximum: it decreases monotonically from the initial state."""
 
 
-@_jit
-def _small_slip_terms(s, s0, exp_minus_s, horner_s0, log_s0_and_series):
-    """exp(-s) (Ei(s) - Ei(s0)) and 1 - exp(-s) for s, s0 < 0.5 (see _friction_loop)."""
-    h = s - s0
-    if abs(h) < 0.5 * s:
-        divided = 0.0  # (S(s) - S(s0)) / h, where S(x) = x * horner(_SERIES, x)
-        for k in range(_SERIES.shape[0]):
-            divided = divided * s + horner_s0[k]
-        ei_diff = math.log1p(h / s0) + h * divided
-    else:
-        ei_diff = math.log(s) + s * _horner(_SERIES, s) - log_s0_and_series
-    if s > _EXPM1_LIMIT:
-        approach = 1.0 - exp_minus_s
-    else:  # 1 - exp(-s) = s - s^2/2 + s^3/6 - s^4/24 + s^5/120 to 1e-19 relative
-        approach = s * (1.0 - s * (0.5 - s * (1.0 / 6.0 - s * (1.0 / 24.0 - s / 120.0))))
-    return exp_minus_s * ei_diff, approach
-
-
-@_jit
-def _friction_loop(z, s, decay_all, s0, lowest, a, Fd, offset, paper, out):
-    """F at the points z (slip, or time) into out, in one pass.
-
-    ``s`` is the dimensionless slip alpha x at each point and ``decay_all = exp(s0 - s)``, both
-    computed by NumPy beforehand (its vectorised exp is three times faster than a scalar
-    one inside the loop); the state starts at s0. With
-    ``paper`` the initial condition is Fd (1 - exp(-s0)); otherwise F_init = Fd + offset.
-    Returns the index of the first z that is not finite or lies below ``lowest``, or -1.
-
-    Where s0 and s are both below 0.5, Ei(s) - Ei(s0) = log1p(h/s0) + S(s) - S(s0) with
-    h = s - s0 and the power series S; the series difference is summed as h times the divided
-    difference of S (a Horner recurrence on the Horner values at s0), so nothing cancels
-    however close s is to s0, and one exp(-s) serves the aging and the approach terms.
-    """
-    scaled_ei_s0 = _scaled_ei_scalar(s0)
-    exp_minus_s0 = math.exp(-s0)
-    small_start = s0 < _t.SMALL_LIMIT
-    # Horner values of S at s0: horner_s0[k] = sum of the k+1 highest terms, as in _horner
-    horner_s0 = np.empty(_SERIES.shape[0])
-    acc = 0.0
-    for k in range(_SERIES.shape[0]):
-        acc = acc * s0 + _SERIES[k]
-        horner_s0[k] = acc
-    log_s0_and_series = math.log(s0) + s0 * acc if small_start else 0.0
-    for i in range(z.shape[0]):
-        if not (z[i] >= lowest and z[i] < math.inf):
-            return i
-        si = s[i]
-        decay = decay_all[i]
-        if si < _t.SMALL_LIMIT and small_start:
-            scaled_diff, approach = _small_slip_terms(
-                si, s0, decay * exp_minus_s0, horner_s0, log_s0_and_series
-            )
-            aging = a * scaled_diff
-        else:
-            aging = a * _scaled_ei_diff_scalar(si, s0, scaled_ei_s0, decay)
-            approach = -math.expm1(-si) if si < _t.SMALL_LIMIT else 1.0 - decay * exp_minus_s0
-        if paper:
-            out[i] = aging + Fd * approach
-        else:
-            out[i] = Fd + offset * decay + aging
-    return -1
-
-
-def _evaluate_chunk(flat, out, scale, s0, lowest, params, offset, paper):
+def _evaluate_chunk(flat, out, scale, start, lowest, params, offset, paper, hold):
     """Fill ``out`` with F at ``flat``; returns the index of the first bad point, or -1."""
+    s0 = params.alpha * params.x0
     with np.errstate(over="ignore", invalid="ignore"):  # bad points are reported by the caller
         s = params.alpha * (scale * flat)
         decay = np.subtract(s0, s)
         np.exp(decay, out=decay)
-    return _friction_loop(flat, s, decay, s0, lowest, params.a, params.Fd, offset, paper, out)
+    p = params
+    return kernel.eq3_loop(
+        flat, s, decay, lowest, start, p.a, p.alpha, p.Fd, p.x0, offset, paper, hold, out
+    )
 
 
-def _evaluate(values, params, F_init, *, scale=1.0, name="x", unit="m"):
+def _evaluate(values, params, F_init, *, scale=1.0, name="x", unit="m", below="raise"):
     """Friction [N] at slips (or times, with scale = velocity) given as any array_like.
 
-    Validates in the same pass: every value must be finite and at least x0 / scale. Large
-    arrays are split over threads (the compiled loop and NumPy release the GIL).
+    Validates in the same pass: every value must be finite and (``below="raise"``) at least
+    x0 / scale. Large arrays are split over threads (the compiled loop and NumPy release the
+    GIL).
     """
+    hold = kernel.check_below(below) == "hold"
     array = check.float_array(values, name, unit)
     flat = np.ascontiguousarray(array).ravel()
     out = np.empty_like(flat)
     start = params.x0 / scale
     paper = F_init is None
     offset = 0.0 if paper else F_init - params.Fd
-    s0 = params.alpha * params.x0
-    lowest = start * (1.0 - _BELOW_X0_TOLERANCE)
+    lowest = -math.inf if hold else start * (1.0 - _BELOW_X0_TOLERANCE)
+    args = (scale, start, lowest, params, offset, paper, hold)
     bounds = _threads.chunks(flat.shape[0])
     if len(bounds) == 1:
-        bad = _evaluate_chunk(flat, out, scale, s0, lowest, params, offset, paper)
+        bad = _evaluate_chunk(flat, out, *args)
     else:
         results = _threads.map_chunks(
-            lambda lo, hi: _evaluate_chunk(
-                flat[lo:hi], out[lo:hi], scale, s0, lowest, params, offset, paper
-            ),
-            bounds,
+            lambda lo, hi: _evaluate_chunk(flat[lo:hi], out[lo:hi], *args), bounds
         )
         bad = next((lo + r for (lo, _), r in zip(bounds, results, strict=True) if r >= 0), -1)
     if bad >= 0:
@@ -198,18 +133,21 @@ def _like_input(values):
     return float(values) if np.ndim(values) == 0 else values
 
 
-def friction_slip(x, params, *, F_init=None):
+def friction_slip(x, params, *, F_init=None, below="raise"):
     """Friction force against slip, Eq. 3 in the slip domain.
 
     Parameters
     ----------
     x : float or array_like
         Slip [m] (the aging coordinate, which is x0 at the initial state); every value
-        must be at least ``params.x0``.
+        must be at least ``params.x0`` unless ``below="hold"``.
     params : Params
         Model parameters (a [N], alpha [1/m], Fd [N], x0 [m]).
     F_init : float, optional
         Friction at x0 [N]. Default: the paper's initial condition ``Fd (1 - exp(-alpha x0))``.
+    below : {"raise", "hold"}
+        Abscissae below the initial state: rejected (default), or given the initial force
+        F(x0) (the rule of the fits).
 
     Returns
     -------
@@ -219,7 +157,8 @@ def friction_slip(x, params, *, F_init=None):
     Raises
     ------
     InvalidParameterError
-        If x is not finite, lies below x0, or F_init is negative or not finite.
+        If x is not finite, lies below x0 (with ``below="raise"``), or F_init is negative or
+        not finite.
 
     Examples
     --------
@@ -229,10 +168,10 @@ def friction_slip(x, params, *, F_init=None):
     13.7829
     """
     _check_params(params)
-    return _evaluate(x, params, _check_f_init(F_init))
+    return _evaluate(x, params, _check_f_init(F_init), below=below)
 
 
-def friction_time(t, params, velocity, *, F_init=None):
+def friction_time(t, params, velocity, *, F_init=None, below="raise"):
     """Friction force against time under a constant imposed velocity, Eq. 3.
 
     The same curve as :func:`friction_slip` at slip ``velocity * t``: with k = alpha v and
@@ -248,6 +187,8 @@ def friction_time(t, params, velocity, *, F_init=None):
         Imposed sliding velocity [m/s]; positive.
     F_init : float, optional
         Friction at t0 [N]; default the paper's initial condition.
+    below : {"raise", "hold"}
+        Times below t0: rejected (default), or given the initial force (the fits' rule).
 
     Returns
     -------
@@ -263,10 +204,12 @@ def friction_time(t, params, velocity, *, F_init=None):
     """
     _check_params(params)
     velocity = check.positive(velocity, "velocity", "m/s")
-    return _evaluate(t, params, _check_f_init(F_init), scale=velocity, name="t", unit="s")
+    return _evaluate(
+        t, params, _check_f_init(F_init), scale=velocity, name="t", unit="s", below=below
+    )
 
 
-def friction_slip_jacobian(x, params, *, F_init=None):
+def friction_slip_jacobian(x, params, *, F_init=None, below="raise"):
     """Partial derivatives of :func:`friction_slip` with respect to the parameters.
 
     With s = alpha x, h = alpha (x - x0) and D = exp(-s) [Ei(s) - Ei(s0)]:
@@ -277,42 +220,37 @@ def friction_slip_jacobian(x, params, *, F_init=None):
     Parameters
     ----------
     x : array_like
-        Slip [m], at least x0.
+        Slip [m], at least x0 unless ``below="hold"``.
     params : Params
         Model parameters.
     F_init : float, optional
         Friction at x0 [N]; default the paper's initial condition.
+    below : {"raise", "hold"}
+        Abscissae below the initial state: rejected (default), or given the initial force
+        F(x0) (the rule of the fits).
 
     Returns
     -------
     dict of str to numpy.ndarray
         ``{"a": dF/da [-], "alpha": dF/dalpha [N m], "Fd": dF/dFd [-], "x0": dF/dx0 [N/m]}``,
-        plus ``"F_init"`` [-] when F_init is given; each the shape of ``x``.
+        plus ``"F_init"`` [-] when F_init is given; each the shape of ``x`` (below x0 with
+        ``below="hold"``: the derivatives of the initial force).
     """
     _check_params(params)
+    hold = kernel.check_below(below) == "hold"
     slip = check.real_array(x, "x", "m")
-    _check_from_start(slip, params.x0, "x", "m")
+    if not hold:
+        _check_from_start(slip, params.x0, "x", "m")
     F_init = _check_f_init(F_init)
-    a, alpha, Fd, x0 = params.a, params.alpha, params.Fd, params.x0
-    s = alpha * slip
-    decay = np.exp(alpha * (x0 - slip))
-    scaled_diff = _evaluate(slip, params.replace(a=1.0, Fd=0.0), None)
-    rise = -np.expm1(alpha * (x0 - slip))  # 1 - exp(-h) without cancellation
-    jac = {
-        "a": scaled_diff,
-        "alpha": a * (rise / alpha - slip * scaled_diff),
-        "x0": -a * decay / x0,
-    }
-    if F_init is None:
-        jac["alpha"] = jac["alpha"] + Fd * slip * np.exp(-s)
-        jac["Fd"] = -np.expm1(-s)
-    else:
-        offset = F_init - Fd
-        jac["alpha"] = jac["alpha"] - offset * (slip - x0) * decay
-        jac["x0"] = jac["x0"] + offset * alpha * decay
-        jac["Fd"] = rise
-        jac["F_init"] = decay
-    return {name: jac[name] for name in ("a", "alpha", "Fd", "x0", "F_init") if name in jac}
+    paper = F_init is None
+    offset = 0.0 if paper else F_init - params.Fd
+    flat = np.ascontiguousarray(slip, dtype=np.float64).ravel()
+    F = np.empty_like(flat)
+    J = np.empty((flat.size, 5))
+    p = params
+    kernel.jacobian_loop(flat, p.a, p.alpha, p.Fd, p.x0, offset, paper, hold, F, J)
+    names = ("a", "alpha", "Fd", "x0") if paper else ("a", "alpha", "Fd", "x0", "F_init")
+    return {name: J[:, k].reshape(slip.shape) for k, name in enumerate(names)}
 
 
 def initial_force(params, *, F_init=None):
@@ -503,12 +441,12 @@ def peak(params, *, F_init=None, velocity=None):
         raise NoPeakError(f"the friction curve has no peak: {reason}, so F never rises")
     s0 = params.alpha * params.x0
     offset = _peak_offset(params, F_init)
-    scaled_ei_s0 = _scaled_ei_scalar(s0)
+    scaled_ei_s0 = scaled_ei_scalar(s0)
 
     def nullcline_gap(s):
         # a/x - alpha (F - Fd), divided by alpha a: positive before the peak, negative after
         decay = math.exp(s0 - s)
-        return 1.0 / s - _scaled_ei_diff_scalar(s, s0, scaled_ei_s0, decay) - offset * decay
+        return 1.0 / s - scaled_ei_diff_scalar(s, s0, scaled_ei_s0, decay) - offset * decay
 
     upper = s0 + max(s0, 1.0)
     for _ in range(1100):  # doubling from >= 1 reaches the largest float

@@ -17,6 +17,11 @@ the scaled forms directly:
 Both agree with 40-digit arithmetic to about 1e-15 relative over x in [1e-12, 1e8]
 (the test suite checks 1e-12). The loops are compiled with Numba and cached on disk; a
 point costs a few nanoseconds.
+
+Compiled API, for kernels built on this one (:mod:`granflow.model.kernel`): the decorators
+:data:`compiled` and :data:`compiled_inline`, and the scalar functions
+:func:`scaled_ei_scalar`, :func:`scaled_ei_diff_scalar` and :func:`horner`, callable from
+compiled code (and, except the inlined ones, from Python).
 """
 
 import math
@@ -28,7 +33,15 @@ from numba.extending import intrinsic
 
 from granflow.model import _ei_tables as _t
 
-__all__ = ["scaled_ei", "scaled_ei_diff"]
+__all__ = [
+    "compiled",
+    "compiled_inline",
+    "horner",
+    "scaled_ei",
+    "scaled_ei_diff",
+    "scaled_ei_diff_scalar",
+    "scaled_ei_scalar",
+]
 
 _SERIES = _t.SERIES[::-1].copy()  # highest power first, for Horner's rule
 _ROOT_TAYLOR = _t.ROOT_TAYLOR[::-1].copy()
@@ -40,9 +53,9 @@ _GL_WEIGHTS = 0.5 * _GL_WEIGHTS
 
 #: Compile options for every kernel loop: cached on disk, IEEE arithmetic except that a*b+c may
 #: become one fused multiply-add (which is more accurate, not less).
-_jit = numba.njit(cache=True, error_model="numpy", nogil=True, fastmath={"contract"})
+compiled = numba.njit(cache=True, error_model="numpy", nogil=True, fastmath={"contract"})
 #: The same for the scalar pieces, inlined into the loops that call them (about 2x faster).
-_inline = numba.njit(
+compiled_inline = numba.njit(
     cache=True, error_model="numpy", nogil=True, fastmath={"contract"}, inline="always"
 )
 
@@ -66,8 +79,8 @@ if _t.PARTS_PER_OCTAVE != 1 << _PART_BITS:
     raise ImportError("granflow._ei_tables does not match special.py: regenerate the tables")
 
 
-@_inline
-def _horner(coeffs, x):
+@compiled_inline
+def horner(coeffs, x):
     """Polynomial with coefficients highest power first, at x."""
     acc = 0.0
     for c in coeffs:
@@ -75,17 +88,17 @@ def _horner(coeffs, x):
     return acc
 
 
-@_inline
-def _scaled_ei_scalar(x):
+@compiled_inline
+def scaled_ei_scalar(x):
     """exp(-x) Ei(x) for one x > 0; NaN for x <= 0 or NaN, 0 for +inf."""
     if not x > 0.0:
         return math.nan
     if x < _t.SMALL_LIMIT:
         h = (x - _t.EI_ROOT_HI) - _t.EI_ROOT_LO
         if abs(h) < _t.ROOT_HALF_WIDTH:
-            ei = h * _horner(_ROOT_TAYLOR, h)
+            ei = h * horner(_ROOT_TAYLOR, h)
         else:
-            ei = _t.EULER_GAMMA + math.log(x) + x * _horner(_SERIES, x)
+            ei = _t.EULER_GAMMA + math.log(x) + x * horner(_SERIES, x)
         return math.exp(-x) * ei
     if x < _t.LARGE_LIMIT:
         # x = 2**octave * (0.5 + (part + (t + 1) / 2) / 32): octave, part and t from the bits
@@ -93,12 +106,12 @@ def _scaled_ei_scalar(x):
         octave = (bits >> _FRACTION_BITS) - _EXPONENT_OF_HALF
         part = (bits >> _REST_BITS) & ((1 << _PART_BITS) - 1)
         t = (bits & ((1 << _REST_BITS) - 1)) * _REST_SCALE - 1.0
-        return _horner(_MIDDLE[octave * _t.PARTS_PER_OCTAVE + part], t)
+        return horner(_MIDDLE[octave * _t.PARTS_PER_OCTAVE + part], t)
     u = _t.LARGE_LIMIT / x
-    return _horner(_LARGE, 2.0 * u - 1.0) / x
+    return horner(_LARGE, 2.0 * u - 1.0) / x
 
 
-@_inline
+@compiled_inline
 def _close_difference(x, h):
     """exp(-x) (Ei(x) - Ei(x - h)) = int_0^h exp(-u) / (x - u) du for |h| < min(1, x/2).
 
@@ -112,8 +125,8 @@ def _close_difference(x, h):
     return h * total
 
 
-@_inline
-def _scaled_ei_diff_scalar(x, x0, scaled_ei_x0, decay):
+@compiled_inline
+def scaled_ei_diff_scalar(x, x0, scaled_ei_x0, decay):
     """exp(-x) (Ei(x) - Ei(x0)) for x, x0 > 0.
 
     Takes ``scaled_ei_x0 = exp(-x0) Ei(x0)`` and ``decay = exp(-(x - x0))`` from the caller,
@@ -123,21 +136,19 @@ def _scaled_ei_diff_scalar(x, x0, scaled_ei_x0, decay):
     h = x - x0
     if abs(h) < 1.0 and abs(h) < 0.5 * x:
         return _close_difference(x, h)
-    return _scaled_ei_scalar(x) - decay * scaled_ei_x0
+    return scaled_ei_scalar(x) - decay * scaled_ei_x0
 
 
-@_jit
+@compiled
 def _scaled_ei_loop(x, out):
     for i in range(x.shape[0]):
-        out[i] = _scaled_ei_scalar(x[i])
+        out[i] = scaled_ei_scalar(x[i])
 
 
-@_jit
+@compiled
 def _scaled_ei_diff_loop(x, x0, out):
     for i in range(x.shape[0]):
-        out[i] = _scaled_ei_diff_scalar(
-            x[i], x0[i], _scaled_ei_scalar(x0[i]), math.exp(x0[i] - x[i])
-        )
+        out[i] = scaled_ei_diff_scalar(x[i], x0[i], scaled_ei_scalar(x0[i]), math.exp(x0[i] - x[i]))
 
 
 def _as_float_array(value):
@@ -201,3 +212,9 @@ def scaled_ei_diff(x, x0):
     _scaled_ei_diff_loop(flat_x, flat_x0, out)
     out = out.reshape(xb.shape)
     return float(out) if out.ndim == 0 else out
+
+
+# The names simulation/driver.py imports until it calls granflow.model.kernel.general_value.
+_jit = compiled
+_scaled_ei_scalar = scaled_ei_scalar
+_scaled_ei_diff_scalar = scaled_ei_diff_scalar

@@ -1,0 +1,291 @@
+"""The Eq. 3 point kernel: F and its parameter derivatives at one point, compiled once.
+
+With s = alpha z, s0 = alpha x0, h = s - s0 and D = exp(-s) [Ei(s) - Ei(s0)], Eq. 3 from the
+state (x0, F_init) is
+
+    F = Fd + (F_init - Fd) exp(-h) + a D,
+
+and with the paper's initial condition ``F_init = Fd (1 - exp(-s0))`` it is
+``a D + Fd (1 - exp(-s))``. Every evaluation of Eq. 3 in granflow goes through :func:`point`:
+:func:`granflow.friction_slip`, :func:`granflow.friction_time` and
+:func:`granflow.friction_slip_jacobian` (by :func:`eq3_loop` and :func:`jacobian_loop`), the
+fit engine's fused normal equations (:func:`normal_equations`), and the simulator's closed form
+from any state (:func:`general_value`).
+
+**Below x0.** The model starts at x0. ``below="raise"`` (the default of the model functions)
+rejects abscissae under x0 (a relative tolerance of 1e-12 absorbs round-off in ``v t0``);
+``below="hold"`` (the fits' rule) holds the force at its initial value F(x0) there, with the
+derivatives of that initial value, so that a fit's objective is continuous in x0. See
+:data:`BELOW`.
+
+Compiled API (Numba, ``nogil``, cached on disk; each callable from compiled code and from
+Python):
+
+* :func:`curve_start` ``(alpha, x0)`` -- the per-curve constants :func:`point` takes;
+* :func:`point` -- value and the derivatives in (a, alpha, Fd, x0, F_init) at one point;
+* :func:`eq3_loop`, :func:`jacobian_loop`, :func:`normal_equations` -- loops over arrays;
+* :func:`general_value` ``(z, a, alpha, Fd, z0, F_init)`` -- F from any state (the simulator).
+"""
+
+import math
+
+import numpy as np
+
+from granflow.model import _ei_tables as _t
+from granflow.model.special import (
+    compiled,
+    compiled_inline,
+    horner,
+    scaled_ei_diff_scalar,
+    scaled_ei_scalar,
+)
+
+__all__ = [
+    "BELOW",
+    "check_below",
+    "curve_start",
+    "eq3_loop",
+    "general_value",
+    "jacobian_loop",
+    "normal_equations",
+    "point",
+]
+
+#: Rules for abscissae below the initial state x0: reject them, or hold F at F(x0).
+BELOW = ("raise", "hold")
+
+_SERIES = _t.SERIES[::-1].copy()  # highest power first, as in special.horner
+_EXPM1_LIMIT = 1e-3  # below this s, 1 - exp(-s) cancels: use its Taylor series instead
+
+
+def check_below(below):
+    """``below`` if it is one of :data:`BELOW`; otherwise InvalidParameterError."""
+    if below not in BELOW:
+        from granflow.errors import InvalidParameterError
+
+        raise InvalidParameterError(f"below must be 'raise' or 'hold', got {below!r}")
+    return below
+
+
+@compiled_inline
+def curve_start(alpha, x0):
+    """Per-curve constants of :func:`point`: a tuple
+    ``(s0, exp(-s0) Ei(s0), exp(-s0), 1 - exp(-s0), horner_s0, log(s0) + S(s0))``.
+
+    ``horner_s0[k]`` are the partial Horner sums of the power series S of Ei at s0 (used when
+    s and s0 are both below 0.5).
+    """
+    s0 = alpha * x0
+    horner_s0 = np.empty(_SERIES.shape[0])
+    acc = 0.0
+    for k in range(_SERIES.shape[0]):
+        acc = acc * s0 + _SERIES[k]
+        horner_s0[k] = acc
+    log_s0_and_series = math.log(s0) + s0 * acc if s0 < _t.SMALL_LIMIT else 0.0
+    return (
+        s0,
+        scaled_ei_scalar(s0),
+        math.exp(-s0),
+        -math.expm1(-s0),
+        horner_s0,
+        log_s0_and_series,
+    )
+
+
+@compiled_inline
+def _scaled_terms(s, decay, start):
+    """D = exp(-s) (Ei(s) - Ei(s0)) and 1 - exp(-s) at one point (``decay = exp(-(s - s0))``).
+
+    Where s0 and s are both below 0.5, Ei(s) - Ei(s0) = log1p(h/s0) + S(s) - S(s0) with
+    h = s - s0; the series difference is h times the divided difference of S (a Horner
+    recurrence on the Horner values at s0), so nothing cancels however close s is to s0.
+    """
+    s0, scaled_ei_s0, exp_minus_s0, _, horner_s0, log_s0_and_series = start
+    exp_minus_s = decay * exp_minus_s0
+    if s < _t.SMALL_LIMIT and s0 < _t.SMALL_LIMIT:
+        h = s - s0
+        if abs(h) < 0.5 * s:
+            divided = 0.0  # (S(s) - S(s0)) / h
+            for k in range(_SERIES.shape[0]):
+                divided = divided * s + horner_s0[k]
+            ei_diff = math.log1p(h / s0) + h * divided
+        else:
+            ei_diff = math.log(s) + s * horner(_SERIES, s) - log_s0_and_series
+        if s > _EXPM1_LIMIT:
+            rise = 1.0 - exp_minus_s
+        else:  # 1 - exp(-s) = s - s^2/2 + s^3/6 - s^4/24 + s^5/120 to 1e-19 relative
+            rise = s * (1.0 - s * (0.5 - s * (1.0 / 6.0 - s * (1.0 / 24.0 - s / 120.0))))
+        return exp_minus_s * ei_diff, rise
+    diff = scaled_ei_diff_scalar(s, s0, scaled_ei_s0, decay)
+    rise = -math.expm1(-s) if s < _t.SMALL_LIMIT else 1.0 - exp_minus_s
+    return diff, rise
+
+
+@compiled_inline
+def point(z, s, decay, a, alpha, Fd, x0, offset, paper, held, start):
+    """F and its derivatives at one point, Eq. 3.
+
+    Parameters
+    ----------
+    z : float
+        Abscissa [m] (or [s], with alpha [1/s] and x0 [s]).
+    s, decay : float
+        ``alpha z`` and ``exp(alpha x0 - s)`` (callers with many points compute them with
+        NumPy's vectorised exp, about three times faster than a scalar one).
+    a, alpha, Fd, x0 : float
+        Parameters [N, 1/m, N, m].
+    offset : float
+        ``F_init - Fd`` [N] (ignored with ``paper``).
+    paper : bool
+        The paper's initial condition ``F_init = Fd (1 - exp(-alpha x0))``.
+    held : bool
+        Give the initial state: F(x0) and its derivatives (the ``below="hold"`` rule).
+    start : tuple
+        :func:`curve_start` ``(alpha, x0)``.
+
+    Returns
+    -------
+    tuple of float
+        ``(F, dF/da, dF/dalpha, dF/dFd, dF/dx0, dF/dF_init)`` [N, -, N m, -, N/m, -]; with
+        ``paper`` the derivatives include those of the initial condition and dF/dF_init is 0.
+    """
+    exp_minus_s0, start_rise = start[2], start[3]
+    if held:
+        if paper:
+            return (
+                Fd * start_rise,
+                0.0,
+                Fd * x0 * exp_minus_s0,
+                start_rise,
+                Fd * alpha * exp_minus_s0,
+                0.0,
+            )
+        return Fd + offset, 0.0, 0.0, 0.0, 0.0, 1.0
+    diff, rise_s = _scaled_terms(s, decay, start)
+    h = s - start[0]
+    rise_h = -math.expm1(-h) if h < _t.SMALL_LIMIT else 1.0 - decay
+    d_alpha = a * (rise_h / alpha - z * diff)
+    d_x0 = -a * decay / x0
+    if paper:
+        return (
+            a * diff + Fd * rise_s,
+            diff,
+            d_alpha + Fd * z * decay * exp_minus_s0,
+            rise_s,
+            d_x0,
+            0.0,
+        )
+    return (
+        Fd + offset * decay + a * diff,
+        diff,
+        d_alpha - offset * (z - x0) * decay,
+        rise_h,
+        d_x0 + offset * alpha * decay,
+        decay,
+    )
+
+
+@compiled
+def eq3_loop(z, s, decay, lowest, z0, a, alpha, Fd, x0, offset, paper, hold, out):
+    """F at the points z (slip, or time) into out, in one pass.
+
+    ``s`` and ``decay`` are as :func:`point` takes them; ``z0`` is the initial state in the
+    unit of z (x0, or t0 = x0 / v). Points at or below z0 are held at F(x0) with ``hold``;
+    every point must reach ``lowest``. Returns the index of the first z that is not finite or
+    lies below ``lowest``, or -1.
+    """
+    start = curve_start(alpha, x0)
+    for i in range(z.shape[0]):
+        zi = z[i]
+        if not (zi >= lowest and zi < math.inf):
+            return i
+        si = s[i]
+        held = hold and zi <= z0
+        out[i] = point(si / alpha, si, decay[i], a, alpha, Fd, x0, offset, paper, held, start)[0]
+    return -1
+
+
+@compiled
+def jacobian_loop(z, a, alpha, Fd, x0, offset, paper, hold, F, J):
+    """F and the columns d/da, d/dalpha, d/dFd, d/dx0, d/dF_init of J (n by 5) at z."""
+    start = curve_start(alpha, x0)
+    s0 = start[0]
+    for i in range(z.shape[0]):
+        zi = z[i]
+        s = alpha * zi
+        F[i], J[i, 0], J[i, 1], J[i, 2], J[i, 3], J[i, 4] = point(
+            zi, s, math.exp(s0 - s), a, alpha, Fd, x0, offset, paper, hold and zi <= x0, start
+        )
+
+
+@compiled
+def normal_equations(z, y, w, a, alpha, Fd, x0, jtj, jtr):
+    """Sum of squared weighted residuals; J^T J into jtj (4x4) and J^T r into jtr (4).
+
+    The fits' fused pass: r = w (F - y), J = dr/d(a, alpha, Fd, x0), paper initial condition,
+    held below x0. One pass, scalar accumulators, no n-by-4 array.
+    """
+    start = curve_start(alpha, x0)
+    s0 = start[0]
+    cost = 0.0
+    g0 = g1 = g2 = g3 = 0.0
+    h00 = h01 = h02 = h03 = h11 = h12 = h13 = h22 = h23 = h33 = 0.0
+    for i in range(z.shape[0]):
+        zi = z[i]
+        s = alpha * zi
+        F, j0, j1, j2, j3, _ = point(
+            zi, s, math.exp(s0 - s), a, alpha, Fd, x0, 0.0, True, zi <= x0, start
+        )
+        wi = w[i]
+        r = wi * (F - y[i])
+        j0 *= wi
+        j1 *= wi
+        j2 *= wi
+        j3 *= wi
+        cost += r * r
+        g0 += j0 * r
+        g1 += j1 * r
+        g2 += j2 * r
+        g3 += j3 * r
+        h00 += j0 * j0
+        h01 += j0 * j1
+        h02 += j0 * j2
+        h03 += j0 * j3
+        h11 += j1 * j1
+        h12 += j1 * j2
+        h13 += j1 * j3
+        h22 += j2 * j2
+        h23 += j2 * j3
+        h33 += j3 * j3
+    jtr[0], jtr[1], jtr[2], jtr[3] = g0, g1, g2, g3
+    jtj[0, 0], jtj[1, 1], jtj[2, 2], jtj[3, 3] = h00, h11, h22, h33
+    jtj[0, 1] = jtj[1, 0] = h01
+    jtj[0, 2] = jtj[2, 0] = h02
+    jtj[0, 3] = jtj[3, 0] = h03
+    jtj[1, 2] = jtj[2, 1] = h12
+    jtj[1, 3] = jtj[3, 1] = h13
+    jtj[2, 3] = jtj[3, 2] = h23
+    return cost
+
+
+@compiled
+def general_value(z, a, alpha, Fd, z0, F_init):
+    """F(z) [N] from the state (z0, F_init), Eq. 3 with the general initial condition.
+
+    Parameters
+    ----------
+    z, z0 : float
+        Abscissa and initial state [m] (or [s] with alpha in [1/s]); z >= z0 > 0.
+    a, alpha, Fd, F_init : float
+        Aging amplitude [N], rejuvenation constant [1/m], dynamic friction [N], force at z0 [N].
+
+    Examples
+    --------
+    >>> from granflow.model.kernel import general_value
+    >>> round(general_value(2e-5, 3.31e-3, 4.186e4, 10e-3, 1.978e-7, 8e-3) * 1e3, 6)
+    17.235915
+    """
+    start = curve_start(alpha, z0)
+    s = alpha * z
+    decay = math.exp(start[0] - s)
+    return point(z, s, decay, a, alpha, Fd, z0, F_init - Fd, False, False, start)[0]
