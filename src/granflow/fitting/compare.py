@@ -11,9 +11,10 @@ import numpy as np
 
 from granflow.errors import GranflowError, InvalidParameterError
 from granflow.fitting.creep import CurveFitResult, fit_curve
+from granflow.fitting.curves import prepare
 from granflow.fitting.engine import Model
 from granflow.fitting.results import FrozenMap, ValueEquality, decode, encode
-from granflow.fitting.single import FitResult, _prepare, fit
+from granflow.fitting.single import FitResult, fit
 from granflow.model.units import si_unit
 
 __all__ = ["ModelComparison", "compare_models"]
@@ -195,7 +196,7 @@ def compare_models(data, *, domain="slip", velocity=None, window=None, sigma=Non
     """
     if domain not in ("slip", "time"):
         raise InvalidParameterError(f"domain must be 'slip' or 'time', got {domain!r}")
-    prepared = _prepare(data, domain, velocity, window, None, sigma)
+    prepared = prepare(data, domain, velocity, window, None, sigma)
     z, y = prepared.z, prepared.y
     fits, rows = {}, []
     for model in MODELS:

@@ -9,36 +9,35 @@
 * :func:`preparation_spread` -- the spread of x0 (t0) over repeats, its correlation with the
   peak force, and the spread of Fd.
 
-Every run is fitted alone first (no initial guess needed); those fits start the joint fit.
+Every run is fitted alone first (no initial guess needed); those fits start the joint fit
+(:mod:`granflow.fitting.tied`).
 """
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
 
-from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
-from granflow.fitting.engine import Curve, GlobalParameter, Problem
+from granflow.errors import InvalidParameterError
 from granflow.fitting.results import (
     FrozenMap,
     ValueEquality,
     decode,
     encode,
     intervals,
-    matrix,
     number,
     numbers,
 )
-from granflow.fitting.single import FitResult, _prepare, fit, parameter_names
-from granflow.fitting.statistics import (
-    estimates,
-    fit_statistics,
-    statistics,
-    statistics_lines,
-    variable_line,
+from granflow.fitting.single import FitResult, fit
+from granflow.fitting.tied import (
+    JointFitResult,
+    JointSpec,
+    fit_joint,
+    individual_fits,
+    run_names,
+    solve_joint,
 )
 from granflow.model.friction import peak
 from granflow.model.run import Run
@@ -56,320 +55,6 @@ __all__ = [
 
 _LOG_SLOTS = (False, True, False, True)
 _TIME_ALIASES = {"alpha": "k", "x0": "t0"}
-
-
-@dataclass(frozen=True, eq=False)
-class JointFitResult(ValueEquality):
-    """The outcome of :func:`fit_joint` (or of :func:`fit_amontons`).
-
-    Attributes
-    ----------
-    domain : {"slip", "time"}
-    names : tuple of str
-        Global parameter names: shared ones as is (``alpha``), per run with the run index
-        (``x0_3``), per group with the group label (``alpha_v1``).
-    params, stderr : mapping of str to float
-        Values and standard errors [SI].
-    ci95 : mapping of str to (float, float)
-        95 % Wald intervals.
-    covar, correl : mapping of str to mapping of str to float
-        Covariance and correlation of the free parameters, by name.
-    run_params : tuple of mapping
-        The four model parameters of each run as the joint fit sets them.
-    run_names : tuple of str
-    individual : tuple of FitResult
-        The separate fit of each run that started the joint fit (whose ``x`` and ``data``
-        hold the points each run contributed).
-    success, message, nfev, ndata, nfree, chisqr, redchi, aic, bic, sigma_known
-        As in :class:`granflow.FitResult`.
-    """
-
-    domain: str
-    names: tuple
-    params: FrozenMap
-    stderr: FrozenMap
-    ci95: FrozenMap
-    covar: FrozenMap
-    correl: FrozenMap
-    fixed: tuple
-    run_params: tuple
-    run_names: tuple
-    individual: tuple
-    success: bool
-    message: str
-    nfev: int
-    ndata: int
-    nfree: int
-    chisqr: float
-    redchi: float
-    aic: float
-    bic: float
-    sigma_known: bool
-
-    def __repr__(self):
-        return (
-            f"JointFitResult({len(self.run_names)} runs, {self.nfree} free parameters, "
-            f"success={self.success}, redchi={self.redchi:.3g})"
-        )
-
-    def report(self):
-        """A text report in the manner of lmfit's ``fit_report``."""
-        lines = statistics_lines(
-            self,
-            title="Joint Fit Statistics",
-            extra=(("domain", self.domain), ("runs", len(self.run_names))),
-        )
-        lines += [
-            "[[Variables]]",
-        ]
-        for name in self.names:
-            if name in self.fixed:
-                lines.append(f"    {name:<10} = {self.params[name]:.8g} (fixed)")
-                continue
-            lines.append(
-                variable_line(name, self.params[name], self.stderr[name], self.ci95[name], width=10)
-            )
-        return "\n".join(lines)
-
-    def to_dict(self):
-        """JSON-safe mapping of the result (with the separate fits); :meth:`from_dict` inverts
-        it."""
-        return encode(
-            {
-                "domain": self.domain,
-                "names": list(self.names),
-                **estimates(self),
-                "correl": {n: dict(row) for n, row in self.correl.items()},
-                "fixed": list(self.fixed),
-                "run_params": [dict(p) for p in self.run_params],
-                "run_names": list(self.run_names),
-                "nfev": self.nfev,
-                **statistics(self),
-                "individual": [result.to_dict() for result in self.individual],
-            }
-        )
-
-    @classmethod
-    def from_dict(cls, d):
-        """The result a :meth:`to_dict` output (or its JSON) describes."""
-        d = decode(d, cls)
-        return cls(
-            domain=d["domain"],
-            names=tuple(d["names"]),
-            params=numbers(d["params"]),
-            stderr=numbers(d["stderr"]),
-            ci95=intervals(d["ci95"]),
-            covar=matrix(d["covar"]),
-            correl=matrix(d["correl"]),
-            fixed=tuple(d["fixed"]),
-            run_params=tuple(numbers(p) for p in d["run_params"]),
-            run_names=tuple(d["run_names"]),
-            individual=tuple(FitResult.from_dict(r) for r in d.get("individual", [])),
-            success=d["success"],
-            message=d["message"],
-            nfev=d["nfev"],
-            ndata=d["ndata"],
-            nfree=d["nfree"],
-            chisqr=number(d["chisqr"]),
-            redchi=number(d["redchi"]),
-            aic=number(d["aic"]),
-            bic=number(d["bic"]),
-            sigma_known=d["sigma_known"],
-        )
-
-
-@dataclass
-class _Spec:
-    """Global parameters: name -> (slot, start), and per run the (name, factor) of each slot."""
-
-    globals: dict
-    links: list
-
-
-def _individual_fits(datasets, domain, sigma, window):
-    prepared, fits = [], []
-    for index, data in enumerate(datasets):
-        try:
-            prepared.append(_prepare(data, domain, None, window, None, sigma))
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", ConvergenceWarning)
-                fits.append(fit(data, domain=domain, sigma=sigma, window=window, profile=False))
-        except GranflowError as exc:
-            raise type(exc)(f"run {index}: {exc}") from exc
-    return prepared, fits
-
-
-def _run_names(datasets, fits):
-    names = []
-    for index, (data, result) in enumerate(zip(datasets, fits, strict=True)):
-        names.append(data.name if isinstance(data, Run) else (result.name or f"run {index}"))
-    return tuple(names)
-
-
-def _solve(spec, prepared, fits, domain, fixed, sigma_known, names_order):
-    parameters, index_of = [], {}
-    for name in names_order:
-        slot, start = spec.globals[name]
-        lower = 0.0
-        parameters.append(
-            GlobalParameter(
-                name=name,
-                value=fixed.get(name, start),
-                log=_LOG_SLOTS[slot],
-                fixed=name in fixed,
-                lower=lower if not _LOG_SLOTS[slot] else 0.0,
-            )
-        )
-        index_of[name] = len(parameters) - 1
-    curves = [
-        Curve(data.z, data.y, data.w, tuple((index_of[g], factor) for g, factor in links))
-        for data, links in zip(prepared, spec.links, strict=True)
-    ]
-    problem = Problem(curves, parameters)
-    solution = problem.solve_from(problem.internal(), max_iter=300, max_nfev=400)
-    values = problem.values(solution.x)
-    stats = fit_statistics(problem, values, names_order, sigma_known=sigma_known)
-    params = stats.params
-    model_names = parameter_names(domain)
-    run_params = tuple(
-        FrozenMap({model_names[slot]: factor * params[g] for slot, (g, factor) in enumerate(links)})
-        for links in spec.links
-    )
-    messages = [solution.message]
-    if not stats.invertible:
-        messages.append("the parameters are not all determined by the data (singular J^T J)")
-    return dict(
-        domain=domain,
-        names=tuple(names_order),
-        params=params,
-        stderr=stats.stderr,
-        ci95=stats.ci95,
-        covar=stats.covar,
-        correl=stats.correl,
-        fixed=tuple(n_ for n_ in names_order if n_ in fixed),
-        run_params=run_params,
-        individual=tuple(fits),
-        success=bool(solution.status > 0 and stats.invertible),
-        message="; ".join(messages),
-        nfev=int(solution.nfev),
-        ndata=stats.ndata,
-        nfree=stats.nfree,
-        chisqr=stats.chisqr,
-        redchi=stats.redchi,
-        aic=stats.aic,
-        bic=stats.bic,
-        sigma_known=sigma_known,
-    )
-
-
-def fit_joint(
-    datasets,
-    *,
-    domain="slip",
-    shared=("a", "alpha", "Fd"),
-    per_run=("x0",),
-    groups=None,
-    per_group=(),
-    fixed=None,
-    sigma=None,
-    window=None,
-):
-    """Fit Eq. 3 to several runs at once, with parameters tied by name.
-
-    Parameters
-    ----------
-    datasets : sequence
-        Runs or ``(x, force)`` pairs, as :func:`granflow.fit` takes them.
-    domain : {"slip", "time"}
-        Parameter names ``a, alpha, Fd, x0`` or ``a, k, Fd, t0``.
-    shared : sequence of str
-        Parameters common to every run (named as is: ``alpha``). In the time domain ``alpha``
-        and ``x0`` may be written for ``k`` and ``t0``.
-    per_run : sequence of str
-        Parameters of each run (named with the run's index: ``x0_0``, ``x0_1``, ...).
-    groups : sequence, optional
-        A label per run (e.g. the velocity); with ``per_group``.
-    per_group : sequence of str
-        Parameters common to the runs of a group (named ``alpha_<label>``).
-    fixed : mapping of str to float, optional
-        Global parameters held fixed, by their global name.
-    sigma : float, optional
-        Known noise [N] (unscaled covariance); default: the residual variance.
-    window : (float, float), optional
-        Fit window, the same for every run (see :func:`granflow.fit`).
-
-    Returns
-    -------
-    JointFitResult
-
-    Examples
-    --------
-    >>> import numpy as np, granflow
-    >>> x = np.linspace(2e-7, 4e-4, 400)
-    >>> runs = [(x, granflow.friction_slip(x, granflow.Params(3e-3, 4e4, 10e-3, x0)))
-    ...         for x0 in (1e-7, 1.5e-7)]
-    >>> joint = granflow.fit_joint(runs)
-    >>> round(joint.params["alpha"]), round(joint.params["x0_1"] * 1e7, 3)
-    (40000, 1.5)
-    """
-    model_names = parameter_names(domain)
-    datasets = list(datasets)
-    if not datasets:
-        raise InvalidParameterError("fit_joint needs at least one run")
-    if domain == "time":  # the slip names (the defaults) stand for their time-domain twins
-        shared, per_run, per_group = (
-            tuple(_TIME_ALIASES.get(name, name) for name in names)
-            for names in (shared, per_run, per_group)
-        )
-    roles = {}
-    for role, names in (("shared", shared), ("per_run", per_run), ("per_group", per_group)):
-        for name in names:
-            if name not in model_names:
-                raise InvalidParameterError(
-                    f"{role}: unknown parameter {name!r}; the parameters are "
-                    f"{', '.join(model_names)}"
-                )
-            if name in roles:
-                raise InvalidParameterError(f"{name!r} is both {roles[name]} and {role}")
-            roles[name] = role
-    missing = [n for n in model_names if n not in roles]
-    if missing:
-        raise InvalidParameterError(
-            f"every parameter must be shared, per_run or per_group; missing: {', '.join(missing)}"
-        )
-    if per_group and (groups is None or len(groups) != len(datasets)):
-        raise InvalidParameterError("per_group needs groups: one label per run")
-    prepared, fits = _individual_fits(datasets, domain, sigma, window)
-    labels = [str(g) for g in groups] if groups is not None else [""] * len(datasets)
-    spec = _Spec(globals={}, links=[])
-    order = []
-    for index, _result in enumerate(fits):
-        links = []
-        for slot, name in enumerate(model_names):
-            role = roles[name]
-            if role == "shared":
-                key = name
-                members = range(len(fits))
-            elif role == "per_run":
-                key = f"{name}_{index}"
-                members = [index]
-            else:
-                key = f"{name}_{labels[index]}"
-                members = [i for i, label in enumerate(labels) if label == labels[index]]
-            if key not in spec.globals:
-                start = float(np.median([fits[i].params[name] for i in members]))
-                spec.globals[key] = (slot, start)
-                order.append(key)
-            links.append((key, 1.0))
-        spec.links.append(tuple(links))
-    fixed = dict(fixed or {})
-    for key in fixed:
-        if key not in spec.globals:
-            raise InvalidParameterError(
-                f"fixed: unknown parameter {key!r}; the parameters are {', '.join(order)}"
-            )
-    fields = _solve(spec, prepared, fits, domain, fixed, sigma is not None, order)
-    return JointFitResult(run_names=_run_names(datasets, fits), **fields)
 
 
 # --------------------------------------------------------------------------- velocity collapse
@@ -644,8 +329,8 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
         raise InvalidParameterError("normal loads must be positive and finite")
     if velocities is None and all(isinstance(d, Run) for d in datasets):
         velocities = [d.nominal_velocity for d in datasets]
-    prepared, fits = _individual_fits(datasets, "slip", sigma, window)
-    spec = _Spec(globals={}, links=[])
+    prepared, fits = individual_fits(datasets, "slip", sigma, window)
+    spec = JointSpec(globals={}, links=[])
     spec.globals["mu_a"] = (
         0,
         float(np.median([f.params["a"] / F for f, F in zip(fits, loads, strict=True)])),
@@ -660,8 +345,8 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
         spec.globals[f"x0_{index}"] = (3, result.params["x0"])
         order.append(f"x0_{index}")
         spec.links.append((("mu_a", load), ("alpha", 1.0), ("mu_d", load), (f"x0_{index}", 1.0)))
-    fields = _solve(spec, prepared, fits, "slip", {}, sigma is not None, order)
-    joint = JointFitResult(run_names=_run_names(datasets, fits), **fields)
+    fields = solve_joint(spec, prepared, fits, "slip", {}, sigma is not None, order)
+    joint = JointFitResult(run_names=run_names(datasets, fits), **fields)
     per_load = []
     for load in sorted(set(loads)):
         members = [i for i, v in enumerate(loads) if v == load]

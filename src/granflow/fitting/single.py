@@ -21,7 +21,6 @@ alpha -> k = alpha v, x0 -> t0 = x0 / v; the parameters are called ``a, k, Fd, t
 
 import math
 import warnings
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,17 +29,23 @@ from granflow import _validate as check
 from granflow.errors import (
     ConvergenceWarning,
     FitError,
-    GranflowError,
-    InvalidDataError,
     InvalidParameterError,
 )
+from granflow.fitting.curves import (
+    ABSCISSA,
+    check_mapping,
+    curve_features,
+    prepare,
+    start_candidates,
+)
+from granflow.fitting.curves import noise_level as _noise_level
 from granflow.fitting.engine import (
     SLOTS,
     Curve,
     GlobalParameter,
     Problem,
-    Solution,
     model_only,
+    multistart,
     profile_interval,
 )
 from granflow.fitting.results import (
@@ -62,20 +67,14 @@ from granflow.fitting.statistics import (
     statistics_lines,
 )
 from granflow.model.params import Params
-from granflow.model.run import Run
-from granflow.model.special import scaled_ei_diff
+from granflow.model.units import si_unit
 
-__all__ = ["FitResult", "fit", "fit_many", "parameter_names"]
+__all__ = ["FitResult", "fit", "parameter_names"]
 
 _NAMES = {"slip": ("a", "alpha", "Fd", "x0"), "time": ("a", "k", "Fd", "t0")}
-_UNITS = {
-    "slip": {"a": "N", "alpha": "1/m", "Fd": "N", "x0": "m"},
-    "time": {"a": "N", "k": "1/s", "Fd": "N", "t0": "s"},
-}
-_ABSCISSA = {"slip": ("x", "m"), "time": ("t", "s")}
+#: SI unit of each parameter, by domain (from granflow.model.units).
+_UNITS = {domain: {name: si_unit(name) for name in names} for domain, names in _NAMES.items()}
 _LOG_SLOTS = (False, True, False, True)
-_MIN_POINTS = 10
-_START_PEAK_SLIPS = (0.9, 0.5, 1.6)  # trial alpha * x_peak for the starts
 _FEW_RISE_POINTS = 50  # below this many points up to the peak, always check x0 < x_first
 
 
@@ -85,216 +84,6 @@ def parameter_names(domain="slip"):
     if domain not in _NAMES:
         raise InvalidParameterError(f"domain must be 'slip' or 'time', got {domain!r}")
     return _NAMES[domain]
-
-
-# --------------------------------------------------------------------------- data at the door
-
-
-@dataclass(frozen=True)
-class _Data:
-    z: np.ndarray
-    y: np.ndarray
-    w: np.ndarray
-    sigma_known: bool
-    velocity: float | None
-    window: tuple
-    name: str | None
-
-
-def _as_curve_arrays(data, domain):
-    """(z, y, velocity, name) from a Run or a pair of arrays; Run rows with NaN are dropped."""
-    if isinstance(data, Run):
-        z = data.slip if domain == "slip" else data.t
-        keep = np.isfinite(z) & np.isfinite(data.force)
-        if not keep.any():
-            raise InvalidDataError(
-                f"{data.name}: no point has both a finite {'slip' if domain == 'slip' else 't'} "
-                "and a finite force"
-            )
-        return np.array(z[keep]), np.array(data.force[keep]), data.nominal_velocity, data.name
-    if not isinstance(data, tuple | list) or len(data) != 2:
-        raise InvalidDataError(
-            "data must be a granflow.Run or a pair (abscissa, force) of arrays, "
-            f"got {type(data).__name__}"
-        )
-    abscissa, unit = _ABSCISSA[domain]
-    arrays = []
-    for values, name, unit_ in ((data[0], abscissa, unit), (data[1], "force", "N")):
-        try:
-            array = np.array(values, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise InvalidDataError(f"{name} must be an array of real numbers: {exc}") from None
-        if array.ndim != 1:
-            raise InvalidDataError(f"{name} must be one-dimensional, got shape {array.shape}")
-        bad = ~np.isfinite(array)
-        if bad.any():
-            index = int(np.argmax(bad))
-            raise InvalidDataError(
-                f"{name} must be finite, got {array[index]} {unit_} at index {index}"
-            )
-        arrays.append(array)
-    if arrays[0].shape != arrays[1].shape:
-        raise InvalidDataError(
-            f"{abscissa} and force must have the same length, got {arrays[0].size} and "
-            f"{arrays[1].size}"
-        )
-    return arrays[0], arrays[1], None, None
-
-
-def _prepare(data, domain, velocity, window, weights, sigma):
-    z, y, run_velocity, name = _as_curve_arrays(data, domain)
-    abscissa, unit = _ABSCISSA[domain]
-    steps = np.diff(z)
-    if np.any(steps <= 0):
-        index = int(np.argmax(steps <= 0))
-        raise InvalidDataError(
-            f"{abscissa} must increase strictly, but {abscissa}[{index + 1}] = "
-            f"{z[index + 1]:.6g} {unit} follows {abscissa}[{index}] = {z[index]:.6g} {unit}"
-        )
-    if velocity is None:
-        velocity = run_velocity
-    elif velocity is not None:
-        velocity = check.positive(velocity, "velocity", "m/s")
-    n_all = z.size
-    if weights is not None and sigma is not None:
-        raise InvalidParameterError("give weights or sigma, not both")
-    if sigma is not None:
-        w = 1.0 / _per_point(sigma, n_all, "sigma", positive=True)
-    elif weights is not None:
-        w = _per_point(weights, n_all, "weights", positive=False)
-    else:
-        w = np.ones(n_all)
-    if window is None:
-        start, stop = 0.0, math.inf
-        keep = z > 0
-    else:
-        if len(window) != 2:
-            raise InvalidParameterError(f"window must be a pair (start, stop), got {window!r}")
-        start = check.real_scalar(window[0], "window start", unit)
-        stop = math.inf if window[1] is None else check.real_scalar(window[1], "window stop", unit)
-        if stop <= start:
-            raise InvalidParameterError(f"window must have start < stop, got {window!r}")
-        keep = (z >= start) & (z <= stop) & (z > 0)
-    keep &= w > 0
-    z, y, w = z[keep], y[keep], w[keep]
-    if z.size < _MIN_POINTS:
-        raise InvalidDataError(
-            f"a fit needs at least {_MIN_POINTS} points with positive {abscissa} and positive "
-            f"weight inside the window, got {z.size}"
-        )
-    used = (float(z[0]), float(z[-1]))
-    return _Data(z, y, w, sigma is not None, velocity, used, name)
-
-
-def _per_point(values, n, name, positive):
-    array = np.broadcast_to(np.asarray(values, dtype=np.float64), (n,)).copy()
-    if not np.all(np.isfinite(array)):
-        raise InvalidParameterError(f"{name} must be finite")
-    if positive and np.any(array <= 0):
-        raise InvalidParameterError(f"{name} must be positive")
-    if np.any(array < 0):
-        raise InvalidParameterError(f"{name} must be non-negative")
-    return array
-
-
-def _check_mapping(mapping, names, what, domain):
-    mapping = dict(mapping or {})
-    for key in mapping:
-        if key not in names:
-            raise InvalidParameterError(
-                f"{what}: unknown parameter {key!r} for the {domain} domain; "
-                f"the parameters are {', '.join(names)}"
-            )
-    return mapping
-
-
-# --------------------------------------------------------------------------- starting values
-
-
-def _smooth(y, width):
-    """Running mean over ``width`` points (edges padded with the end values)."""
-    if width < 2:
-        return y.copy()
-    padded = np.concatenate([np.full(width // 2, y[0]), y, np.full(width - 1 - width // 2, y[-1])])
-    total = np.concatenate([[0.0], np.cumsum(padded)])
-    return (total[width:] - total[:-width]) / width
-
-
-def _noise_level(y):
-    """Robust estimate of the point-to-point noise (median absolute second difference)."""
-    if y.size < 4:
-        return 0.0
-    second = np.diff(y, 2)
-    return float(1.4826 * np.median(np.abs(second - np.median(second))) / math.sqrt(6.0))
-
-
-def curve_features(z, y):
-    """Plateau, overshoot and early rise of a friction curve, for starting values.
-
-    Returns a dict with ``plateau``, ``peak_z``, ``peak_force``, ``overshoot`` and ``noise``.
-    """
-    n = z.size
-    # smooth over at most a quarter of the rise, so that a narrow overshoot survives
-    rough_peak = int(np.argmax(_smooth(y, max(1, min(5, n // 50)))))
-    width = max(1, min(n // 50, rough_peak // 4))
-    smooth = _smooth(y, width)
-    tail = y[int(0.9 * n) :]
-    plateau = float(np.mean(tail))
-    index = int(np.argmax(smooth))
-    noise = _noise_level(y)
-    return {
-        "plateau": plateau,
-        "peak_index": index,
-        "peak_z": float(z[index]),
-        "peak_force": float(smooth[index]),
-        "overshoot": float(smooth[index] - plateau),
-        "noise": noise,
-        # the largest of n / width smoothed noise values, minus the plateau, exceeds
-        # this only by chance of order 1e-6
-        "resolution": noise
-        * (math.sqrt(2.0 * math.log(max(n / width, 2.0))) + 5.0)
-        * math.sqrt(1.0 / width + 1.0 / max(tail.size, 1)),
-        "smooth": smooth,
-    }
-
-
-def _x0_from_rise(z, y, smooth, index, a, alpha, Fd):
-    """x0 such that the model passes through the smoothed curve half-way up the rise.
-
-    F at that point decreases monotonically with x0; it is evaluated for 64 trial values of
-    x0 in one vectorised call and the crossing is interpolated in log x0.
-    """
-    half = 0.5 * smooth[index]
-    rising = np.nonzero(smooth[: index + 1] >= half)[0]
-    point = int(rising[0]) if rising.size else index
-    # the raw data near the point: a running mean is biased upwards on a steep rise
-    z_rise, f_rise = float(z[point]), float(np.mean(y[max(point - 1, 0) : point + 2]))
-    trial = z_rise * np.exp(-np.linspace(26.0, 1e-6, 64))  # x0 from 5e-12 z_rise to z_rise
-    s, s0 = alpha * z_rise, alpha * trial
-    force = a * scaled_ei_diff(s, s0) - Fd * math.expm1(-s)
-    above = np.nonzero(force <= f_rise)[0]
-    if not np.all(np.isfinite(force)) or above.size == 0 or above[0] == 0:
-        return z_rise * 0.01
-    k = int(above[0])
-    log_x0 = np.log(trial[k - 1 : k + 1])
-    weight = (force[k - 1] - f_rise) / (force[k - 1] - force[k])
-    return float(math.exp(log_x0[0] + weight * (log_x0[1] - log_x0[0])))
-
-
-def _starts(z, y, fixed, features):
-    """Candidate (a, alpha, Fd, x0) starts from the curve features, honouring fixed values."""
-    Fd = fixed.get("Fd", max(features["plateau"], 0.0))
-    overshoot = max(features["peak_force"] - Fd, features["overshoot"], 1e-12)
-    z_peak = max(features["peak_z"], z[0])
-    candidates = []
-    for peak_slip in _START_PEAK_SLIPS:
-        alpha = fixed.get("alpha", peak_slip / z_peak)
-        a = fixed.get("a", overshoot * alpha * z_peak)
-        rise = _x0_from_rise(z, y, features["smooth"], features["peak_index"], a, alpha, Fd)
-        # the initial state from the rise, or just before the first point
-        for x0 in (rise, 0.5 * z[0]):
-            candidates.append((a, alpha, Fd, fixed.get("x0", x0)))
-    return candidates
 
 
 # --------------------------------------------------------------------------- the result
@@ -415,7 +204,7 @@ class FitResult(ValueEquality):
 
     def model(self, x):
         """The fitted curve at abscissae ``x`` [m or s] (held at the initial force below x0)."""
-        z = check.real_array(x, "x", _ABSCISSA[self.domain][1]).ravel()
+        z = check.real_array(x, "x", ABSCISSA[self.domain][1]).ravel()
         return model_only(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
 
     def report(self):
@@ -428,7 +217,7 @@ class FitResult(ValueEquality):
         lines += [
             f"    R-squared          = {self.rsquared:.8f}",
             f"    window             = [{self.window[0]:.6g}, {self.window[1]:.6g}] "
-            f"{_ABSCISSA[self.domain][1]}",
+            f"{ABSCISSA[self.domain][1]}",
             "[[Variables]]",
         ]
         for n in self.names:
@@ -572,7 +361,7 @@ def _global_parameters(names, start, fixed, bounds, z):
 
 
 def _check_fixed(fixed, names, domain):
-    fixed = _check_mapping(fixed, names, "fixed", domain)
+    fixed = check_mapping(fixed, names, "fixed", domain)
     for slot, name in enumerate(names):
         if name in fixed:
             value = check.real_scalar(fixed[name], f"fixed[{name!r}]", _UNITS[domain][name])
@@ -669,93 +458,41 @@ def fit(
     """
     names = parameter_names(domain)
     fixed = _check_fixed(fixed, names, domain)
-    bounds = _check_mapping(bounds, names, "bounds", domain)
-    prepared = _prepare(data, domain, velocity, window, weights, sigma)
+    bounds = check_mapping(bounds, names, "bounds", domain)
+    prepared = prepare(data, domain, velocity, window, weights, sigma)
     z, y = prepared.z, prepared.y
     features = curve_features(z, y)
     slot_fixed = {SLOTS[names.index(n)]: v for n, v in fixed.items()}
     _require_overshoot(features, slot_fixed, SLOTS)
-    starts = _starts(z, y, slot_fixed, features)
+    starts = start_candidates(z, y, slot_fixed, features)
     parameters = _global_parameters(names, starts[0], fixed, bounds, z)
     curve = Curve(z, y, prepared.w, tuple((slot, 1.0) for slot in range(4)))
     problem = Problem([curve], parameters)
     unweighted = bool(np.all(prepared.w == 1.0))
     noise = features["noise"] if unweighted else _noise_level(prepared.w * y)
-    solution = _multistart(problem, starts, noise, features["peak_index"])
+    solution = multistart(
+        problem,
+        starts,
+        noise,
+        restart=None if names[3] in fixed else (lambda values: _held_restart(values, float(z[0]))),
+        insist=features["peak_index"] < _FEW_RISE_POINTS,
+    )
     return _result(problem, solution, prepared, domain, names, fixed, profile)
 
 
-def _held_restart(problem, u):
+def _held_restart(values, first):
     """A restart with x0 below the first point when the optimum holds points at F(x0).
 
     Each data point that x0 passes puts a kink into chi-square (the point changes from the
     curve to the held initial force), which can trap the optimiser above the first points.
-    The restart puts x0 at 0.99 times the first point (see :func:`_multistart` for when it
-    is pursued). Returns the start in internal coordinates, or None.
+    The restart puts x0 (t0), the fourth parameter, at 0.99 times the first point ``first``.
+    Returns the new values, or None when x0 is already below the first point.
     """
-    index = 3  # x0 (t0) is the fourth global parameter of a single-curve problem
-    if index not in problem.free:
+    if values[3] <= first:
         return None
-    first = float(problem.curves[0].z[0])
-    values = problem.values(u)
-    if values[index] <= first:
-        return None
-    values[index] = 0.99 * first
-    return problem.internal(values)
-
-
-def _multistart(problem, starts, noise, rise_points):
-    """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
-
-    When the converged fit leaves a residual variance above twice the point-to-point noise
-    (``noise``, from the data's second differences), the other starts are tried as well and
-    the best optimum is kept. If LM does not converge, scipy's least_squares (trust-region
-    reflective) takes over.
-    """
-    ranked = []
-    for start in starts:
-        u = problem.internal(list(start))
-        cost = problem.chisqr(problem.values(u), stride=8)
-        ranked.append((cost if math.isfinite(cost) else math.inf, u))
-    ranked.sort(key=lambda item: item[0])
-    expected = 2.0 * noise**2 * max(problem.ndata - len(problem.free), 1)
-    best, nfev = None, len(starts)
-    for count, (_, u_start) in enumerate(ranked, start=1):
-        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=1e-10)
-        nfev += steps
-        if best is None or cost < best[1]:
-            best = (u, cost, converged, count, hessian)
-        if noise > 0 and best[1] <= expected:
-            break
-    u, cost, converged, tried, hessian = best
-    start = _held_restart(problem, u)
-    if start is not None:
-        start_cost, g, H = problem.state(start, problem.free)
-        nfev += 1
-        try:
-            promised = start_cost + 0.5 * float(g @ np.linalg.solve(H, -g))
-        except np.linalg.LinAlgError:
-            promised = -math.inf
-        # pursue it when the step promises a gain, when chi-square exceeds what the noise
-        # allows (5 standard deviations of chi-square plus the error of the noise estimate),
-        # or when few points describe the rise, so that one held point weighs much
-        dof = max(problem.ndata - len(problem.free), 1)
-        implausible = noise <= 0 or cost > (1.0 + 10.0 / math.sqrt(dof)) * dof * noise**2
-        if promised < cost or implausible or rise_points < _FEW_RISE_POINTS:
-            u_new, cost_new, converged_new, steps, hessian_new = problem.lm(
-                start, max_iter=200, rtol=1e-10
-            )
-            nfev += steps
-            if cost_new < cost:
-                u, cost, converged, hessian = u_new, cost_new, converged_new, hessian_new
-    if converged:
-        message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
-        return Solution(u, 1, message, nfev, hessian)
-    try:
-        solution = problem.solve(u)
-    except ValueError as exc:  # e.g. residuals that are not finite at the start
-        return Solution(u, 0, f"the optimiser failed: {exc}", nfev)
-    return Solution(solution.x, solution.status, solution.message, nfev + solution.nfev)
+    values = values.copy()
+    values[3] = 0.99 * first
+    return values
 
 
 def _interval(problem, solution, stats, index, name, *, profile, exact_data, variance):
@@ -845,76 +582,3 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         sigma_known=prepared.sigma_known,
         name=prepared.name,
     )
-
-
-# --------------------------------------------------------------------------- batches
-
-
-def _portable(data):
-    """A Run as a picklable tuple (its metadata mapping cannot cross a process boundary)."""
-    if isinstance(data, Run):
-        columns = {
-            name: np.asarray(getattr(data, name)) for name in ("t", "slip", "velocity", "force")
-        }
-        return ("run", columns, data.control, dict(data.meta))
-    return data
-
-
-def _fit_item(item):
-    """Fit one (data, options) item; returns the FitResult or the GranflowError raised."""
-    data, options = item
-    if isinstance(data, tuple) and len(data) == 4 and data[0] == "run":
-        _, columns, control, meta = data
-        data = Run(control=control, meta=meta, **columns)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", ConvergenceWarning)
-            return fit(data, **options)
-    except GranflowError as exc:
-        return exc
-
-
-def fit_many(datasets, *, jobs=2, errors="raise", **options):
-    """Fit many curves over local processes, in the order given.
-
-    Parameters
-    ----------
-    datasets : iterable
-        Items :func:`fit` accepts (Runs or pairs of arrays).
-    jobs : int
-        Worker processes (1: in this process, no pool).
-    errors : {"raise", "return"}
-        On a curve that cannot be fitted, raise its error, or put the exception in its place
-        in the returned list and go on with the rest.
-    **options
-        Keyword arguments of :func:`fit`, the same for every curve.
-
-    Returns
-    -------
-    list of FitResult (or of the exceptions, with ``errors="return"``)
-
-    Examples
-    --------
-    >>> import numpy as np, granflow
-    >>> p = granflow.Params(3e-3, 4e4, 10e-3, 2e-7)
-    >>> x = np.linspace(1e-6, 5e-4, 400)
-    >>> curves = [(x, granflow.friction_slip(x, p.replace(Fd=Fd))) for Fd in (8e-3, 10e-3)]
-    >>> [round(r.params["Fd"] * 1e3, 3) for r in granflow.fit_many(curves, jobs=1)]
-    [8.0, 10.0]
-    """
-    if errors not in ("raise", "return"):
-        raise InvalidParameterError(f"errors must be 'raise' or 'return', got {errors!r}")
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
-        raise InvalidParameterError(f"jobs must be a positive integer, got {jobs!r}")
-    items = [(_portable(data), options) for data in datasets]
-    if jobs == 1 or len(items) <= 1:
-        results = [_fit_item(item) for item in items]
-    else:
-        chunk = max(1, len(items) // (4 * jobs))
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            results = list(pool.map(_fit_item, items, chunksize=chunk))
-    if errors == "raise":
-        for index, result in enumerate(results):
-            if isinstance(result, Exception):
-                raise type(result)(f"dataset {index}: {result}") from result
-    return results

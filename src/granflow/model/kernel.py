@@ -22,7 +22,8 @@ Compiled API (Numba, ``nogil``, cached on disk; each callable from compiled code
 Python):
 
 * :func:`curve_start` ``(alpha, x0)`` -- the per-curve constants :func:`point` takes;
-* :func:`point` -- value and the derivatives in (a, alpha, Fd, x0, F_init) at one point;
+* :func:`point` -- value and the derivatives in (a, alpha, Fd, x0, F_init) at one point,
+  :func:`point_value` the value alone;
 * :func:`eq3_loop`, :func:`jacobian_loop`, :func:`normal_equations` -- loops over arrays;
 * :func:`general_value` ``(z, a, alpha, Fd, z0, F_init)`` -- F from any state (the simulator).
 """
@@ -49,6 +50,7 @@ __all__ = [
     "jacobian_loop",
     "normal_equations",
     "point",
+    "point_value",
 ]
 
 #: Rules for abscissae below the initial state x0: reject them, or hold F at F(x0).
@@ -119,6 +121,17 @@ def _scaled_terms(s, decay, start):
     diff = scaled_ei_diff_scalar(s, s0, scaled_ei_s0, decay)
     rise = -math.expm1(-s) if s < _t.SMALL_LIMIT else 1.0 - exp_minus_s
     return diff, rise
+
+
+@compiled_inline
+def point_value(s, decay, a, Fd, offset, paper, held, start):
+    """F alone at one point: :func:`point`'s first value, without the derivatives' cost."""
+    if held:
+        return Fd * start[3] if paper else Fd + offset
+    diff, rise_s = _scaled_terms(s, decay, start)
+    if paper:
+        return a * diff + Fd * rise_s
+    return Fd + offset * decay + a * diff
 
 
 @compiled_inline
@@ -199,9 +212,7 @@ def eq3_loop(z, s, decay, lowest, z0, a, alpha, Fd, x0, offset, paper, hold, out
         zi = z[i]
         if not (zi >= lowest and zi < math.inf):
             return i
-        si = s[i]
-        held = hold and zi <= z0
-        out[i] = point(si / alpha, si, decay[i], a, alpha, Fd, x0, offset, paper, held, start)[0]
+        out[i] = point_value(s[i], decay[i], a, Fd, offset, paper, hold and zi <= z0, start)
     return -1
 
 
@@ -287,5 +298,4 @@ def general_value(z, a, alpha, Fd, z0, F_init):
     """
     start = curve_start(alpha, z0)
     s = alpha * z
-    decay = math.exp(start[0] - s)
-    return point(z, s, decay, a, alpha, Fd, z0, F_init - Fd, False, False, start)[0]
+    return point_value(s, math.exp(start[0] - s), a, Fd, F_init - Fd, False, False, start)
