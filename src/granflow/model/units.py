@@ -80,6 +80,8 @@ QUANTITIES = {
     "normal_force": _q("N", "mN", 1e3, "normal force"),
     "state": _q("N", "mN", 1e3, "friction state"),
     "age": _q("m", "µm", 1e6, "aging coordinate"),
+    "rest_time": _q("s", "s", 1.0, "rest time"),
+    "switch_time": _q("s", "s", 1.0, "switch time"),
     # the instrument
     "torque": _q("N m", "mN m", 1e3, "torque"),
     "speed": _q("rev/s", "rev/s", 1.0, "rotational speed"),
@@ -95,6 +97,11 @@ QUANTITIES = {
     "mass": _q("kg", "kg", 1.0, "effective mass"),
     "damping": _q("N s/m", "N s/m", 1.0, "damping"),
     "stiffness": _q("N/m", "N/m", 1.0, "machine stiffness"),
+    "v_fail": _q("m/s", "µm/s", 1e6, "failure velocity threshold"),
+    "direct_effect": _q("N", "mN", 1e3, "direct-effect amplitude"),
+    "hold": _q("s", "s", 1.0, "time under force control"),
+    "ramp": _q("s", "s", 1.0, "time to apply the force"),
+    "sigma": _q("N", "mN", 1e3, "force noise"),
     "factor": _q("", "", 1.0, "ratio"),
 }
 
