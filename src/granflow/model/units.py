@@ -90,6 +90,8 @@ QUANTITIES = {
     "shear_rate": _q("1/s", "1/s", 1.0, "shear rate"),
     "strain": _q("1", "1", 1.0, "strain"),
     "radius": _q("m", "mm", 1e3, "radius"),
+    "outer_diameter": _q("m", "mm", 1e3, "outer diameter of the tube"),
+    "wall_thickness": _q("m", "mm", 1e3, "wall thickness of the tube"),
     # protocols and the simulator
     "duration": _q("s", "s", 1.0, "duration"),
     "rate": _q("N/s", "mN/s", 1e3, "force rate"),
