@@ -4,11 +4,27 @@ import argparse
 
 from granflow.errors import GranflowError
 
-__all__ = ["UsageError", "positive_int", "quantity", "write_outputs"]
+__all__ = ["UsageError", "add_command", "positive_int", "quantity", "write_outputs"]
 
 
 class UsageError(GranflowError, ValueError):
     """Raised by commands for inconsistent arguments; reported with exit code 2."""
+
+
+def add_command(subparsers, name, run, *, help, description, epilog):
+    """Add the subparser of one command; ``run(args) -> int`` is what it does.
+
+    The help text keeps its line breaks, so the examples in ``epilog`` read as written.
+    """
+    parser = subparsers.add_parser(
+        name,
+        help=help,
+        description=description,
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.set_defaults(run=run)
+    return parser
 
 
 def quantity(text, name, flag):

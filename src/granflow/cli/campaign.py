@@ -1,11 +1,10 @@
 """``granflow analyze`` and ``granflow demo``: a campaign analysed end to end."""
 
-import argparse
 import contextlib
 import sys
 from pathlib import Path
 
-from granflow.cli._common import positive_int
+from granflow.cli._common import add_command, positive_int
 
 __all__ = ["add_analyze", "add_demo"]
 
@@ -30,15 +29,16 @@ DIR/report.html, DIR/results.json and DIR/synthetic_truth.json (the values it wa
 
 def add_analyze(subparsers):
     """Add the ``analyze`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "analyze",
+        _run_analyze,
         help="analyse a campaign: fits, joint analyses, predictions, tables, figures, report",
         description="Read every run a manifest names, fit each (start-ups, creep, stress ramps, "
         "switches), run the joint analyses the campaign allows (velocity collapse, Amontons' "
         "law, preparation spread), predict the static yield and a stability map, and write "
         "the results, tables, figures and an HTML report.",
         epilog=_EPILOG_ANALYZE,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
         "campaign", help="a manifest (.yaml, .yml, .csv) or a folder holding manifest.yaml"
@@ -58,7 +58,6 @@ def add_analyze(subparsers):
     parser.add_argument(
         "--mcmc", action="store_true", help="sample the posterior of a representative fit"
     )
-    parser.set_defaults(run=_run_analyze)
 
 
 def _add_execution_options(parser):
@@ -73,20 +72,20 @@ def _add_execution_options(parser):
 
 def add_demo(subparsers):
     """Add the ``demo`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "demo",
+        _run_demo,
         help="generate a synthetic campaign like the paper's and analyse it",
         description="Generate a synthetic campaign that mirrors the paper (start-ups over "
         "preparations, velocities and loads; a stress ramp; creep; a switch), write it as "
         "instrument exports and run 'granflow analyze' on it. Everything is labelled synthetic.",
         epilog=_EPILOG_DEMO,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
         "-o", "--output", default="granflow-demo", help="output folder (default granflow-demo)"
     )
     _add_execution_options(parser)
-    parser.set_defaults(run=_run_demo)
 
 
 @contextlib.contextmanager

@@ -1,9 +1,7 @@
 """``granflow curve``: the model curve (Eq. 3) under a constant velocity, and its peak."""
 
-import argparse
-
 import granflow
-from granflow.cli._common import UsageError, quantity
+from granflow.cli._common import UsageError, add_command, quantity
 
 __all__ = ["add_curve"]
 
@@ -15,13 +13,14 @@ Plain numbers are SI (N, 1/s, s, m/s, 1/m, m)."""
 
 def add_curve(subparsers):
     """Add the ``curve`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "curve",
+        _run_curve,
         help="evaluate the model curve (Eq. 3) and print its peak",
         description="Evaluate the friction transient of Eq. 3 under a constant velocity, print "
         "the static yield point (peak) and optionally write the curve as CSV.",
         epilog=_EPILOG_CURVE,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--a", required=True, help="aging amplitude, e.g. 3.31mN [N]")
     parser.add_argument("--Fd", required=True, help="steady-state friction, e.g. 10mN [N]")
@@ -37,7 +36,6 @@ def add_curve(subparsers):
     )
     parser.add_argument("--points", type=int, default=400, help="points on the curve (default 400)")
     parser.add_argument("-o", "--output", help="write the curve to this CSV file")
-    parser.set_defaults(run=_run_curve)
 
 
 def _curve_params(args):

@@ -1,12 +1,11 @@
 """``granflow inspect``, ``convert`` and ``fit``: instrument exports and curves, read through
 :mod:`granflow.io`."""
 
-import argparse
 import sys
 from pathlib import Path
 
 import granflow
-from granflow.cli._common import UsageError, quantity
+from granflow.cli._common import UsageError, add_command, quantity
 from granflow.errors import FileFormatError, GranflowError
 
 __all__ = ["add_convert", "add_fit", "add_inspect"]
@@ -14,17 +13,17 @@ __all__ = ["add_convert", "add_fit", "add_inspect"]
 
 def add_inspect(subparsers):
     """Add the ``inspect`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "inspect",
+        _run_inspect,
         help="show what an instrument export holds (format, tests, columns, units, problems)",
         description="Read an instrument export and print its format, encoding, number format, "
         "tests and intervals, columns with units, control mode, row counts and problems.",
         epilog="example:\n  granflow inspect run1.csv",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("file", help="the export (RheoCompass, Rheoplus, TRIOS or CSV)")
     parser.add_argument("--format", choices=("rheocompass", "rheoplus", "trios", "csv"))
-    parser.set_defaults(run=_run_inspect)
 
 
 def _run_inspect(args):
@@ -49,15 +48,16 @@ def _geometry(text):
 
 def add_convert(subparsers):
     """Add the ``convert`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "convert",
+        _run_convert,
         help="convert instrument exports to one tidy Parquet or CSV table of runs",
         description="Read instrument exports (or a campaign manifest), turn every interval into "
         "a run (time, slip, velocity, friction force in SI units) and save them as one tidy "
         "table. A file that fails is reported and the others are converted (exit code 1).",
         epilog="examples:\n  granflow convert run1.csv run2.txt -o tidy.parquet --geometry paper\n"
         "  granflow convert --manifest campaign.yaml -o tidy.csv",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("files", nargs="*", help="export files")
     parser.add_argument("--manifest", help="a campaign manifest (.yaml or .csv)")
@@ -67,7 +67,6 @@ def add_convert(subparsers):
         default="paper",
         help="'paper' (29.7 mm tube, 2.3 mm wall; default) or OUTER_DIAMETER:WALL",
     )
-    parser.set_defaults(run=_run_convert)
 
 
 def _run_convert(args):
@@ -151,13 +150,14 @@ def _read_curve(path):
 
 def add_fit(subparsers):
     """Add the ``fit`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "fit",
+        _run_fit,
         help="fit Eq. 3 to a friction curve in a CSV file",
         description="Fit the aging-rejuvenation model (Eq. 3) to one friction curve, with no "
         "initial guess, and print the parameters with standard errors and 95 % intervals.",
         epilog=_EPILOG_FIT,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("data", help="CSV file with a time or slip column and a force column")
     parser.add_argument(
@@ -177,7 +177,6 @@ def add_fit(subparsers):
     parser.add_argument("--window", help="fit window START:STOP with units, e.g. 1s:600s")
     parser.add_argument("--sigma", help="known force noise, e.g. 0.05mN")
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
-    parser.set_defaults(run=_run_fit)
 
 
 def _run_fit(args):

@@ -1,9 +1,7 @@
 """``granflow simulate`` and ``granflow stability-map``: protocols through the model."""
 
-import argparse
-
 import granflow
-from granflow.cli._common import UsageError, quantity, write_outputs
+from granflow.cli._common import UsageError, add_command, quantity, write_outputs
 
 __all__ = ["add_simulate", "add_stability_map"]
 
@@ -56,20 +54,20 @@ def _dynamic_options(args):
 
 def add_simulate(subparsers):
     """Add the ``simulate`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "simulate",
+        _run_simulate,
         help="run a protocol (velocity, hold, force, ramps, switches) through the model",
         description="Simulate a protocol: stick, slide, stop and fail under imposed velocities "
         "and forces. Prints the report; optionally writes the time series and a figure.",
         epilog=_EPILOG_SIMULATE,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("protocol", help="protocol YAML file")
     parser.add_argument("--params", required=True, help="parameters YAML file")
     _add_dynamic_options(parser)
     parser.add_argument("-o", "--output", help="write the time series to this CSV file")
     parser.add_argument("--plot", help="write force and slip against time to this image")
-    parser.set_defaults(run=_run_simulate)
 
 
 def _run_simulate(args):
@@ -104,13 +102,14 @@ def _grid(text, name, flag):
 
 def add_stability_map(subparsers):
     """Add the ``stability-map`` command."""
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "stability-map",
+        _run_stability_map,
         help="fail or stop after switching a start-up to force control",
         description="For each switch point of a constant-velocity start-up and each ratio of "
         "imposed to current force: does the layer fail or stop, after which slip, how fast?",
         epilog=_EPILOG_MAP,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--params", required=True, help="parameters YAML file")
     parser.add_argument("--velocity", default="0.86um/s", help="start-up velocity [m/s]")
@@ -122,7 +121,6 @@ def add_stability_map(subparsers):
     _add_dynamic_options(parser)
     parser.add_argument("-o", "--output", help="write one row per cell to this CSV file")
     parser.add_argument("--plot", help="write the map to this image")
-    parser.set_defaults(run=_run_stability_map)
 
 
 def _run_stability_map(args):
