@@ -78,3 +78,39 @@ def test_fit_command_errors(tmp_path, curve_csv, capsys):
     )
     assert main(["fit", str(flat)]) == 2
     assert "overshoot" in capsys.readouterr().err
+
+
+def test_fit_reads_underscore_units_and_ignores_other_columns(tmp_path, capsys):
+    # granflow curve -o writes time_s, slip_m, force_N; a velocity column in um/s (no speed
+    # unit) is left alone, as any column the fit does not use
+    t = np.linspace(0.5, 600.0, 600)
+    force = friction_time(t, TRUTH, VELOCITY)
+    path = tmp_path / "curve.csv"
+    pd.DataFrame(
+        {"time_s": t, "slip_m": t * VELOCITY, "force_N": force, "velocity [um/s]": 0.86}
+    ).to_csv(path, index=False)
+    assert main(["fit", str(path), "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert payload["domain"] == "slip"
+    assert payload["params"]["alpha"] == pytest.approx(TRUTH.alpha, rel=1e-4)
+
+
+def test_fit_converts_header_units_to_si(tmp_path, capsys):
+    # time in minutes and force in uN: the fitted t0 and Fd come back in s and N
+    t = np.linspace(0.5, 600.0, 600)
+    force = friction_time(t, TRUTH, VELOCITY)
+    path = tmp_path / "minutes.csv"
+    pd.DataFrame({"t (min)": t / 60.0, "F [µN]": force * 1e6}).to_csv(path, index=False)
+    code = main(["fit", str(path), "--json", "--velocity", "0.86um/s"])
+    assert code == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert payload["params"]["t0"] == pytest.approx(0.23, rel=1e-3)
+    assert payload["params"]["Fd"] == pytest.approx(0.01, rel=1e-4)
+
+
+def test_fit_refuses_a_unit_of_the_wrong_dimension(tmp_path, capsys):
+    path = tmp_path / "wrong.csv"
+    path.write_text("time [s],force [mm]\n1,2\n2,3\n")
+    assert main(["fit", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "force" in err and "'mm'" in err

@@ -261,3 +261,72 @@ def test_report_and_to_dict(tmp_path):
 
     summary = json.loads(json.dumps(parsed.to_dict()))
     assert summary["intervals"][0]["rows"] == 20
+
+
+def test_a_tidy_table_maps_slip_and_force_and_leaves_the_other_columns_alone():
+    # "Velocity" is a vendor label of the rotational speed; um/s is no speed unit: with
+    # only_mapped the column is read as it is, not refused
+    text = "time_s,slip [um],force [mN],velocity [um/s]\n1,2.5,3.5,1\n2,5.0,4.0,1\n"
+    parsed = parse_csv(
+        text,
+        column_map={"time": "time_s", "slip": "slip", "force": "force"},
+        units={"time_s": "s"},
+        only_mapped=True,
+    )
+    interval = parsed.intervals[0]
+    assert interval.si("slip").tolist() == [2.5e-6, 5e-6]  # um -> m by hand
+    assert interval.si("force").tolist() == [3.5e-3, 4e-3]
+    assert interval.si("time").tolist() == [1.0, 2.0]
+    assert [column.quantity for column in interval.columns] == ["time", "slip", "force", None]
+    with pytest.raises(granflow.FileFormatError, match="velocity"):
+        parse_csv(text)  # recognised by its label, its unit is refused
+
+
+def test_slip_and_force_are_never_recognised_by_name_alone():
+    interval = parse_csv("slip [um],force [mN]\n1,2\n").intervals[0]
+    assert interval.si("slip") is None and interval.si("force") is None
+
+
+def test_strict_tables_refuse_a_non_numeric_cell_naming_its_line():
+    text = "time [s],force [mN]\n1,2\n2,abc\n3,4\n4,5\n"
+    with pytest.raises(granflow.FileFormatError, match=r"line 3: column 'force'.*'abc'"):
+        parse_csv(text, source="x.csv", column_map={"force": "force"}, strict=True)
+    assert np.isnan(parse_csv(text, column_map={"force": "force"}).intervals[0].si("force")[1])
+
+
+def test_column_map_errors_name_the_column_and_the_quantity():
+    with pytest.raises(granflow.FileFormatError, match="'M' of the column map"):
+        parse_csv("t,F\n1,2\n", column_map={"torque": "M"})
+    with pytest.raises(granflow.FileFormatError, match="unknown quantity 'mass'"):
+        parse_csv("t,F\n1,2\n", column_map={"mass": "F"})
+
+
+def test_every_reader_reads_a_file_like_its_parser(tmp_path):
+    from granflow.io import read_csv, read_rheocompass, read_rheoplus, read_trios
+
+    parsed = read_rheocompass(export("rheocompass-en-utf16-shear.txt"))
+    assert parsed.encoding.startswith("utf-16") and parsed.intervals[0].rows == 20
+    table = tmp_path / "t.csv"
+    table.write_bytes("t;M\n1;2,5\n".encode("utf-16"))
+    parsed = read_csv(table, column_map={"torque": "M"}, units={"M": "mN m"})
+    assert parsed.source == str(table) and parsed.intervals[0].si("torque")[0] == 2.5e-3
+    trios = tmp_path / "t.txt"
+    trios.write_text("Filename\tdemo\n[step]\nhold\nStep time\tTorque\ns\tµN.m\n1\t2.5\n")
+    assert read_trios(trios).intervals[0].si("torque")[0] == pytest.approx(2.5e-6)
+    plus = tmp_path / "p.txt"
+    plus.write_bytes(
+        "Data Series Information\nMeas. Pts.\tTime\tTorque\n\t[s]\t[µNm]\n1\t1\t5\n".encode(
+            "cp1252"
+        )
+    )
+    parsed = read_rheoplus(plus)
+    assert parsed.encoding == "cp1252" and parsed.intervals[0].si("torque")[0] == 5e-6
+
+
+def test_the_column_units_come_from_the_one_unit_table():
+    from granflow.io import _columns
+    from granflow.model.units import si_unit
+
+    for quantity, unit in _columns.SI_UNITS.items():
+        assert unit is None or unit == si_unit(quantity)
+    assert _columns.SI_UNITS["torque"] == "N m" and _columns.SI_UNITS["status"] is None

@@ -55,3 +55,10 @@ def test_conversions_round_trip_and_keep_input():
 def test_bad_geometry_input(call, match):
     with pytest.raises(gf.InvalidParameterError, match=match):
         call()
+
+
+def test_geometry_errors_carry_the_units_of_the_unit_table():
+    with pytest.raises(gf.InvalidParameterError, match=r"outer_diameter.* m"):
+        gf.Annulus(outer_diameter=-1.0, wall_thickness=1e-3)
+    with pytest.raises(gf.InvalidParameterError, match=r"torque.*N m"):
+        gf.Annulus.paper().force_from_torque(float("nan"))

@@ -73,3 +73,50 @@ def test_material_constants():
         material.params_at(0.0, 1e-7)
     with pytest.raises(gf.InvalidParameterError, match="mu_d must be non-negative"):
         gf.MaterialConstants(mu_a=0.06, mu_d=-0.2, alpha=4e4)
+
+
+def test_from_mapping_reads_numbers_and_quantities_with_units():
+    # 3.31 mN = 3.31e-3 N, 0.198 um = 1.98e-7 m (by hand)
+    p = gf.Params.from_mapping({"a": "3.31 mN", "alpha": 41860, "Fd": "10mN", "x0": "0.198 um"})
+    assert (p.a, p.alpha, p.Fd, p.x0) == pytest.approx((3.31e-3, 41860, 1e-2, 1.98e-7), rel=1e-15)
+    time = gf.Params.from_mapping(
+        {
+            "params": {
+                "a": 3.31e-3,
+                "k": "0.036/s",
+                "t0": "0.23 s",
+                "Fd": 0.01,
+                "velocity": "0.86um/s",
+            }
+        }
+    )
+    assert time.alpha == pytest.approx(0.036 / 0.86e-6, rel=1e-15)
+    assert time.x0 == pytest.approx(0.23 * 0.86e-6, rel=1e-15)
+
+
+@pytest.mark.parametrize(
+    ("values", "match"),
+    [
+        ([1, 2], "f.yaml: expected a mapping"),
+        ({"a": 1, "alpha": 1, "Fd": 1, "x0": 1, "beta": 2}, "unknown parameter.*beta"),
+        ({"a": "3mN", "alpha": 4e4}, "missing parameter Fd"),
+        ({"a": "3mN", "k": 0.03, "t0": 0.2, "Fd": 0.01}, "missing parameter velocity"),
+        ({"a": "3 kg", "alpha": 1, "Fd": 1, "x0": 1}, "f.yaml: a: cannot read"),
+        ({"a": 1, "alpha": -1, "Fd": 1, "x0": 1}, "alpha must be positive"),
+    ],
+)
+def test_from_mapping_names_the_source_and_the_culprit(values, match):
+    with pytest.raises(gf.InvalidParameterError, match=match):
+        gf.Params.from_mapping(values, source="f.yaml")
+
+
+def test_load_reads_a_yaml_file(tmp_path):
+    path = tmp_path / "blue.yaml"
+    path.write_text("a: 3.31 mN\nk: 0.036 /s\nt0: 0.23 s\nFd: 10 mN\nvelocity: 0.86 um/s\n")
+    p = gf.Params.load(path)
+    assert p.k(0.86e-6) == pytest.approx(0.036, rel=1e-14) and p.Fd == pytest.approx(0.01)
+    with pytest.raises(gf.InvalidParameterError, match="cannot read the parameters"):
+        gf.Params.load(tmp_path / "missing.yaml")
+    path.write_text("a: [1\n")
+    with pytest.raises(gf.InvalidParameterError, match="not valid YAML"):
+        gf.Params.load(path)

@@ -4,7 +4,7 @@ Every reader maps column names and header keywords through this one module, so a
 language or a new vendor spelling is one more string in a tuple below. Matching ignores
 case, accents and surrounding spaces ("Angle de deflexion" finds "Angle de Déflexion").
 
-Units are converted in one place, :func:`si_factor`, with pint (via :mod:`granflow.units`):
+Units are converted in one place, :func:`si_factor`, with pint (via :mod:`granflow.model.units`):
 an unknown unit is an error naming it, never a guess.
 """
 
@@ -13,11 +13,13 @@ import re
 import unicodedata
 
 from granflow.errors import InvalidParameterError
+from granflow.model import units
 from granflow.model.units import to_si
 
 __all__ = [
     "KEYWORDS",
     "LANGUAGES",
+    "MAPPED_ONLY",
     "METADATA",
     "QUANTITIES",
     "SI_UNITS",
@@ -97,19 +99,16 @@ QUANTITIES = {
     },
 }
 
-#: The SI unit of each quantity (None: a count or text, no unit).
+#: Quantities a column map may name besides the instrument quantities above: the columns of a
+#: tidy table (granflow's own output, a spreadsheet). They have no vendor labels, so they are
+#: never recognised by name alone.
+MAPPED_ONLY = ("slip", "force")
+
+#: The SI unit of each column quantity, from the one unit table
+#: (:data:`granflow.model.units.QUANTITIES`); None: a count or text, no unit.
 SI_UNITS = {
-    "point": None,
-    "interval_time": "s",
-    "time": "s",
-    "torque": "N m",
-    "speed": "rev/s",
-    "angle": "rad",
-    "normal_force": "N",
-    "shear_stress": "Pa",
-    "shear_rate": "1/s",
-    "strain": "1",
-    "status": None,
+    name: units.QUANTITIES[name].si if name in units.QUANTITIES else None
+    for name in (*QUANTITIES, *MAPPED_ONLY)
 }
 
 #: Structural keywords of the exports (the label cell that starts a header line).
@@ -144,11 +143,17 @@ KEYWORDS = {
 METADATA = {
     "sample": ({"en": "Sample", "fr": "Échantillon", "de": "Probe"}, None),
     "preparation": ({"en": "Preparation", "fr": "Préparation", "de": "Präparation"}, None),
-    "normal_load": ({"en": "Normal Load", "fr": "Charge Normale", "de": "Normallast"}, "N"),
-    "rest_time": ({"en": "Rest Time", "fr": "Temps de Repos", "de": "Ruhezeit"}, "s"),
+    "normal_load": (
+        {"en": "Normal Load", "fr": "Charge Normale", "de": "Normallast"},
+        units.si_unit("normal_load"),
+    ),
+    "rest_time": (
+        {"en": "Rest Time", "fr": "Temps de Repos", "de": "Ruhezeit"},
+        units.si_unit("rest_time"),
+    ),
     "velocity": (
         {"en": "Nominal Velocity", "fr": "Vitesse Nominale", "de": "Nenngeschwindigkeit"},
-        "m/s",
+        units.si_unit("velocity"),
     ),
     "control": ({"en": "Control Mode", "fr": "Mode de Contrôle", "de": "Regelungsart"}, None),
 }

@@ -1,14 +1,15 @@
 """What a reader returns: a parsed file, its intervals and their columns (file units kept)."""
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from types import MappingProxyType
 
 from granflow._json import json_safe
 from granflow.errors import InvalidParameterError
 from granflow.io import _columns
-from granflow.io._text import fail, read_block
+from granflow.io._text import decode, fail, read_block
 
-__all__ = ["Column", "Interval", "ParsedFile"]
+__all__ = ["Column", "Interval", "ParsedFile", "parse_blocks", "read_with", "with_problems"]
 
 
 @dataclass(frozen=True)
@@ -190,14 +191,19 @@ class ParsedFile:
         return "\n".join(lines)
 
 
-def make_columns(names, units, meanings, source, line):
-    """Columns with quantities and SI factors; an unknown unit names itself and the line."""
+def make_columns(names, units, meanings, source, line, quantities=None):
+    """Columns with quantities and SI factors; an unknown unit names itself and the line.
+
+    ``quantities[i]``, when given, is what column i measures: a quantity name, ``""`` for a
+    column left uninterpreted, or None to recognise it by its label (the default for all).
+    """
     columns = []
     for index, name in enumerate(names):
         unit = units[index].strip() if index < len(units) else ""
         if unit.startswith("[") and unit.endswith("]"):
             unit = unit[1:-1].strip()
-        quantity, _ = _columns.match_quantity(name)
+        given = quantities[index] if quantities is not None else None
+        quantity = _columns.match_quantity(name)[0] if given is None else given or None
         factor = None
         if quantity is not None:
             try:
@@ -221,8 +227,10 @@ def make_interval(
     source,
     metadata,
     skip_first=False,
+    strict=False,
 ):
-    """Parse the data rows of one interval and wrap them with their columns and metadata."""
+    """Parse the data rows of one interval and wrap them with their columns and metadata;
+    ``strict``: a cell that is not a number is an error naming its line (not a NaN)."""
     text_columns = [i for i, column in enumerate(columns) if column.quantity == "status"]
     block = read_block(
         rows,
@@ -233,6 +241,7 @@ def make_interval(
         source,
         skip_first=skip_first,
         text_columns=text_columns,
+        strict=strict,
     )
     problems = list(block.problems)
     for index in list(block.text):
@@ -274,6 +283,8 @@ class BlockSpec:
     stop: int
     metadata: dict
     skip_first: bool = False
+    quantities: list | None = None
+    strict: bool = False
 
 
 def metadata_value(key, cells, numbers):
@@ -343,7 +354,9 @@ def finish(source, form, encoding, delimiter, lines, specs, metadata, problems):
             if isinstance(value, list):
                 key, value = metadata_value(key, value, numbers)
             spec_metadata[key] = value
-        columns = make_columns(spec.names, spec.units, spec.meanings, source, spec.header_line)
+        columns = make_columns(
+            spec.names, spec.units, spec.meanings, source, spec.header_line, spec.quantities
+        )
         if spec.stop <= spec.start:
             problems.append(
                 f"line {spec.header_line}: interval {spec.number} of {spec.test!r} has no data rows"
@@ -361,6 +374,7 @@ def finish(source, form, encoding, delimiter, lines, specs, metadata, problems):
                 source,
                 spec_metadata,
                 skip_first=spec.skip_first,
+                strict=spec.strict,
             )
         )
     file_metadata = {}
@@ -379,3 +393,37 @@ def finish(source, form, encoding, delimiter, lines, specs, metadata, problems):
         intervals=tuple(intervals),
         problems=tuple(problems),
     )
+
+
+def with_problems(parsed, problems):
+    """``parsed`` with ``problems`` (found while decoding the file) before its own."""
+    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed
+
+
+def read_with(parse, path, **options):
+    """Read an export with a format's parser: the ``read_<format>(path)`` of each reader.
+
+    Parameters
+    ----------
+    parse : callable
+        ``parse_<format>(text, source=..., encoding=..., **options)``.
+    path : str or pathlib.Path
+        The export file; never modified.
+    **options
+        Passed on to ``parse``.
+    """
+    path = Path(path)
+    text, encoding, problems = decode(path.read_bytes(), str(path))
+    return with_problems(parse(text, source=str(path), encoding=encoding, **options), problems)
+
+
+def parse_blocks(scan, form, text, source, encoding):
+    """Parse an export whose ``scan(lines, delimiter, source, problems)`` finds its blocks:
+    the ``parse_<format>(text)`` of each block-structured reader."""
+    from granflow.io._text import sniff_delimiter
+
+    lines = text.splitlines()
+    problems = []
+    delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
+    metadata, specs = scan(lines, delimiter, source, problems)
+    return finish(source, form, encoding, delimiter, lines, specs, metadata, problems)

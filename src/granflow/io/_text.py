@@ -208,7 +208,15 @@ class Block:
 
 
 def read_block(
-    lines, first_line, names, delimiter, numbers, source, skip_first=False, text_columns=()
+    lines,
+    first_line,
+    names,
+    delimiter,
+    numbers,
+    source,
+    skip_first=False,
+    text_columns=(),
+    strict=False,
 ):
     """Parse data rows into columns with pandas' C parser.
 
@@ -224,6 +232,9 @@ def read_block(
         Drop the first cell of each row (RheoCompass rows start with an empty label cell).
     text_columns : iterable of int
         Columns kept as text (status columns).
+    strict : bool
+        A numeric column's cell that is not a number (nor a missing-value marker) is an
+        error naming its line, instead of a NaN and a problem.
 
     Returns
     -------
@@ -302,6 +313,13 @@ def read_block(
             )
         if invalid.any():
             index = int(np.argmax(invalid))
+            if strict:
+                raise fail(
+                    source,
+                    int(line_numbers[index]),
+                    f"column {name!r} has a non-numeric value "
+                    f"{frame[offset + position].iloc[index]!r}",
+                )
             problems.append(
                 f"column {name!r}: {int(invalid.sum())} invalid values (NaN), first "
                 f"{frame[offset + position].iloc[index]!r} at line {int(line_numbers[index])}"

@@ -36,7 +36,7 @@ MANIFEST_FIELDS = (
 #: What a run is: a rate-controlled start-up (Fig. 2), a stress ramp (Fig. 3a), creep under a
 #: constant stress (Fig. 3b), or a switch from rate to stress control (Fig. 3c).
 TEST_KINDS = ("startup", "ramp", "creep", "switch")
-_QUANTITIES = {"normal_load": "N", "velocity": "m/s", "rest_time": "s", "switch_time": "s"}
+_QUANTITIES = ("normal_load", "velocity", "rest_time", "switch_time")
 _HEADER = "# granflow campaign "
 
 
@@ -54,10 +54,10 @@ def _entry(raw, where, manifest):
         if value is None or (isinstance(value, float) and math.isnan(value)) or value == "":
             continue
         if key in _QUANTITIES:
-            from granflow.model.units import parse_quantity
+            from granflow.model.units import parse_quantity, si_unit
 
             try:
-                value = parse_quantity(value, _QUANTITIES[key], key)
+                value = parse_quantity(value, si_unit(key), key)
             except InvalidParameterError as exc:
                 raise FileFormatError(f"{manifest}, {where}: {exc}") from None
         elif key == "interval":

@@ -2,12 +2,10 @@
 unit row below), data rows after it; a column map names the columns granflow needs."""
 
 import re
-from dataclasses import replace
-from pathlib import Path
 
 from granflow.io import _columns
-from granflow.io._file import BlockSpec, finish
-from granflow.io._text import decode, fail, sniff_delimiter, split
+from granflow.io._file import BlockSpec, finish, read_with
+from granflow.io._text import fail, sniff_delimiter, split
 
 __all__ = ["parse_csv", "read_csv"]
 
@@ -21,7 +19,15 @@ def _name_and_unit(cell):
     return cell.strip(), ""
 
 
-def parse_csv(text, source="<text>", encoding="str", column_map=None, units=None):
+def parse_csv(
+    text,
+    source="<text>",
+    encoding="str",
+    column_map=None,
+    units=None,
+    only_mapped=False,
+    strict=False,
+):
     """Parse a plain delimited table (comma, semicolon or tab; quoted fields allowed).
 
     Parameters
@@ -31,9 +37,15 @@ def parse_csv(text, source="<text>", encoding="str", column_map=None, units=None
     column_map : mapping, optional
         ``{quantity: column name}``, e.g. ``{"time": "t", "torque": "M"}``, for columns whose
         names are not in the label table (quantities: time, torque, speed, angle,
-        normal_force, shear_stress, shear_rate, strain, status).
+        normal_force, shear_stress, shear_rate, strain, status; and slip [m] and force [N],
+        the columns of a tidy table, which are found through the map only).
     units : mapping, optional
         ``{column name: unit}`` for columns whose unit the file does not give.
+    only_mapped : bool
+        Interpret only the columns of ``column_map``; the others are read as they are (no
+        quantity, no unit check), for tables whose other columns are not instrument data.
+    strict : bool
+        A cell that is not a number is an error naming its line and column, not a NaN.
 
     Examples
     --------
@@ -42,6 +54,10 @@ def parse_csv(text, source="<text>", encoding="str", column_map=None, units=None
     ...                    units={"t": "s", "M": "mN m"})
     >>> parsed.intervals[0].si("torque")
     array([0.0015, 0.0025])
+    >>> table = parse_csv("slip [um],force [mN]\\n1,2\\n", column_map={"force": "force"},
+    ...                   only_mapped=True)
+    >>> table.intervals[0].si("force")
+    array([0.002])
     """
     lines = text.splitlines()
     column_map = dict(column_map or {})
@@ -59,33 +75,36 @@ def parse_csv(text, source="<text>", encoding="str", column_map=None, units=None
         if below and all(cell.strip().startswith("[") or not cell.strip() for cell in below):
             file_units = [cell.strip().strip("[]") for cell in below] + [""] * len(names)
             start += 1
-    renamed = {name: quantity for quantity, name in column_map.items()}
+    mapped = {name: quantity for quantity, name in column_map.items()}
+    known = (*_columns.QUANTITIES, *_columns.MAPPED_ONLY)
     for name in column_map.values():
         if name not in names:
             raise fail(source, first + 1, f"column {name!r} of the column map is not in the header")
-    labels, final_units = [], []
-    for index, name in enumerate(names):
-        quantity = renamed.get(name)
-        if quantity is not None and quantity not in _columns.QUANTITIES:
-            raise fail(source, first + 1, f"unknown quantity {quantity!r} in the column map")
-        labels.append(_columns.label(quantity, "en") if quantity else name)
-        final_units.append(units.get(name, file_units[index] if index < len(file_units) else ""))
+    for name in names:
+        if name in mapped and mapped[name] not in known:
+            raise fail(source, first + 1, f"unknown quantity {mapped[name]!r} in the column map")
+    unmapped = "" if only_mapped else None
+    quantities = [mapped.get(name, unmapped) for name in names]
+    final_units = [
+        units.get(name, file_units[index] if index < len(file_units) else "")
+        for index, name in enumerate(names)
+    ]
     stop = start
     while stop < len(lines) and lines[stop].strip():
         stop += 1
-    spec = BlockSpec("table", 1, first + 1, labels, final_units, [], start, stop, {})
-    parsed = finish(source, "csv", encoding, delimiter, lines, [spec], {}, [])
-    original = [
-        replace(column, name=names[index]) if names[index] in renamed else column
-        for index, column in enumerate(parsed.intervals[0].columns)
-    ]
-    interval = replace(parsed.intervals[0], columns=tuple(original))
-    return replace(parsed, intervals=(interval,))
+    spec = BlockSpec(
+        "table", 1, first + 1, names, final_units, [], start, stop, {}, False, quantities, strict
+    )
+    return finish(source, "csv", encoding, delimiter, lines, [spec], {}, [])
 
 
-def read_csv(path, column_map=None, units=None):
+def read_csv(path, column_map=None, units=None, only_mapped=False, strict=False):
     """Read a generic CSV/TSV file; see :func:`parse_csv`."""
-    path = Path(path)
-    text, encoding, problems = decode(path.read_bytes(), str(path))
-    parsed = parse_csv(text, str(path), encoding, column_map=column_map, units=units)
-    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed
+    return read_with(
+        parse_csv,
+        path,
+        column_map=column_map,
+        units=units,
+        only_mapped=only_mapped,
+        strict=strict,
+    )

@@ -1,9 +1,9 @@
 """Format detection and the two entry points, :func:`read` and :func:`read_runs`."""
 
-from dataclasses import replace
 from pathlib import Path
 
 from granflow.errors import FileFormatError
+from granflow.io._file import with_problems
 from granflow.io._runs import runs_from_file
 from granflow.io._text import decode, fail
 from granflow.io.generic import parse_csv
@@ -86,7 +86,7 @@ def read(path, format=None, **options):
     if not text.strip():
         raise fail(str(path), 1, "the file is empty")
     parsed = parse(text, source=str(path), format=format, encoding=encoding, **options)
-    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed
+    return with_problems(parsed, problems)
 
 
 def read_runs(path, geometry=None, format=None, **options):

@@ -15,11 +15,9 @@ Other ``Key:<TAB>value`` lines are metadata of the test (before the first interv
 the interval (between its "Interval and data points" and "Interval data" lines).
 """
 
-from pathlib import Path
-
 from granflow.io import _columns
-from granflow.io._file import BlockSpec, finish
-from granflow.io._text import decode, fail, sniff_delimiter, split
+from granflow.io._file import BlockSpec, parse_blocks, read_with
+from granflow.io._text import fail, split
 
 __all__ = ["looks_like_rheocompass", "parse_rheocompass", "read_rheocompass"]
 
@@ -152,20 +150,9 @@ def parse_rheocompass(text, source="<text>", encoding="str"):
     >>> parsed.intervals[0].si("torque")
     array([0.0005, 0.0006])
     """
-    lines = text.splitlines()
-    problems = []
-    delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
-    metadata, specs = _scan(lines, delimiter, source, problems)
-    return finish(source, "rheocompass", encoding, delimiter, lines, specs, metadata, problems)
+    return parse_blocks(_scan, "rheocompass", text, source, encoding)
 
 
 def read_rheocompass(path):
     """Read a RheoCompass export file (any supported encoding); see :func:`parse_rheocompass`."""
-    path = Path(path)
-    text, encoding, problems = decode(path.read_bytes(), str(path))
-    parsed = parse_rheocompass(text, source=str(path), encoding=encoding)
-    if problems:
-        from dataclasses import replace
-
-        parsed = replace(parsed, problems=tuple(problems) + parsed.problems)
-    return parsed
+    return read_with(parse_rheocompass, path)

@@ -6,12 +6,9 @@ data points, measuring profile), then a header row starting with "Meas. Pts.", a
 ("[s]", "[µNm]", "[]") and data rows up to a blank line. ``******`` marks a missing value.
 """
 
-from dataclasses import replace
-from pathlib import Path
-
 from granflow.io import _columns
-from granflow.io._file import BlockSpec, finish
-from granflow.io._text import decode, sniff_delimiter, split
+from granflow.io._file import BlockSpec, parse_blocks, read_with
+from granflow.io._text import split
 
 __all__ = ["looks_like_rheoplus", "parse_rheoplus", "read_rheoplus"]
 
@@ -25,7 +22,7 @@ def _joined(cells):
     return " ".join(cell.strip() for cell in cells if cell.strip())
 
 
-def _scan(lines, delimiter):
+def _scan(lines, delimiter, source, problems):
     specs, file_metadata = [], {}
     test, metadata, number, declared = "", {}, 0, None
     last_key = ""
@@ -103,15 +100,9 @@ def parse_rheoplus(text, source="<text>", encoding="str"):
     >>> parse_rheoplus(text).intervals[0].si("torque").tolist()
     [nan, 5e-06]
     """
-    lines = text.splitlines()
-    delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
-    metadata, specs = _scan(lines, delimiter)
-    return finish(source, "rheoplus", encoding, delimiter, lines, specs, metadata, [])
+    return parse_blocks(_scan, "rheoplus", text, source, encoding)
 
 
 def read_rheoplus(path):
     """Read a Rheoplus export file; see :func:`parse_rheoplus`."""
-    path = Path(path)
-    text, encoding, problems = decode(path.read_bytes(), str(path))
-    parsed = parse_rheoplus(text, source=str(path), encoding=encoding)
-    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed
+    return read_with(parse_rheoplus, path)

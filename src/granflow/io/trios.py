@@ -11,12 +11,9 @@ then one block per step::
     0.5<TAB>12.3<TAB>...          data rows up to a blank line or the next [step]
 """
 
-from dataclasses import replace
-from pathlib import Path
-
 from granflow.io import _columns
-from granflow.io._file import BlockSpec, finish
-from granflow.io._text import decode, sniff_delimiter, split
+from granflow.io._file import BlockSpec, parse_blocks, read_with
+from granflow.io._text import split
 
 __all__ = ["looks_like_trios", "parse_trios", "read_trios"]
 
@@ -31,7 +28,7 @@ def _is_header(cells):
     return sum(quantity is not None for quantity in known) >= 2
 
 
-def _scan(lines, delimiter):
+def _scan(lines, delimiter, source, problems):
     specs, file_metadata = [], {}
     index, count = 0, len(lines)
     step, metadata, steps = None, {}, 0
@@ -78,15 +75,9 @@ def parse_trios(text, source="<text>", encoding="str"):
     >>> parse_trios(text).intervals[0].si("torque")
     array([2.5e-06, 3.5e-06])
     """
-    lines = text.splitlines()
-    delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
-    metadata, specs = _scan(lines, delimiter)
-    return finish(source, "trios", encoding, delimiter, lines, specs, metadata, [])
+    return parse_blocks(_scan, "trios", text, source, encoding)
 
 
 def read_trios(path):
     """Read a TRIOS text export; see :func:`parse_trios`."""
-    path = Path(path)
-    text, encoding, problems = decode(path.read_bytes(), str(path))
-    parsed = parse_trios(text, source=str(path), encoding=encoding)
-    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed
+    return read_with(parse_trios, path)

@@ -7,10 +7,12 @@ import numpy as np
 
 from granflow import _validate as check
 from granflow.errors import InvalidParameterError
+from granflow.model.units import si_unit
 
 __all__ = ["SPEED_UNITS", "Annulus"]
 
-#: Factors from a rotational speed in each unit to rev/s.
+#: Factors from a rotational speed in each unit to rev/s (its SI unit in the unit table); the
+#: spellings a caller may pass as ``unit``, not a table of quantities.
 SPEED_UNITS = {
     "rev/s": 1.0,
     "1/s": 1.0,
@@ -29,8 +31,10 @@ def _speed_factor(unit):
         raise InvalidParameterError(f"unit must be one of {known}, got {unit!r}") from None
 
 
-def _scale(value, factor, name, unit):
-    """value * factor, keeping scalars as floats and arrays as new arrays."""
+def _scale(value, factor, name, unit=None):
+    """value * factor, keeping scalars as floats and arrays as new arrays; ``unit`` (for
+    messages) defaults to the SI unit of the quantity ``name``."""
+    unit = si_unit(name) if unit is None else unit
     if np.ndim(value) == 0:
         return check.real_scalar(value, name, unit) * factor
     return check.real_array(value, name, unit) * factor
@@ -66,8 +70,8 @@ class Annulus:
     torque_radius: str = "uniform"
 
     def __post_init__(self):
-        diameter = check.positive(self.outer_diameter, "outer_diameter", "m")
-        wall = check.positive(self.wall_thickness, "wall_thickness", "m")
+        diameter = check.positive(self.outer_diameter, "outer_diameter", si_unit("outer_diameter"))
+        wall = check.positive(self.wall_thickness, "wall_thickness", si_unit("wall_thickness"))
         if wall >= diameter / 2:
             raise InvalidParameterError(
                 f"wall_thickness must be less than the outer radius {diameter / 2:g} m, "
@@ -118,19 +122,19 @@ class Annulus:
 
     def force_from_torque(self, torque):
         """Friction force [N] from torque [N m]."""
-        return _scale(torque, 1.0 / self.effective_radius, "torque", "N m")
+        return _scale(torque, 1.0 / self.effective_radius, "torque")
 
     def torque_from_force(self, force):
         """Torque [N m] from friction force [N]."""
-        return _scale(force, self.effective_radius, "force", "N")
+        return _scale(force, self.effective_radius, "force")
 
     def slip_from_angle(self, angle):
         """Slip [m] at the mean radius from deflection angle [rad]."""
-        return _scale(angle, self.mean_radius, "angle", "rad")
+        return _scale(angle, self.mean_radius, "angle")
 
     def angle_from_slip(self, slip):
         """Deflection angle [rad] from slip at the mean radius [m]."""
-        return _scale(slip, 1.0 / self.mean_radius, "slip", "m")
+        return _scale(slip, 1.0 / self.mean_radius, "slip")
 
     def velocity_from_speed(self, speed, unit="rev/s"):
         """Sliding velocity [m/s] at the mean radius from rotational speed.
@@ -150,5 +154,4 @@ class Annulus:
             velocity,
             1.0 / (_speed_factor(unit) * 2.0 * math.pi * self.mean_radius),
             "velocity",
-            "m/s",
         )

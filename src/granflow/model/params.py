@@ -2,8 +2,15 @@
 
 import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 from granflow import _validate as check
+from granflow.errors import InvalidParameterError
+
+#: What a parameter mapping may hold: the slip-domain set (a, alpha, Fd, x0) or the
+#: time-domain set (a, k, t0, Fd, velocity); units from :data:`granflow.model.units.QUANTITIES`.
+_SLIP_KEYS = ("a", "alpha", "Fd", "x0")
+_TIME_KEYS = ("a", "k", "t0", "Fd", "velocity")
 
 __all__ = ["MaterialConstants", "Params"]
 
@@ -80,6 +87,85 @@ class Params:
             Initial state [m].
         """
         return constants.params_at(normal_load, x0)
+
+    @classmethod
+    def from_mapping(cls, values, source="params"):
+        """Build from a mapping of SI numbers or strings with units (as a parameter file holds).
+
+        Parameters
+        ----------
+        values : mapping
+            Either ``a, alpha, Fd, x0`` (slip domain) or ``a, k, t0, Fd, velocity`` (time
+            domain); each a number in SI units or a string with a unit ("3.31 mN",
+            "0.86 um/s"). A mapping whose ``params`` entry is a mapping is read from there.
+        source : str
+            Where the mapping comes from (a file name), for error messages.
+
+        Raises
+        ------
+        granflow.InvalidParameterError
+            Not a mapping, an unknown or missing parameter, or a value that is not a
+            quantity of the right dimension; the message names the source and the key.
+
+        Examples
+        --------
+        >>> from granflow import Params
+        >>> p = Params.from_mapping({"a": "3.31 mN", "alpha": 4.186e4, "Fd": "10 mN",
+        ...                          "x0": "0.198 um"})
+        >>> round(p.a * 1e3, 2), round(p.x0 * 1e6, 3)
+        (3.31, 0.198)
+        """
+        from granflow.model.units import parse_quantity, si_unit
+
+        if isinstance(values, dict) and isinstance(values.get("params"), dict):
+            values = values["params"]
+        if not isinstance(values, dict):
+            raise InvalidParameterError(
+                f"{source}: expected a mapping of parameters (a, alpha, Fd, x0)"
+            )
+        unknown = sorted(set(values) - {*_SLIP_KEYS, *_TIME_KEYS})
+        if unknown:
+            raise InvalidParameterError(f"{source}: unknown parameter(s) {', '.join(unknown)}")
+        parsed = {
+            key: parse_quantity(value, si_unit(key), f"{source}: {key}")
+            for key, value in values.items()
+        }
+        time_domain = {"k", "t0"} <= set(parsed)
+        required = _TIME_KEYS if time_domain else _SLIP_KEYS
+        missing = [key for key in required if key not in parsed]
+        if missing:
+            raise InvalidParameterError(
+                f"{source}: missing parameter {missing[0]} (give a, alpha, Fd, x0 or a, k, t0, "
+                "Fd, velocity)"
+            )
+        if time_domain:
+            return cls.from_time_domain(**{key: parsed[key] for key in _TIME_KEYS})
+        return cls(**{key: parsed[key] for key in _SLIP_KEYS})
+
+    @classmethod
+    def load(cls, path):
+        """Read parameters from a YAML file; see :meth:`from_mapping` for what it holds.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            A YAML mapping, e.g. ``a: 3.31 mN``, ``k: 0.036 /s``, ``t0: 0.23 s``,
+            ``Fd: 10 mN``, ``velocity: 0.86 um/s``.
+
+        Raises
+        ------
+        granflow.InvalidParameterError
+            The file cannot be read, is not YAML, or does not hold valid parameters.
+        """
+        import yaml
+
+        try:
+            data = yaml.safe_load(Path(path).read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise InvalidParameterError(f"{path}: cannot read the parameters ({exc})") from None
+        except yaml.YAMLError as exc:
+            raise InvalidParameterError(f"{path}: not valid YAML ({exc})") from None
+        return cls.from_mapping(data, source=str(path))
 
     def k(self, velocity):
         """Rejuvenation rate ``alpha * velocity`` [1/s] at a sliding velocity [m/s]."""

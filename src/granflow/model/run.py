@@ -6,12 +6,13 @@ from types import MappingProxyType
 import numpy as np
 
 from granflow.errors import InvalidDataError
+from granflow.model.units import si_unit
 
 __all__ = ["CONTROL_MODES", "Run"]
 
 CONTROL_MODES = ("rate", "stress")
 _COLUMNS = ("t", "slip", "velocity", "force")
-_UNITS = {"t": "s", "slip": "m", "velocity": "m/s", "force": "N"}
+_UNITS = {name: si_unit(name) for name in _COLUMNS}
 
 
 def _column(values, name, length):

@@ -80,6 +80,8 @@ QUANTITIES = {
     "normal_force": _q("N", "mN", 1e3, "normal force"),
     "state": _q("N", "mN", 1e3, "friction state"),
     "age": _q("m", "µm", 1e6, "aging coordinate"),
+    "rest_time": _q("s", "s", 1.0, "rest time"),
+    "switch_time": _q("s", "s", 1.0, "switch time"),
     # the instrument
     "torque": _q("N m", "mN m", 1e3, "torque"),
     "speed": _q("rev/s", "rev/s", 1.0, "rotational speed"),
@@ -88,6 +90,8 @@ QUANTITIES = {
     "shear_rate": _q("1/s", "1/s", 1.0, "shear rate"),
     "strain": _q("1", "1", 1.0, "strain"),
     "radius": _q("m", "mm", 1e3, "radius"),
+    "outer_diameter": _q("m", "mm", 1e3, "outer diameter of the tube"),
+    "wall_thickness": _q("m", "mm", 1e3, "wall thickness of the tube"),
     # protocols and the simulator
     "duration": _q("s", "s", 1.0, "duration"),
     "rate": _q("N/s", "mN/s", 1e3, "force rate"),
@@ -95,6 +99,11 @@ QUANTITIES = {
     "mass": _q("kg", "kg", 1.0, "effective mass"),
     "damping": _q("N s/m", "N s/m", 1.0, "damping"),
     "stiffness": _q("N/m", "N/m", 1.0, "machine stiffness"),
+    "v_fail": _q("m/s", "µm/s", 1e6, "failure velocity threshold"),
+    "direct_effect": _q("N", "mN", 1e3, "direct-effect amplitude"),
+    "hold": _q("s", "s", 1.0, "time under force control"),
+    "ramp": _q("s", "s", 1.0, "time to apply the force"),
+    "sigma": _q("N", "mN", 1e3, "force noise"),
     "factor": _q("", "", 1.0, "ratio"),
 }
 

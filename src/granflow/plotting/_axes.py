@@ -5,9 +5,17 @@ from pathlib import Path
 import numpy as np
 
 from granflow.errors import InvalidParameterError
+from granflow.model.units import QUANTITIES
 
-MILLI = 1e3  # N -> mN
-MICRO = 1e6  # m -> µm, m/s -> µm/s
+# Display scales and units from the one unit table: forces in mN, slips in µm,
+# velocities in µm/s, times in s.
+FORCE_SCALE = QUANTITIES["force"].scale
+FORCE_UNIT = QUANTITIES["force"].display
+SLIP_SCALE = QUANTITIES["slip"].scale
+SLIP_UNIT = QUANTITIES["slip"].display
+VELOCITY_SCALE = QUANTITIES["velocity"].scale
+VELOCITY_UNIT = QUANTITIES["velocity"].display
+TIME_UNIT = QUANTITIES["time"].display
 
 # One colour per quantity, the same in every figure (as in Fig. 3 of the paper).
 SLIP_COLOR = "C0"  # measured slip (blue, left axis)

@@ -6,8 +6,13 @@ import numpy as np
 
 from granflow.errors import InvalidParameterError
 from granflow.plotting._axes import (
-    MICRO,
-    MILLI,
+    FORCE_SCALE,
+    FORCE_UNIT,
+    SLIP_SCALE,
+    SLIP_UNIT,
+    TIME_UNIT,
+    VELOCITY_SCALE,
+    VELOCITY_UNIT,
     check_axes,
     finite,
     legend_above,
@@ -52,12 +57,16 @@ def plot_fit(result, ax=None, *, residual_ax=None):
         )
     ax = new_axes(ax)
     domain = getattr(result, "domain", "time")
-    scale, label = (MICRO, "slip x [µm]") if domain == "slip" else (1.0, "time t [s]")
-    force_scale = MILLI if getattr(result, "model", "eq3") != "creep" else MICRO
-    unit = "mN" if force_scale == MILLI else "µm"
+    scale, label = (
+        (SLIP_SCALE, f"slip x [{SLIP_UNIT}]")
+        if domain == "slip"
+        else (1.0, f"time t [{TIME_UNIT}]")
+    )
+    force_scale = FORCE_SCALE if getattr(result, "model", "eq3") != "creep" else SLIP_SCALE
+    unit = FORCE_UNIT if force_scale == FORCE_SCALE else SLIP_UNIT
     ax.plot(result.x * scale, result.data * force_scale, ".", ms=2, color="0.55", label="data")
     ax.plot(result.x * scale, result.best_fit * force_scale, "-", color="C3", label="fit")
-    ax.set_ylabel(f"force F [{unit}]" if unit == "mN" else f"slip δ [{unit}]")
+    ax.set_ylabel(f"force F [{unit}]" if unit == FORCE_UNIT else f"slip δ [{unit}]")
     ax.legend(frameon=False)
     if residual_ax is not None:
         residual_ax.plot(result.x * scale, result.residuals * force_scale, ".", ms=2, color="C0")
@@ -188,19 +197,27 @@ def plot_collapse(result, ax=None, *, inset=True):
     ):
         color = palette[group] if group is not None else fallback[index]
         x, force = finite(run.x, run.data)
-        ax.plot(x * MICRO, force * MILLI, ".", ms=1.5, alpha=0.4, color=color)
+        ax.plot(x * SLIP_SCALE, force * FORCE_SCALE, ".", ms=1.5, alpha=0.4, color=color)
         model = Params(**dict(params))
         slip = np.geomspace(model.x0 * (1 + 1e-9), max(x[-1], model.x0 * 2), 400)
         curve = friction_slip(slip, model)
-        ax.plot(slip * MICRO, curve * MILLI, "-", color=color, lw=1.2)
+        ax.plot(slip * SLIP_SCALE, curve * FORCE_SCALE, "-", color=color, lw=1.2)
         curves.append((color, x, force, slip, curve))
     handles = [
-        Line2D([], [], color=color, marker="o", ms=4, ls="none", label=f"{v * MICRO:.3g} µm/s")
+        Line2D(
+            [],
+            [],
+            color=color,
+            marker="o",
+            ms=4,
+            ls="none",
+            label=f"{v * VELOCITY_SCALE:.3g} {VELOCITY_UNIT}",
+        )
         for color, v in zip(palette, result.velocities, strict=True)
     ]
     handles.append(Line2D([], [], color="0.3", lw=1.2, label="joint fit: shared a, α, F_d"))
-    ax.set_xlabel("slip x [µm]")
-    ax.set_ylabel("friction force F [mN]")
+    ax.set_xlabel(f"slip x [{SLIP_UNIT}]")
+    ax.set_ylabel(f"friction force F [{FORCE_UNIT}]")
     ax.set_xlim(left=0.0)
     ax.set_ylim(bottom=0.0)
     verdict = "collapse not rejected" if result.collapses else "collapse rejected"
@@ -222,17 +239,19 @@ def _collapse_inset(ax, curves, top):
     highest = 0.0
     for color, x, force, slip, curve in curves:
         near = x <= top
-        inset.plot(x[near] * MICRO, force[near] * MILLI, ".", ms=2, alpha=0.5, color=color)
+        inset.plot(
+            x[near] * SLIP_SCALE, force[near] * FORCE_SCALE, ".", ms=2, alpha=0.5, color=color
+        )
         near = slip <= top
-        inset.plot(slip[near] * MICRO, curve[near] * MILLI, "-", color=color, lw=1.0)
+        inset.plot(slip[near] * SLIP_SCALE, curve[near] * FORCE_SCALE, "-", color=color, lw=1.0)
         if near.any():
             highest = max(highest, float(np.max(curve[near])))
-    inset.set_xlim(0.0, top * MICRO)
+    inset.set_xlim(0.0, top * SLIP_SCALE)
     if highest > 0:  # the zoom rectangle stays inside the main axes
-        inset.set_ylim(0.0, min(1.08 * highest * MILLI, ax.get_ylim()[1]))
+        inset.set_ylim(0.0, min(1.08 * highest * FORCE_SCALE, ax.get_ylim()[1]))
     inset.set_title("short slips", fontsize="x-small", pad=2)
-    inset.set_xlabel("x [µm]", fontsize="x-small", labelpad=1)
-    inset.set_ylabel("F [mN]", fontsize="x-small", labelpad=1)
+    inset.set_xlabel(f"x [{SLIP_UNIT}]", fontsize="x-small", labelpad=1)
+    inset.set_ylabel(f"F [{FORCE_UNIT}]", fontsize="x-small", labelpad=1)
     inset.tick_params(labelsize="x-small")
     ax.indicate_inset_zoom(inset, edgecolor="0.5")
     return inset
@@ -311,16 +330,16 @@ def plot_amontons(result, axes=None):
     repeats = sorted({int(row["repeats"]) for row in per_load})
     count = f"{repeats[0]}" if len(repeats) == 1 else f"{repeats[0]}–{repeats[-1]}"
     panels = (
-        ("a", MILLI, "a [mN]", "μ_a"),
+        ("a", FORCE_SCALE, f"a [{FORCE_UNIT}]", "μ_a"),
         ("alpha_v" if use_rate else "alpha", 1.0, "α v [1/s]" if use_rate else "α [1/m]", None),
-        ("Fd", MILLI, "F_d [mN]", "μ_d"),
+        ("Fd", FORCE_SCALE, f"F_d [{FORCE_UNIT}]", "μ_d"),
     )
     span = np.linspace(0.0, loads.max() * 1.1, 50)
     for panel, (ax, (key, scale, label, coefficient)) in enumerate(zip(axes, panels, strict=True)):
         means = np.array([row[key][0] for row in per_load]) * scale
         errors = np.array([row[key][1] for row in per_load]) * scale
         ax.errorbar(
-            loads * MILLI,
+            loads * FORCE_SCALE,
             means,
             yerr=np.where(np.isfinite(errors), errors, 0.0),
             fmt="o",
@@ -336,9 +355,9 @@ def plot_amontons(result, axes=None):
                 _through_origin(ax, span, slope, error, scale, coefficient)
         elif coefficient is None:
             _joint_alpha(ax, result.joint, span, velocity if use_rate else 1.0, use_rate)
-        ax.set_xlabel("normal load F_N [mN]")
+        ax.set_xlabel(f"normal load F_N [{FORCE_UNIT}]")
         ax.set_ylabel(label)
-        ax.set_xlim(0.0, span[-1] * MILLI)
+        ax.set_xlim(0.0, span[-1] * FORCE_SCALE)
         highest = np.nanmax(np.concatenate([means + np.nan_to_num(errors), [0.0]]))
         if coefficient is None:  # a level: room above it for the legend
             ax.set_ylim(0.0, 1.5 * highest if highest > 0 else None)
@@ -352,14 +371,14 @@ def plot_amontons(result, axes=None):
 def _through_origin(ax, span, slope, error, scale, coefficient):
     band = error if math.isfinite(error) else 0.0
     ax.plot(
-        span * MILLI,
+        span * FORCE_SCALE,
         slope * span * scale,
         "k-",
         lw=1,
         label=f"{coefficient} F_N, {coefficient} = {plus_minus(slope, band)}",
     )
     ax.fill_between(
-        span * MILLI,
+        span * FORCE_SCALE,
         (slope - band) * span * scale,
         (slope + band) * span * scale,
         color="0.85",
@@ -376,6 +395,6 @@ def _joint_alpha(ax, joint, span, factor, rate):
     error = joint.stderr.get("alpha", math.nan) * factor
     name, unit = ("α v", "1/s") if rate else ("α", "1/m")
     label = f"joint fit: {name} = {plus_minus(value, error)} {unit}"
-    ax.plot(span * MILLI, np.full(span.size, value), "k-", lw=1, label=label)
+    ax.plot(span * FORCE_SCALE, np.full(span.size, value), "k-", lw=1, label=label)
     if math.isfinite(error):
-        ax.fill_between(span * MILLI, value - error, value + error, color="0.85", lw=0)
+        ax.fill_between(span * FORCE_SCALE, value - error, value + error, color="0.85", lw=0)

@@ -2,7 +2,14 @@
 
 import numpy as np
 
-from granflow.plotting._axes import MICRO, MILLI, new_axes
+from granflow.plotting._axes import (
+    FORCE_SCALE,
+    FORCE_UNIT,
+    SLIP_SCALE,
+    SLIP_UNIT,
+    TIME_UNIT,
+    new_axes,
+)
 
 __all__ = [
     "plot_simulation",
@@ -27,9 +34,9 @@ def _mark_events(ax, result, quantity):
             continue
         times = [event.time for event in events]
         if quantity == "force":
-            values = [event.force * MILLI for event in events]
+            values = [event.force * FORCE_SCALE for event in events]
         else:
-            values = np.interp(times, result.t, result.displacement) * MICRO
+            values = np.interp(times, result.t, result.displacement) * SLIP_SCALE
         ax.plot(times, values, marker, color=color, linestyle="none", label=kind, zorder=3)
 
 
@@ -49,13 +56,13 @@ def plot_simulation_force(result, ax=None, *, events=True):
     matplotlib.axes.Axes
     """
     ax = new_axes(ax)
-    ax.plot(result.t, result.force * MILLI, label="force")
+    ax.plot(result.t, result.force * FORCE_SCALE, label="force")
     if np.any(result.state != result.force):
-        ax.plot(result.t, result.state * MILLI, "--", linewidth=1, label="strength F (state)")
+        ax.plot(result.t, result.state * FORCE_SCALE, "--", linewidth=1, label="strength F (state)")
     if events:
         _mark_events(ax, result, "force")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("force [mN]")
+    ax.set_xlabel(f"time [{TIME_UNIT}]")
+    ax.set_ylabel(f"force [{FORCE_UNIT}]")
     ax.legend(loc="best", fontsize="small")
     return ax
 
@@ -63,11 +70,11 @@ def plot_simulation_force(result, ax=None, *, events=True):
 def plot_simulation_slip(result, ax=None, *, events=True):
     """Displacement (total slip since the start) against time [µm vs s]."""
     ax = new_axes(ax)
-    ax.plot(result.t, result.displacement * MICRO, color="C2", label="slip")
+    ax.plot(result.t, result.displacement * SLIP_SCALE, color="C2", label="slip")
     if events:
         _mark_events(ax, result, "slip")
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("slip [µm]")
+    ax.set_xlabel(f"time [{TIME_UNIT}]")
+    ax.set_ylabel(f"slip [{SLIP_UNIT}]")
     return ax
 
 
@@ -108,7 +115,7 @@ def plot_stability_map(stability, ax=None):
     matplotlib.axes.Axes
     """
     ax = new_axes(ax)
-    slip = np.where(stability.stopped, stability.stop_slip * MICRO, np.nan).T
+    slip = np.where(stability.stopped, stability.stop_slip * SLIP_SCALE, np.nan).T
     mesh = ax.pcolormesh(
         stability.switch_points, stability.stress_ratios, slip, shading="nearest", cmap="viridis"
     )
@@ -122,8 +129,8 @@ def plot_stability_map(stability, ax=None):
         vmin=0.0,
         vmax=2.0,
     )
-    ax.figure.colorbar(mesh, ax=ax, label="slip to stop [µm]")
-    ax.set_xlabel("switch time [s]")
+    ax.figure.colorbar(mesh, ax=ax, label=f"slip to stop [{SLIP_UNIT}]")
+    ax.set_xlabel(f"switch time [{TIME_UNIT}]")
     ax.set_ylabel("imposed / current force [-]")
     ax.set_title(f"grey: failure ({stability.method}, {stability.clock} clock)", fontsize="medium")
     return ax
