@@ -9,11 +9,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow._json import json_safe
 from granflow.errors import GranflowError, InvalidParameterError
-from granflow.fitting.creep import fit_curve
-from granflow.fitting.engine import FrozenMap
-from granflow.fitting.single import _prepare, fit
+from granflow.fitting.creep import CurveFitResult, fit_curve
+from granflow.fitting.results import FrozenMap, ValueEquality, decode, encode
+from granflow.fitting.single import FitResult, _prepare, fit
 
 __all__ = ["ModelComparison", "compare_models"]
 
@@ -26,7 +25,7 @@ _FORMULAS = {
 
 
 @dataclass(frozen=True, eq=False)
-class ModelComparison:
+class ModelComparison(ValueEquality):
     """An AIC/BIC table of the models fitted to one curve.
 
     Attributes
@@ -60,13 +59,33 @@ class ModelComparison:
         return "\n".join(lines)
 
     def to_dict(self):
-        """JSON-safe mapping: the rows and the winners."""
-        return json_safe(
+        """JSON-safe mapping: the rows, the winners and each model's fit; :meth:`from_dict`
+        inverts it."""
+        return encode(
             {
                 "rows": [dict(r) for r in self.rows],
                 "best_aic": self.best_aic,
                 "best_bic": self.best_bic,
+                "fits": {
+                    model: None if result is None else result.to_dict()
+                    for model, result in self.fits.items()
+                },
             }
+        )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The comparison a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        fits = {}
+        for model, result in d.get("fits", {}).items():
+            kind = FitResult if model == "eq3" else CurveFitResult
+            fits[model] = None if result is None else kind.from_dict(result)
+        return cls(
+            rows=tuple(dict(row) for row in d["rows"]),
+            fits=FrozenMap(fits),
+            best_aic=d["best_aic"],
+            best_bic=d["best_bic"],
         )
 
     def to_frame(self):

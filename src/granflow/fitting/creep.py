@@ -11,16 +11,26 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import least_squares
 
-from granflow._json import json_safe
 from granflow.errors import InvalidDataError
-from granflow.fitting.engine import WALD_Z, FrozenMap
+from granflow.fitting.engine import WALD_Z
+from granflow.fitting.results import (
+    FrozenMap,
+    ValueEquality,
+    decode,
+    encode,
+    intervals,
+    matrix,
+    number,
+    numbers,
+    read_only,
+)
 from granflow.fitting.statistics import estimates, statistics, variable_line
 
 __all__ = ["CurveFitResult", "fit_creep"]
 
 
 @dataclass(frozen=True, eq=False)
-class CurveFitResult:
+class CurveFitResult(ValueEquality):
     """A least-squares fit of a small closed-form model.
 
     Attributes
@@ -88,16 +98,46 @@ class CurveFitResult:
         return "\n".join(lines)
 
     def to_dict(self):
-        """JSON-safe mapping (without the arrays)."""
-        return json_safe(
+        """JSON-safe mapping with the arrays as lists; :meth:`from_dict` inverts it."""
+        return encode(
             {
                 "model": self.model,
                 "formula": self.formula,
+                "names": list(self.names),
                 **estimates(self),
                 "units": dict(self.units),
                 **statistics(self),
+                **{key: getattr(self, key) for key in _ARRAYS},
             }
         )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        return cls(
+            model=d["model"],
+            formula=d["formula"],
+            names=tuple(d.get("names") or d["params"]),
+            units=FrozenMap(d["units"]),
+            params=numbers(d["params"]),
+            stderr=numbers(d["stderr"]),
+            ci95=intervals(d["ci95"]),
+            covar=matrix(d["covar"]),
+            success=d["success"],
+            message=d["message"],
+            ndata=d["ndata"],
+            nfree=d["nfree"],
+            chisqr=number(d["chisqr"]),
+            redchi=number(d["redchi"]),
+            aic=number(d["aic"]),
+            bic=number(d["bic"]),
+            sigma_known=d["sigma_known"],
+            **{key: read_only(d.get(key, [])) for key in _ARRAYS},
+        )
+
+
+_ARRAYS = ("x", "data", "best_fit", "residuals")
 
 
 def check_xy(x, y, names, minimum):
@@ -199,17 +239,11 @@ def fit_curve(model, *, name, formula, names, units, log, start, x, y, sigma=Non
         aic=log_term + 2 * nfree,
         bic=log_term + math.log(n) * nfree,
         sigma_known=sigma is not None,
-        x=_read_only(x),
-        data=_read_only(y),
-        best_fit=_read_only(best_fit),
-        residuals=_read_only(y - best_fit),
+        x=read_only(x),
+        data=read_only(y),
+        best_fit=read_only(best_fit),
+        residuals=read_only(y - best_fit),
     )
-
-
-def _read_only(array):
-    array = np.array(array, dtype=float)
-    array.flags.writeable = False
-    return array
 
 
 def _creep(t, B, tau_c):

@@ -18,44 +18,19 @@ between trial values of x0.
 """
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_distribution
 
+from granflow.fitting.results import FrozenMap as FrozenMap  # re-exported for callers
 from granflow.model.special import _inline, _jit, _scaled_ei_diff_scalar, _scaled_ei_scalar
 
 SLOTS = ("a", "alpha", "Fd", "x0")
 _SMALL_S = 0.5
 PROFILE_LEVEL = float(chi2_distribution.ppf(0.95, 1))  # 3.841...
 WALD_Z = 1.959963984540054
-
-
-class FrozenMap(Mapping):
-    """A read-only mapping that, unlike ``types.MappingProxyType``, can be pickled (results
-    travel between processes in batch fits)."""
-
-    __slots__ = ("_data",)
-
-    def __init__(self, data=()):
-        object.__setattr__(self, "_data", dict(data))
-
-    def __getitem__(self, key):
-        return self._data[key]
-
-    def __iter__(self):
-        return iter(self._data)
-
-    def __len__(self):
-        return len(self._data)
-
-    def __repr__(self):
-        return f"FrozenMap({self._data!r})"
-
-    def __reduce__(self):
-        return (FrozenMap, (self._data,))
 
 
 @_inline

@@ -20,9 +20,18 @@ import numpy as np
 from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
 
-from granflow._json import json_safe
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
-from granflow.fitting.engine import WALD_Z, Curve, FrozenMap, GlobalParameter, Problem, covariance
+from granflow.fitting.engine import WALD_Z, Curve, GlobalParameter, Problem, covariance
+from granflow.fitting.results import (
+    FrozenMap,
+    ValueEquality,
+    decode,
+    encode,
+    intervals,
+    matrix,
+    number,
+    numbers,
+)
 from granflow.fitting.single import FitResult, _prepare, _Solution, fit, parameter_names
 from granflow.fitting.statistics import estimates, statistics, statistics_lines, variable_line
 from granflow.model.friction import peak
@@ -44,7 +53,7 @@ _TIME_ALIASES = {"alpha": "k", "x0": "t0"}
 
 
 @dataclass(frozen=True, eq=False)
-class JointFitResult:
+class JointFitResult(ValueEquality):
     """The outcome of :func:`fit_joint` (or of :func:`fit_amontons`).
 
     Attributes
@@ -117,18 +126,49 @@ class JointFitResult:
         return "\n".join(lines)
 
     def to_dict(self):
-        """JSON-safe mapping of the result."""
-        return json_safe(
+        """JSON-safe mapping of the result (with the separate fits); :meth:`from_dict` inverts
+        it."""
+        return encode(
             {
                 "domain": self.domain,
                 "names": list(self.names),
                 **estimates(self),
+                "correl": {n: dict(row) for n, row in self.correl.items()},
                 "fixed": list(self.fixed),
                 "run_params": [dict(p) for p in self.run_params],
                 "run_names": list(self.run_names),
                 "nfev": self.nfev,
                 **statistics(self),
+                "individual": [result.to_dict() for result in self.individual],
             }
+        )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        return cls(
+            domain=d["domain"],
+            names=tuple(d["names"]),
+            params=numbers(d["params"]),
+            stderr=numbers(d["stderr"]),
+            ci95=intervals(d["ci95"]),
+            covar=matrix(d["covar"]),
+            correl=matrix(d["correl"]),
+            fixed=tuple(d["fixed"]),
+            run_params=tuple(numbers(p) for p in d["run_params"]),
+            run_names=tuple(d["run_names"]),
+            individual=tuple(FitResult.from_dict(r) for r in d.get("individual", [])),
+            success=d["success"],
+            message=d["message"],
+            nfev=d["nfev"],
+            ndata=d["ndata"],
+            nfree=d["nfree"],
+            chisqr=number(d["chisqr"]),
+            redchi=number(d["redchi"]),
+            aic=number(d["aic"]),
+            bic=number(d["bic"]),
+            sigma_known=d["sigma_known"],
         )
 
 
@@ -362,7 +402,7 @@ def fit_joint(
 
 
 @dataclass(frozen=True, eq=False)
-class CollapseResult:
+class CollapseResult(ValueEquality):
     """Velocity collapse (Fig. 2b): shared fit, per-velocity fit and a likelihood-ratio test.
 
     Attributes
@@ -410,8 +450,8 @@ class CollapseResult:
         return "\n".join(lines)
 
     def to_dict(self):
-        """JSON-safe mapping."""
-        return json_safe(
+        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+        return encode(
             {
                 "velocities": list(self.velocities),
                 "shared": self.shared.to_dict(),
@@ -421,6 +461,20 @@ class CollapseResult:
                 "p_value": self.p_value,
                 "collapses": self.collapses,
             }
+        )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        return cls(
+            velocities=tuple(number(v) for v in d["velocities"]),
+            shared=JointFitResult.from_dict(d["shared"]),
+            per_velocity=JointFitResult.from_dict(d["per_velocity"]),
+            statistic=number(d["statistic"]),
+            df=d["df"],
+            p_value=number(d["p_value"]),
+            collapses=d["collapses"],
         )
 
 
@@ -489,7 +543,7 @@ def velocity_collapse(datasets, velocities=None, *, sigma=None, window=None):
 
 
 @dataclass(frozen=True, eq=False)
-class AmontonsResult:
+class AmontonsResult(ValueEquality):
     """Amontons' law over normal loads (Fig. 2c).
 
     Attributes
@@ -524,14 +578,36 @@ class AmontonsResult:
         return "\n".join(lines)
 
     def to_dict(self):
-        """JSON-safe mapping."""
-        return json_safe(
+        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+        return encode(
             {
                 "joint": self.joint.to_dict(),
                 "per_load": [dict(row) for row in self.per_load],
                 "lines": {k: list(v) for k, v in self.lines.items()},
             }
         )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        per_load = []
+        for row in d["per_load"]:
+            per_load.append(FrozenMap({key: _load_entry(key, value) for key, value in row.items()}))
+        return cls(
+            joint=JointFitResult.from_dict(d["joint"]),
+            per_load=tuple(per_load),
+            lines=intervals(d["lines"]),
+        )
+
+
+def _load_entry(key, value):
+    """One entry of a per-load row read back from JSON."""
+    if key == "repeats" or value is None:
+        return value
+    if key == "normal_load":
+        return number(value)
+    return tuple(number(v) for v in value)
 
 
 def _mean_and_error(values):
@@ -639,7 +715,7 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
 
 
 @dataclass(frozen=True, eq=False)
-class PreparationSpread:
+class PreparationSpread(ValueEquality):
     """How repeats with nominally identical preparation differ.
 
     Attributes
@@ -683,8 +759,8 @@ class PreparationSpread:
         )
 
     def to_dict(self):
-        """JSON-safe mapping."""
-        return json_safe(
+        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+        return encode(
             {
                 "domain": self.domain,
                 "repeats": self.repeats,
@@ -694,6 +770,20 @@ class PreparationSpread:
                 "correlation": self.correlation,
                 "p_value": self.p_value,
             }
+        )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        return cls(
+            domain=d["domain"],
+            repeats=d["repeats"],
+            start=numbers(d["start"]),
+            Fd=numbers(d["Fd"]),
+            peak_force=tuple(number(v) for v in d["peak_force"]),
+            correlation=number(d["correlation"]),
+            p_value=number(d["p_value"]),
         )
 
 

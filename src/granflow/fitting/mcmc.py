@@ -12,9 +12,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow._json import json_safe
 from granflow.errors import ConvergenceWarning, InvalidParameterError
-from granflow.fitting.engine import FrozenMap, model_only
+from granflow.fitting.engine import model_only
+from granflow.fitting.results import (
+    FrozenMap,
+    ValueEquality,
+    decode,
+    encode,
+    intervals,
+    number,
+    numbers,
+    read_only,
+)
 from granflow.fitting.single import FitResult
 
 __all__ = ["PosteriorResult", "sample_posterior"]
@@ -37,7 +46,7 @@ def _emcee():
 
 
 @dataclass(frozen=True, eq=False)
-class PosteriorResult:
+class PosteriorResult(ValueEquality):
     """Samples of the posterior of an Eq. 3 fit.
 
     Attributes
@@ -101,8 +110,8 @@ class PosteriorResult:
         return "\n".join(lines)
 
     def to_dict(self):
-        """JSON-safe summary (without the chain)."""
-        return json_safe(
+        """JSON-safe mapping with the chain as nested lists; :meth:`from_dict` inverts it."""
+        return encode(
             {
                 "names": list(self.names),
                 "medians": dict(self.medians),
@@ -116,7 +125,33 @@ class PosteriorResult:
                 "priors": {k: list(v) for k, v in self.priors.items()},
                 "seed": self.seed,
                 "shape": list(self.chain.shape),
+                "chain": self.chain,
             }
+        )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        chain = read_only(d["chain"]).reshape(d["shape"])
+        return cls(
+            names=tuple(d["names"]),
+            chain=chain,
+            medians=numbers(d["medians"]),
+            std=numbers(d["std"]),
+            ci68=intervals(d["ci68"]),
+            ci95=intervals(d["ci95"]),
+            autocorr=numbers(d["autocorr"]),
+            acceptance_fraction=number(d["acceptance_fraction"]),
+            converged=d["converged"],
+            least_squares=numbers(d["least_squares"]),
+            priors=FrozenMap(
+                {
+                    name: (kind, number(low), number(high))
+                    for name, (kind, low, high) in d["priors"].items()
+                }
+            ),
+            seed=d["seed"],
         )
 
     def plot_corner(self, **kwargs):

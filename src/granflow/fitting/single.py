@@ -27,7 +27,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from granflow import _validate as check
-from granflow._json import json_safe
 from granflow.errors import (
     ConvergenceWarning,
     FitError,
@@ -39,12 +38,22 @@ from granflow.fitting.engine import (
     SLOTS,
     WALD_Z,
     Curve,
-    FrozenMap,
     GlobalParameter,
     Problem,
     covariance,
     model_only,
     profile_interval,
+)
+from granflow.fitting.results import (
+    FrozenMap,
+    ValueEquality,
+    decode,
+    encode,
+    intervals,
+    matrix,
+    number,
+    numbers,
+    read_only,
 )
 from granflow.fitting.statistics import estimates, statistics, statistics_lines
 from granflow.model.params import Params
@@ -290,14 +299,11 @@ def _frozen(mapping):
     return FrozenMap(dict(mapping))
 
 
-def _read_only(array):
-    array = np.array(array, dtype=np.float64)
-    array.flags.writeable = False
-    return array
+_ARRAYS = ("x", "data", "best_fit", "residuals", "weights")
 
 
 @dataclass(frozen=True, eq=False)
-class FitResult:
+class FitResult(ValueEquality):
     """The outcome of :func:`fit`: parameters with uncertainties and goodness of fit.
 
     Attributes
@@ -441,11 +447,19 @@ class FitResult:
                 lines.append(f"    C({p}, {q}) = {value:+.4f}")
         return "\n".join(lines)
 
-    def to_dict(self, include_arrays=False):
-        """JSON-safe mapping of the result (arrays only with ``include_arrays``)."""
+    def to_dict(self, include_arrays=True):
+        """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Include ``x``, ``data``, ``best_fit``, ``residuals`` and ``weights`` as lists
+            (False: a compact summary, which :meth:`from_dict` rebuilds with empty arrays).
+        """
         out = {
             "domain": self.domain,
             "name": self.name,
+            "names": list(self.names),
             **estimates(self),
             "ci_method": dict(self.ci_method),
             "correl": {n: dict(row) for n, row in self.correl.items()},
@@ -459,9 +473,52 @@ class FitResult:
             "window": list(self.window),
         }
         if include_arrays:
-            for key in ("x", "data", "best_fit", "residuals"):
-                out[key] = getattr(self, key).tolist()
-        return json_safe(out)
+            for key in _ARRAYS:
+                out[key] = getattr(self, key)
+        return encode(out)
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes.
+
+        Examples
+        --------
+        >>> import json, numpy as np, granflow
+        >>> x = np.linspace(1e-6, 5e-4, 300)
+        >>> p = granflow.Params(3e-3, 4e4, 1e-2, 2e-7)
+        >>> result = granflow.fit((x, granflow.friction_slip(x, p)))
+        >>> granflow.FitResult.from_dict(json.loads(json.dumps(result.to_dict()))) == result
+        True
+        """
+        d = decode(d, cls)
+        names = tuple(d.get("names") or d["params"])
+        return cls(
+            domain=d["domain"],
+            names=names,
+            params=numbers(d["params"]),
+            stderr=numbers(d["stderr"]),
+            ci95=intervals(d["ci95"]),
+            ci_method=FrozenMap(d["ci_method"]),
+            covar=matrix(d["covar"]),
+            correl=matrix(d["correl"]),
+            fixed=tuple(d["fixed"]),
+            at_bound=FrozenMap(d["at_bound"]),
+            success=d["success"],
+            message=d["message"],
+            nfev=d["nfev"],
+            ndata=d["ndata"],
+            nfree=d["nfree"],
+            chisqr=number(d["chisqr"]),
+            redchi=number(d["redchi"]),
+            aic=number(d["aic"]),
+            bic=number(d["bic"]),
+            rsquared=number(d["rsquared"]),
+            **{key: read_only(d.get(key, [])) for key in _ARRAYS},
+            velocity=None if d["velocity"] is None else float(d["velocity"]),
+            window=tuple(number(v) for v in d["window"]),
+            sigma_known=d["sigma_known"],
+            name=d.get("name"),
+        )
 
     def plot(self, ax=None, *, residual_ax=None):
         """Data, fit and residuals; see :func:`granflow.plotting.plot_fit`."""
@@ -794,11 +851,11 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         aic=log_term + 2 * nfree,
         bic=log_term + math.log(n) * nfree,
         rsquared=rsquared,
-        x=_read_only(prepared.z),
-        data=_read_only(prepared.y),
-        best_fit=_read_only(best_fit),
-        residuals=_read_only(residuals),
-        weights=_read_only(prepared.w),
+        x=read_only(prepared.z),
+        data=read_only(prepared.y),
+        best_fit=read_only(best_fit),
+        residuals=read_only(residuals),
+        weights=read_only(prepared.w),
         velocity=prepared.velocity,
         window=prepared.window,
         sigma_known=prepared.sigma_known,
