@@ -108,7 +108,7 @@ from granflow.analysis.runs import (
     startup_data,
 )
 from granflow.errors import InvalidParameterError
-from granflow.fitting.engine import FrozenMap
+from granflow.fitting.results import FrozenMap
 
 __all__ = [
     "ANALYSIS_VERSION",

@@ -117,6 +117,7 @@ def _find_manifest(source):
 
 
 def relative_path(file, folder):
+    """``file`` relative to ``folder`` (as given when there is no folder or another drive)."""
     if folder is None:
         return str(file)
     try:

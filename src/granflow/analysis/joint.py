@@ -24,7 +24,7 @@ from granflow.analysis.joint_results import (
 )
 from granflow.analysis.runs import StartupData, startup_data
 from granflow.errors import ConvergenceWarning, GranflowError
-from granflow.fitting.engine import FrozenMap
+from granflow.fitting.results import FrozenMap
 
 __all__ = [
     "JointStage",

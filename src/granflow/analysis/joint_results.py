@@ -5,9 +5,8 @@
 :class:`Analyses` (the joint analyses, each a :class:`JointAnalysis` holding the fitting
 result, and the comparisons of the stress-controlled runs with the model, from
 :mod:`granflow.analysis.prediction_results`). ``to_dict()`` gives the ``material`` and
-``analyses`` entries of ``results.json``; ``from_dict`` inverts it. A fitting result
-rebuilt from JSON is held as its ``to_dict()`` mapping (the fitting results have no
-``from_dict`` of their own yet); equality compares ``to_dict()``.
+``analyses`` entries of ``results.json``; ``from_dict`` inverts it, the fitting results
+through their own ``from_dict``; equality compares ``to_dict()``.
 """
 
 from collections.abc import Mapping
@@ -20,9 +19,24 @@ from granflow.analysis.prediction_results import (
     SwitchComparison,
 )
 from granflow.analysis.values import Value, as_json, frozen_json
-from granflow.fitting.engine import FrozenMap
+from granflow.fitting.compare import ModelComparison
+from granflow.fitting.joint import (
+    AmontonsResult,
+    CollapseResult,
+    JointFitResult,
+    PreparationSpread,
+)
+from granflow.fitting.mcmc import PosteriorResult
+from granflow.fitting.results import FrozenMap
 
-__all__ = ["MATERIAL_CONSTANTS", "Analyses", "Estimate", "JointAnalysis", "Material"]
+__all__ = [
+    "MATERIAL_CONSTANTS",
+    "RESULT_TYPES",
+    "Analyses",
+    "Estimate",
+    "JointAnalysis",
+    "Material",
+]
 
 #: The material constants, in the order they are listed.
 MATERIAL_CONSTANTS = ("mu_a", "mu_d", "alpha")
@@ -146,7 +160,7 @@ class JointAnalysis(Value):
         The fitting result (:class:`granflow.CollapseResult`, :class:`granflow.AmontonsResult`,
         :class:`granflow.JointFitResult`, :class:`granflow.PreparationSpread`,
         :class:`granflow.ModelComparison`, :class:`granflow.PosteriorResult`), or its
-        ``to_dict()`` mapping when rebuilt from JSON.
+        ``to_dict()`` mapping when rebuilt without its type.
     """
 
     conditions: FrozenMap
@@ -157,23 +171,28 @@ class JointAnalysis(Value):
         return json_safe({**self.conditions, **as_json(self.result)})
 
     @classmethod
-    def from_dict(cls, saved):
-        """The analysis of :meth:`to_dict` (its result as a mapping)."""
+    def from_dict(cls, saved, result_type=None):
+        """The analysis of :meth:`to_dict`; its result rebuilt by ``result_type.from_dict``
+        (kept as a mapping without a type)."""
         conditions = {k: saved[k] for k in _CONDITIONS if k in saved}
         result = {k: v for k, v in saved.items() if k not in _CONDITIONS}
-        return cls(conditions=FrozenMap(conditions), result=frozen_json(result))
+        result = frozen_json(result) if result_type is None else result_type.from_dict(result)
+        return cls(conditions=FrozenMap(conditions), result=result)
 
 
 # --------------------------------------------------------------------------- the analyses
 
 
-_SINGLE = ("velocity_collapse", "amontons", "joint_fit", "model_comparison", "mcmc")
-_ROWS = {
-    "preparation_spread": JointAnalysis,
-    "stress_ramp": RampComparison,
-    "creep": CreepComparison,
-    "switch": SwitchComparison,
+#: The fitting result type of each joint analysis.
+RESULT_TYPES = {
+    "velocity_collapse": CollapseResult,
+    "amontons": AmontonsResult,
+    "joint_fit": JointFitResult,
+    "preparation_spread": PreparationSpread,
+    "model_comparison": ModelComparison,
+    "mcmc": PosteriorResult,
 }
+_ROWS = {"stress_ramp": RampComparison, "creep": CreepComparison, "switch": SwitchComparison}
 #: The order of the entries of ``analyses`` in ``results.json``.
 _ORDER = (
     "velocity_collapse",
@@ -238,8 +257,12 @@ class Analyses(Value):
         for name, entry in saved.items():
             if isinstance(entry, Mapping) and set(entry) == {"error"}:
                 errors[name] = entry["error"]
+            elif name == "preparation_spread":
+                values[name] = tuple(
+                    JointAnalysis.from_dict(row, PreparationSpread) for row in entry
+                )
             elif name in _ROWS:
                 values[name] = tuple(_ROWS[name].from_dict(row) for row in entry)
-            elif name in _SINGLE:
-                values[name] = JointAnalysis.from_dict(entry)
+            elif name in RESULT_TYPES:
+                values[name] = JointAnalysis.from_dict(entry, RESULT_TYPES[name])
         return cls(**values, errors=FrozenMap(errors))

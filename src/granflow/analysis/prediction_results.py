@@ -4,15 +4,17 @@
 :class:`Predictions` (static yield per load as :class:`YieldPrediction` rows, and the
 stability map) and the comparisons of the stress-controlled runs with the model
 (:class:`RampComparison`, :class:`CreepComparison`, :class:`SwitchComparison`), which
-``results.json`` lists under ``analyses``. A fitting result or map rebuilt from JSON is held
-as its ``to_dict()`` mapping; equality compares ``to_dict()``.
+``results.json`` lists under ``analyses``. The stability map rebuilt from JSON is held as its
+``to_dict()`` mapping (:class:`granflow.StabilityMap` has no ``from_dict``); equality
+compares ``to_dict()``.
 """
 
 from dataclasses import dataclass, field
 
 from granflow._json import json_safe
 from granflow.analysis.values import Value, as_json, frozen_json
-from granflow.fitting.engine import FrozenMap
+from granflow.fitting.creep import CurveFitResult
+from granflow.fitting.results import FrozenMap
 
 __all__ = [
     "CreepComparison",
@@ -122,7 +124,7 @@ class CreepComparison(Value):
         The imposed force [N].
     stress_over_peak, stress_over_Fd : float or None
         Its ratio to the predicted F_peak and to F_d = μ_d F_N.
-    fit : granflow.CurveFitResult or mapping
+    fit : granflow.CurveFitResult
         The run's creep fit.
     """
 
@@ -153,7 +155,7 @@ class CreepComparison(Value):
             stress=saved["stress"],
             stress_over_peak=saved.get("stress_over_peak"),
             stress_over_Fd=saved.get("stress_over_Fd"),
-            fit=frozen_json(saved["fit"]),
+            fit=CurveFitResult.from_dict(saved["fit"]),
         )
 
 

@@ -19,7 +19,8 @@ from granflow.analysis.prediction_results import (
     SwitchComparison,
     YieldPrediction,
 )
-from granflow.fitting.engine import WALD_Z, FrozenMap
+from granflow.fitting.engine import WALD_Z
+from granflow.fitting.results import FrozenMap
 
 __all__ = [
     "MAP_HOLD",

@@ -390,7 +390,15 @@ def _environment():
         lstrip_blocks=True,
         keep_trailing_newline=True,
     )
+
+    def scale(name):
+        return display_unit(name)[0]
+
+    environment.globals.update(unit=lambda name: display_unit(name)[1], scale=scale)
     environment.filters.update(
+        si=lambda value, name, significant=4: format_number(value, scale(name), significant),
+        pm_si=lambda estimate, name: format_value_error(*estimate, scale=scale(name)),
+        interval_si=lambda bounds, name: format_interval(bounds, scale(name)),
         num=format_number,
         pm=lambda estimate, scale=1.0: format_value_error(*estimate, scale=scale),
         value_error=format_value_error,

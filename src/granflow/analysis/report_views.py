@@ -124,6 +124,7 @@ def _imposed_force(entry):
 
 
 def runs_view(results):
+    """The run table's rows (an Eq. 3 fit in slip terms per run) and the creep fits."""
     runs, creep, names = [], [], set()
     for index, run in enumerate(as_list(results.get("runs"))):
         run = as_mapping(run)
@@ -160,6 +161,8 @@ def runs_view(results):
 
 
 def campaign_view(results, runs):
+    """The campaign section: counts per test, loads, velocities, preparations, problems."""
+
     def distinct(key):
         values = sorted({r[key] for r in runs if r[key] is not None})
         return values
@@ -181,21 +184,26 @@ def campaign_view(results, runs):
     }
 
 
+#: The rows of the material table: (constant, symbol, meaning, (scale, unit) or None for
+#: the constant's own display unit). α is shown in 1/µm too (1/m per 1e6: not a display
+#: unit of the unit table).
 _MATERIAL = (
-    ("mu_a", "μ_a", "aging amplitude over normal load a/F_N", 1.0, ""),
-    ("mu_d", "μ_d", "dynamic friction coefficient F_d/F_N", 1.0, ""),
-    ("alpha", "α", "shear-rejuvenation constant", 1.0, "1/m"),
-    ("alpha", "α", "shear-rejuvenation constant", 1e-6, "1/µm"),
+    ("mu_a", "μ_a", "aging amplitude over normal load a/F_N", None),
+    ("mu_d", "μ_d", "dynamic friction coefficient F_d/F_N", None),
+    ("alpha", "α", "shear-rejuvenation constant", None),
+    ("alpha", "α", "shear-rejuvenation constant", (1e-6, "1/µm")),
 )
 
 
 def material_view(results):
+    """The material constants: one row per constant (α twice), or None without any."""
     material = results.get("material")
     if material is None:
         return None
     material = as_mapping(material)
     rows = []
-    for key, symbol, meaning, scale, unit in _MATERIAL:
+    for key, symbol, meaning, shown in _MATERIAL:
+        scale, unit = shown or display_unit(key)
         entry = material.get(key)
         entry = entry if isinstance(entry, Mapping) else {"value": entry}
         value = real_number(entry.get("value"))
@@ -226,6 +234,7 @@ def _joint_status(joint):
 
 
 def collapse_view(collapse):
+    """The velocity collapse: per-velocity a and α, the shared fit and the test's verdict."""
     if collapse is None:
         return None
     if reason_of(collapse) is not None:
@@ -263,6 +272,7 @@ def collapse_view(collapse):
 
 
 def amontons_view(amontons):
+    """Amontons' law: per-load means, the lines through the origin and the joint fit."""
     if amontons is None:
         return None
     if reason_of(amontons) is not None:
@@ -314,6 +324,7 @@ def labelled(value, keys=("name", "run", "preparation", "label")):
 
 
 def spread_view(spread):
+    """The preparation spread of each group of repeats."""
     if spread is None:
         return None
     if reason_of(spread) is not None:
@@ -344,6 +355,7 @@ def spread_view(spread):
 
 
 def comparison_view(comparison):
+    """The model comparison of each group: AIC and BIC per model, and the best."""
     if comparison is None:
         return None
     if reason_of(comparison) is not None:

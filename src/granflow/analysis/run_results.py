@@ -4,26 +4,20 @@
 :class:`CreepResult`, :class:`RampResult`, :class:`SwitchResult` or, for a run that could not
 be analysed, :class:`FailedRun`. Each holds the real fit objects (:class:`granflow.FitResult`,
 :class:`granflow.CurveFitResult`), has a JSON-safe ``to_dict()`` and a ``from_dict()`` that
-inverts it: ``OUTPUT/runs/<key>.json`` holds ``to_dict(include_arrays=True)`` (the fitted
-points too), so that ``resume=True`` rebuilds the same objects a fresh analysis makes;
-``results.json`` lists ``to_dict()`` (no arrays). Two results are equal when their
+inverts it (through :meth:`granflow.FitResult.from_dict` and
+:meth:`granflow.CurveFitResult.from_dict`): ``OUTPUT/runs/<key>.json`` holds
+``to_dict(include_arrays=True)`` (a start-up's fitted points and weights too), so that
+``resume=True`` rebuilds the same objects a fresh analysis makes; ``results.json`` lists
+``to_dict()`` (a start-up fit without its arrays). Two results are equal when their
 ``to_dict()`` are.
 """
 
 from dataclasses import dataclass, field
 
 from granflow._json import json_safe
-from granflow.analysis.saved_fits import (
-    curve_fit_from_dict,
-    curve_fit_to_dict,
-    fit_from_dict,
-    fit_to_dict,
-    number,
-    optional_number,
-)
 from granflow.analysis.values import Value
 from granflow.fitting.creep import CurveFitResult
-from granflow.fitting.engine import FrozenMap
+from granflow.fitting.results import FrozenMap, number
 from granflow.fitting.single import FitResult
 from granflow.model.friction import Peak
 
@@ -39,6 +33,11 @@ __all__ = [
     "SwitchResult",
     "run_result_from_dict",
 ]
+
+
+def optional_number(value):
+    """A float from JSON, None staying None."""
+    return None if value is None else float(value)
 
 
 def _done(fields, warnings):
@@ -155,7 +154,7 @@ class StartupResult(Value):
     def fields(self, include_arrays=False):
         """The start-up fields of :meth:`to_dict` (without warnings and status)."""
         return {
-            "fit": fit_to_dict(self.fit, include_arrays),
+            "fit": self.fit.to_dict(include_arrays=include_arrays),
             "window": self.window.to_dict(),
             "peak": None if self.peak is None else json_safe(self.peak.to_dict()),
             "observed_peak": self.observed_peak.to_dict(),
@@ -178,7 +177,7 @@ class StartupResult(Value):
     def from_dict(cls, saved):
         """The result of :meth:`to_dict`."""
         return cls(
-            fit=fit_from_dict(saved["fit"]),
+            fit=FitResult.from_dict(saved["fit"]),
             window=StartupWindow.from_dict(saved["window"]),
             peak=_peak_from_dict(saved["peak"]),
             observed_peak=ObservedPeak.from_dict(saved["observed_peak"]),
@@ -219,7 +218,7 @@ class CreepResult(Value):
     def to_dict(self, include_arrays=False):
         """JSON-safe mapping (the fitted points too with ``include_arrays``)."""
         fields = {
-            "fit": curve_fit_to_dict(self.fit, include_arrays),
+            "fit": self.fit.to_dict(),
             "stress": self.stress,
             "creep_start": self.creep_start,
             "creep_slip": self.creep_slip,
@@ -231,7 +230,7 @@ class CreepResult(Value):
     def from_dict(cls, saved):
         """The result of :meth:`to_dict`."""
         return cls(
-            fit=curve_fit_from_dict(saved["fit"]),
+            fit=CurveFitResult.from_dict(saved["fit"]),
             stress=number(saved["stress"]),
             creep_start=number(saved["creep_start"]),
             creep_slip=number(saved["creep_slip"]),

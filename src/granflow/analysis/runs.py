@@ -24,7 +24,7 @@ from granflow.analysis.run_results import (
     SwitchResult,
 )
 from granflow.errors import ConvergenceWarning, FitError, GranflowError, InvalidDataError
-from granflow.fitting.engine import FrozenMap
+from granflow.fitting.results import FrozenMap
 
 __all__ = [
     "ANALYSES",

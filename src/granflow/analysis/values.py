@@ -6,7 +6,7 @@
 
 from collections.abc import Mapping
 
-from granflow.fitting.engine import FrozenMap
+from granflow.fitting.results import FrozenMap
 
 __all__ = ["Value", "as_json", "frozen_json"]
 

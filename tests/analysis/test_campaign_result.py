@@ -164,3 +164,16 @@ def test_no_module_over_600_lines():
         p.name: len(p.read_text(encoding="utf-8").splitlines()) for p in package.glob("*.py")
     }
     assert {name: n for name, n in lengths.items() if n > 600} == {}
+
+
+def test_rebuilt_campaign_holds_the_real_fit_objects(analysed):
+    rebuilt = AnalysisResult.from_dict(json.loads(json.dumps(analysed.to_dict())))
+    analyses = rebuilt.analyses
+    assert isinstance(analyses.velocity_collapse.result, gf.CollapseResult)
+    assert isinstance(analyses.amontons.result, gf.AmontonsResult)
+    assert analyses.amontons.result == analysed.analyses.amontons.result
+    assert isinstance(analyses.model_comparison.result, gf.ModelComparison)
+    assert all(isinstance(row.result, gf.PreparationSpread) for row in analyses.preparation_spread)
+    assert isinstance(analyses.creep[0].fit, gf.CurveFitResult)
+    startup = next(entry for entry in rebuilt.runs if entry.test == "startup")
+    assert isinstance(startup.result.fit, gf.FitResult)
