@@ -13,7 +13,6 @@ from conftest import write_small_campaign
 import granflow as gf
 from granflow.analysis import AnalysisResult, analyze
 from granflow.analysis.files import RUN_RECORD_MARKER, RUNS_DIR
-from granflow.analysis.joint import joint_stage
 from granflow.analysis.joint_results import Analyses, Estimate, Material
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import (
@@ -24,6 +23,7 @@ from granflow.analysis.run_results import (
     SwitchResult,
     run_result_from_dict,
 )
+from granflow.analysis.stage import joint_stage
 
 SOURCE = pathlib.Path(__file__).resolve().parents[2] / "src"
 
@@ -177,3 +177,26 @@ def test_rebuilt_campaign_holds_the_real_fit_objects(analysed):
     assert isinstance(analyses.creep[0].fit, gf.CurveFitResult)
     startup = next(entry for entry in rebuilt.runs if entry.test == "startup")
     assert isinstance(startup.result.fit, gf.FitResult)
+
+
+def test_analysis_modules_import_in_one_direction():
+    """No module of granflow.analysis imports (at module level) one that imports it back."""
+    package = SOURCE / "granflow" / "analysis"
+    imports = {}
+    for path in package.glob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        imports[path.stem] = {
+            node.module.rsplit(".", 1)[1]
+            for node in tree.body
+            if isinstance(node, ast.ImportFrom)
+            and (node.module or "").startswith("granflow.analysis.")
+        }
+
+    def reaches(start, target, seen=()):
+        return any(
+            name == target or (name not in seen and reaches(name, target, (*seen, name)))
+            for name in imports.get(start, ())
+        )
+
+    assert [name for name in imports if reaches(name, name)] == []
+    assert not reaches("engine", "report") and not reaches("engine", "demo")

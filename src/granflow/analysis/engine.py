@@ -94,7 +94,6 @@ from granflow.analysis.inputs import (
     run_entry,
     run_key,
 )
-from granflow.analysis.joint import joint_stage
 from granflow.analysis.outputs import make_figures, write_report, write_tables
 from granflow.analysis.predictions import MAP_HOLD, MAP_POINTS, MAP_RATIOS
 from granflow.analysis.result import AnalysisResult
@@ -107,6 +106,7 @@ from granflow.analysis.runs import (
     classify,
     startup_data,
 )
+from granflow.analysis.stage import joint_stage
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 

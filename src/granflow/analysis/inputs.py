@@ -18,6 +18,7 @@ from granflow._json import json_safe
 from granflow.analysis.files import MANIFEST_NAMES, TRUTH_FILE, read_json
 from granflow.analysis.joint import rounded
 from granflow.analysis.joint_results import MATERIAL_CONSTANTS
+from granflow.analysis.result import RunEntry
 from granflow.analysis.run_results import FailedRun
 from granflow.analysis.runs import ANALYSES
 from granflow.errors import InvalidParameterError
@@ -206,8 +207,6 @@ def imposed_velocity(item):
 
 def run_entry(item, index):
     """The :class:`~granflow.analysis.result.RunEntry` of an item whose work is done."""
-    from granflow.analysis.result import RunEntry
-
     run = item.run
     result = item.result if run is not None else FailedRun(reason=item.reason)
     common = {"index": index, **identity(item), "result": result, "key": item.key}

@@ -4,20 +4,20 @@ Runs in the calling process after the per-run work, from the per-run results (th
 objects whether a run was fitted now or its saved result was rebuilt), so that its output
 does not depend on which runs were reused. Each function takes values and returns values
 (:mod:`granflow.analysis.joint_results`) together with :class:`Notes` (the analyses that
-failed and the warnings, in the order found); :func:`joint_stage` chains them. The
-predictions are in :mod:`granflow.analysis.predictions`. Rules in :mod:`granflow.analysis`.
+failed and the warnings, in the order found); :func:`granflow.analysis.stage.joint_stage`
+chains them with the predictions of :mod:`granflow.analysis.predictions`. Rules in
+:mod:`granflow.analysis`.
 """
 
 import math
 import warnings
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from granflow.analysis.joint_results import (
     MATERIAL_CONSTANTS,
-    Analyses,
     Estimate,
     JointAnalysis,
     Material,
@@ -27,12 +27,10 @@ from granflow.errors import ConvergenceWarning, GranflowError
 from granflow.fitting.results import FrozenMap
 
 __all__ = [
-    "JointStage",
     "MaterialBasis",
     "Notes",
     "Startup",
     "attempt",
-    "joint_stage",
     "material_constants",
     "mcmc_analysis",
     "model_comparison",
@@ -362,83 +360,3 @@ def mcmc_analysis(chosen, seed):
     if posterior is None:
         return None, notes
     return JointAnalysis(FrozenMap({"run": chosen.name}), posterior), notes
-
-
-# --------------------------------------------------------------------------- the stage
-
-
-@dataclass(frozen=True, eq=False)
-class JointStage:
-    """Everything the joint stage found.
-
-    Attributes
-    ----------
-    material : Material
-    analyses : Analyses
-    predictions : granflow.analysis.joint_results.Predictions
-    warnings : tuple of str
-    startups : tuple of Startup
-        The successful start-ups (for the figures).
-    representative : Startup or None
-    """
-
-    material: Material
-    analyses: Analyses
-    predictions: object
-    warnings: tuple = ()
-    startups: tuple = field(default=(), repr=False)
-    representative: Startup | None = None
-
-
-def joint_stage(entries, executor, *, mcmc, seed):
-    """The joint analyses and the predictions of a campaign.
-
-    Parameters
-    ----------
-    entries : sequence of granflow.analysis.result.RunEntry
-        The campaign's runs in manifest order, with their data and results.
-    executor : granflow._parallel.Executor
-        Runs the stability map's cells.
-    mcmc : bool
-        Sample the posterior of the representative start-up fit.
-    seed : int
-        Seed of the sampler.
-
-    Returns
-    -------
-    JointStage
-    """
-    from granflow.analysis import predictions
-
-    startups = startups_of(entries)
-    chosen = representative(startups)
-    collapse, notes = velocity_collapse(startups)
-    basis, fitted, fitted_as, more = material_constants(startups)
-    notes += more
-    spreads, more = preparation_spreads(startups)
-    notes += more
-    comparison, more = model_comparison(chosen)
-    notes += more
-    posterior = None
-    if mcmc:
-        posterior, more = mcmc_analysis(chosen, seed)
-        notes += more
-    forecast, comparisons, more = predictions.predict(entries, startups, chosen, basis, executor)
-    notes += more
-    analyses = Analyses(
-        velocity_collapse=collapse,
-        **({fitted_as: fitted} if fitted is not None else {}),
-        preparation_spread=spreads,
-        model_comparison=comparison,
-        mcmc=posterior,
-        **comparisons,
-        errors=FrozenMap(dict(notes.errors)),
-    )
-    return JointStage(
-        material=basis.material,
-        analyses=analyses,
-        predictions=forecast,
-        warnings=notes.warnings,
-        startups=startups,
-        representative=chosen,
-    )

@@ -301,7 +301,7 @@ def make_figures(output, result, joint, warnings_list):
     output : pathlib.Path
     result : granflow.analysis.result.AnalysisResult
         The campaign's result (its runs with their data).
-    joint : granflow.analysis.joint.JointStage
+    joint : granflow.analysis.stage.JointStage
         What the joint stage found (the start-ups and the representative one).
     warnings_list : list of str
         Figures that could not be drawn are added to it.
