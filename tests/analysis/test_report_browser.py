@@ -17,7 +17,7 @@ def test_report_opens_with_no_errors_and_every_image_shown(browser, tmp_path):  
     path = render_report(results, tmp_path)
     problems, images = page_problems(browser, path)
     assert problems == []
-    assert len(images) == len(results["figures"]) == 2
+    assert len(images) == len(results["figures"]) == 7
     assert {image["alt"] for image in images} == {f["title"] for f in results["figures"]}
     assert browser.title.startswith("[SYNTHETIC DATA]")
 

@@ -51,6 +51,7 @@ import yaml
 
 from granflow import __version__
 from granflow._json import json_safe
+from granflow.analysis.files import TRUTH_FILE
 from granflow.errors import InvalidParameterError
 from granflow.io import write_rheocompass, write_trios
 from granflow.model.friction import friction_slip, initial_force, peak, rhs_slip
@@ -71,8 +72,6 @@ __all__ = [
     "make_demo_campaign",
 ]
 
-#: Name of the truth file written beside the exports folder.
-TRUTH_FILE = "synthetic_truth.json"
 #: Folder (inside the target directory) that holds the exports and the manifest.
 EXPORTS_FOLDER = "exports"
 #: Name of the manifest inside :data:`EXPORTS_FOLDER`.
@@ -545,7 +544,7 @@ def make_demo_campaign(directory, *, seed=0):
     Examples
     --------
     >>> import tempfile, granflow
-    >>> from granflow.demo import make_demo_campaign
+    >>> from granflow.analysis.demo import make_demo_campaign
     >>> manifest = make_demo_campaign(tempfile.mkdtemp(), seed=1)
     >>> campaign = granflow.Campaign.from_manifest(manifest)
     >>> len(campaign), campaign.problems

@@ -66,48 +66,52 @@ equivalent analyses (dates, durations, jobs, scheduler, runs fitted now or reuse
 
 import contextlib
 import datetime
-import hashlib
-import json
-import math
 import os
-import re
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
-from types import MappingProxyType
 
 import numpy as np
 
-from granflow._json import json_safe
 from granflow._parallel import Executor
-from granflow.analysis.joint import _MAP_HOLD, _MAP_POINTS, _MAP_RATIOS, _joint_stage, _rounded
-from granflow.analysis.outputs import (
+from granflow.analysis.files import (
     FIGURES_DIR,
     REPORT_FILE,
     RESULTS_FILE,
+    RUN_RECORD_MARKER,
     RUNS_DIR,
     TABLES_DIR,
-    _dump,
-    _make_figures,
-    _read_json,
-    _write_json,
-    _write_report,
-    _write_tables,
+    read_json,
+    write_json,
 )
+from granflow.analysis.inputs import (
+    ANALYSIS_VERSION,
+    campaign_summary,
+    identity,
+    input_hashes,
+    load_campaign,
+    run_entry,
+    run_key,
+)
+from granflow.analysis.outputs import make_figures, write_report, write_tables
+from granflow.analysis.predictions import MAP_HOLD, MAP_POINTS, MAP_RATIOS
+from granflow.analysis.result import AnalysisResult
+from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.runs import (
-    _ANALYSES,
-    _RAMP_TOLERANCE,
+    ELASTIC_RAMP_TOLERANCE,
     RUNAWAY_FACTOR,
     StartupData,
     analyse_run,
     classify,
     startup_data,
 )
+from granflow.analysis.stage import joint_stage
 from granflow.errors import InvalidParameterError
-from granflow.model.run import Run
+from granflow.fitting.results import FrozenMap
 
 __all__ = [
+    "ANALYSIS_VERSION",
     "RUNAWAY_FACTOR",
     "AnalysisResult",
     "StartupData",
@@ -116,49 +120,7 @@ __all__ = [
     "startup_data",
 ]
 
-#: Bumped whenever a per-run result changes meaning, so older saved results are not reused.
-ANALYSIS_VERSION = 1
-_MARKER = "granflow_run_record"
-_MANIFEST_NAMES = ("manifest.yaml", "manifest.yml", "manifest.csv")
 _DEFAULT_REFERENCE_VELOCITY = 1e-6  # m/s, as granflow.simulate
-
-
-def _sha256_file(path):
-    digest = hashlib.sha256()
-    try:
-        with open(path, "rb") as stream:
-            for block in iter(lambda: stream.read(1 << 20), b""):
-                digest.update(block)
-    except OSError:
-        return None
-    return digest.hexdigest()
-
-
-def _stem(text):
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("._")[:60] or "run"
-
-
-def run_key(identity, run, kind, options):
-    """The name of a run's result file: readable stem plus a hash of everything it depends on.
-
-    The hash covers the analysis version, the run's identity (file name relative to the
-    manifest, interval, metadata), its test kind and control mode, its four columns and the
-    options that change the per-run work.
-    """
-    digest = hashlib.sha256()
-    header = {
-        "version": ANALYSIS_VERSION,
-        "identity": identity,
-        "kind": kind,
-        "control": run.control,
-        "meta": {k: v for k, v in json_safe(dict(run.meta)).items() if k not in ("manifest",)},
-        "options": options,
-    }
-    header["meta"]["source"] = identity["source"]
-    digest.update(json.dumps(header, sort_keys=True).encode("utf-8"))
-    for name in ("t", "slip", "velocity", "force"):
-        digest.update(np.ascontiguousarray(getattr(run, name), dtype="<f8").tobytes())
-    return f"{_stem(identity['name'])}-{digest.hexdigest()[:20]}"
 
 
 # --------------------------------------------------------------------------- progress
@@ -207,275 +169,6 @@ class _Progress:
             print(f"fitted {self.done}/{self.total}: {name}", file=self.stream, flush=True)
 
 
-# --------------------------------------------------------------------------- the campaign
-
-
-@dataclass
-class _Item:
-    """One manifest entry's run (or the failure to read it), in manifest order."""
-
-    name: str
-    source: str | None
-    interval: int | None
-    run: Run | None = None
-    kind: str | None = None
-    reason: str | None = None
-    key: str | None = None
-    record: dict | None = None
-
-
-def _find_manifest(source):
-    path = Path(source)
-    if path.is_dir():
-        for name in _MANIFEST_NAMES:
-            if (path / name).is_file():
-                return path / name
-        raise InvalidParameterError(
-            f"{path}: the folder holds no manifest ({', '.join(_MANIFEST_NAMES)})"
-        )
-    if not path.exists():
-        raise InvalidParameterError(f"{path}: no such manifest or folder")
-    if path.suffix.lower() not in (".yaml", ".yml", ".csv"):
-        raise InvalidParameterError(
-            f"{path}: a campaign is a manifest (.yaml, .yml or .csv) or a folder holding one"
-        )
-    return path
-
-
-def _relative(file, folder):
-    if folder is None:
-        return str(file)
-    try:
-        return os.path.relpath(os.path.abspath(file), os.path.abspath(folder))
-    except ValueError:  # another drive
-        return str(file)
-
-
-def _run_name(run, source):
-    if "name" in run.meta:
-        return str(run.meta["name"])
-    return f"{source}#{run.meta.get('interval', 1)}"
-
-
-def _items_from_manifest(manifest):
-    """Items in manifest order: each entry's runs, or the reason its file failed."""
-    from granflow.io.campaign import Campaign, read_manifest
-
-    entries = read_manifest(manifest)
-    campaign = Campaign.from_manifest(manifest, errors="collect")
-    folder = manifest.parent
-    runs, problems = list(campaign.runs), list(campaign.problems)
-    items, position, inputs = [], 0, []
-    for entry in entries:
-        file = str(folder / entry["file"])
-        relative = _relative(file, folder)
-        if relative not in inputs:
-            inputs.append(relative)
-        taken = []
-        while position < len(runs) and runs[position].meta.get("source") == file:
-            taken.append(runs[position])
-            position += 1
-            if "interval" in entry:
-                break
-        if taken:
-            items += [_run_item(run, folder) for run in taken]
-            continue
-        reason = next((p for p in problems if file in p), None)
-        if reason is not None:
-            problems.remove(reason)
-        else:
-            reason = "the file holds no run"
-        name = relative if "interval" not in entry else f"{relative}#{entry['interval']}"
-        items.append(
-            _Item(name=name, source=relative, interval=entry.get("interval"), reason=reason)
-        )
-    items += [_run_item(run, folder) for run in runs[position:]]
-    items += [_Item(name="?", source=None, interval=None, reason=p) for p in problems]
-    return items, inputs
-
-
-def _run_item(run, folder):
-    source = _relative(run.meta.get("source", "run"), folder)
-    return _Item(
-        name=_run_name(run, source), source=source, interval=run.meta.get("interval"), run=run
-    )
-
-
-def _load(source):
-    """(items, manifest path or None, input files relative to the manifest folder)."""
-    from granflow.io.campaign import Campaign
-
-    if isinstance(source, Campaign):
-        items = [_run_item(run, None) for run in source.runs]
-        items += [_Item(name="?", source=None, interval=None, reason=p) for p in source.problems]
-        inputs = list(dict.fromkeys(item.source for item in items if item.source))
-        return items, None, inputs
-    manifest = _find_manifest(source)
-    items, inputs = _items_from_manifest(manifest)
-    return items, manifest, [manifest.name, *inputs]
-
-
-# --------------------------------------------------------------------------- small helpers
-
-
-def _identity(item):
-    return {
-        "name": item.name,
-        "source": item.source,
-        "interval": item.interval,
-    }
-
-
-def _describe(item):
-    """The manifest-facing fields of a run's entry in results["runs"]."""
-    run = item.run
-    if run is None:
-        return {
-            **_identity(item),
-            "test": None,
-            "control": None,
-            "normal_load": None,
-            "velocity": None,
-            "preparation": None,
-            "points": 0,
-        }
-    return {
-        **_identity(item),
-        "test": item.kind,
-        "control": run.control,
-        "normal_load": run.normal_load,
-        "velocity": _imposed_velocity(item),
-        "preparation": run.meta.get("preparation"),
-        "points": len(run),
-    }
-
-
-def _imposed_velocity(item):
-    """The imposed velocity [m/s]: the nominal one of a start-up, the manifest's otherwise
-    (the median measured velocity of a stress-controlled run is no imposed velocity)."""
-    if item.kind == "startup":
-        return item.run.nominal_velocity
-    value = item.run.meta.get("velocity")
-    return None if value is None else float(value)
-
-
-# --------------------------------------------------------------------------- the result
-
-
-@dataclass(frozen=True, eq=False)
-class AnalysisResult:
-    """What :func:`analyze` wrote, and the results it holds.
-
-    Attributes
-    ----------
-    output : pathlib.Path
-        The output folder.
-    results : mapping
-        The content of ``results.json`` (SI units).
-    fitted_now, reused : int
-        Runs analysed in this call, and runs whose saved result was reused (``resume=True``).
-    report : pathlib.Path or None
-        ``report.html``, when the report could be rendered.
-    """
-
-    output: Path
-    results: MappingProxyType
-    fitted_now: int
-    reused: int
-    report: Path | None = None
-
-    def __repr__(self):
-        return (
-            f"AnalysisResult({len(self.results['runs'])} runs, {len(self.failed_runs)} failed, "
-            f"output={str(self.output)!r})"
-        )
-
-    @property
-    def results_path(self):
-        """``OUTPUT/results.json``."""
-        return self.output / RESULTS_FILE
-
-    @property
-    def failed_runs(self):
-        """The runs that could not be analysed: ``name``, ``source``, ``reason``."""
-        return self.results["failed_runs"]
-
-    @property
-    def material(self):
-        """mu_a, mu_d [-] and alpha [1/m], each ``{"value", "stderr", "ci95"}``."""
-        return self.results["material"]
-
-    @property
-    def exit_code(self):
-        """0 when every run was analysed, 1 when some failed (the command's exit code)."""
-        return 1 if self.failed_runs else 0
-
-    def summary(self):
-        """A one-screen summary: counts, material constants with intervals, predictions,
-        failed runs, and where the output is (display units)."""
-        results = self.results
-        campaign = results["campaign"]
-        counts = campaign["counts"]
-        lines = [
-            f"campaign: {counts['runs']} runs"
-            + (" (synthetic data)" if results["synthetic"] else "")
-            + f", {counts['analysed']} analysed, {counts['failed']} failed "
-            f"({self.fitted_now} analysed now, {self.reused} reused)"
-        ]
-        material = results["material"]
-        if material["mu_a"]["value"] is None:
-            lines.append(f"material constants: not determined ({material.get('reason')})")
-        else:
-            lines.append(f"material constants ({material['source']}):")
-            for name, unit in (("mu_a", ""), ("mu_d", ""), ("alpha", " 1/m")):
-                entry = material[name]
-                low, high = entry["ci95"]
-                lines.append(
-                    f"  {name:<5} = {entry['value']:.5g} +/- {entry['stderr']:.2g}{unit}   "
-                    f"95%: [{low:.5g}, {high:.5g}]"
-                )
-        truth = campaign.get("truth")
-        if truth:
-            inside = ", ".join(
-                f"{name} {'inside' if ok else 'OUTSIDE'}" for name, ok in truth["contained"].items()
-            )
-            lines.append(f"  synthetic truth: {inside} the 95 % intervals")
-        yields = results["predictions"].get("static_yield", [])
-        if yields:
-            text = "; ".join(
-                f"{row['normal_load'] * 1e3:.4g} mN -> {row['F_peak'] * 1e3:.4g} "
-                f"+/- {row['stderr'] * 1e3:.2g} mN"
-                for row in yields[:6]
-            )
-            lines.append(f"static yield F_peak: {text}" + (" ..." if len(yields) > 6 else ""))
-        for row in results["analyses"].get("stress_ramp", []):
-            if "observed" in row and "predicted" in row:
-                lines.append(
-                    f"stress ramp {row['run']}: failed at "
-                    f"{row['observed']['failure_force'] * 1e3:.4g} mN, predicted F_peak "
-                    f"{row['predicted']['failure_force'] * 1e3:.4g} +/- "
-                    f"{math.hypot(row['F_peak_stderr'], row['F_peak_spread']) * 1e3:.2g} mN"
-                    + (" (consistent)" if row["consistent"] else " (NOT consistent)")
-                )
-        for row in results["analyses"].get("switch", []):
-            if "predicted" in row:
-                lines.append(
-                    f"switch {row['run']}: observed {row['observed']['outcome']}, predicted "
-                    f"{row['predicted']['outcome']}"
-                    + (" (agree)" if row["agree"] else " (DISAGREE)")
-                )
-        if results["warnings"]:
-            lines.append(f"warnings: {len(results['warnings'])} (see results.json or the report)")
-        if self.failed_runs:
-            lines.append(f"failed runs ({len(self.failed_runs)}):")
-            for entry in self.failed_runs[:10]:
-                lines.append(f"  {entry['name']}: {entry['reason']}")
-            if len(self.failed_runs) > 10:
-                lines.append(f"  ... and {len(self.failed_runs) - 10} more in results.json")
-        lines.append(f"output: {self.output.resolve()}")
-        return "\n".join(lines)
-
-
 # --------------------------------------------------------------------------- analyze
 
 
@@ -491,10 +184,10 @@ def _own_files(output):
     """Files of an earlier analysis in OUTPUT: its run records and what its results list."""
     files = []
     for path in sorted((output / RUNS_DIR).glob("*.json")):
-        saved = _read_json(path)
-        if isinstance(saved, dict) and _MARKER in saved:
+        saved = read_json(path)
+        if isinstance(saved, dict) and RUN_RECORD_MARKER in saved:
             files.append(path)
-    previous = _read_json(output / RESULTS_FILE)
+    previous = read_json(output / RESULTS_FILE)
     if isinstance(previous, dict) and "granflow_version" in previous:
         listed = [RESULTS_FILE, REPORT_FILE]
         listed += [f.get(k) for f in previous.get("figures", []) for k in ("png", "svg")]
@@ -516,60 +209,6 @@ def _remove_leftovers(output):
                     path.unlink()
     for path in output.glob(".figures-*"):
         shutil.rmtree(path, ignore_errors=True)
-
-
-def _truth(manifest):
-    """The synthetic truth file of a demo campaign, beside the manifest or one folder up."""
-    try:
-        from granflow.analysis.demo import TRUTH_FILE
-    except ImportError:
-        TRUTH_FILE = "synthetic_truth.json"
-    if manifest is None:
-        return None, None
-    for folder in (manifest.parent, manifest.parent.parent):
-        path = folder / TRUTH_FILE
-        if path.is_file():
-            return path, _read_json(path)
-    return None, None
-
-
-def _campaign_summary(items, manifest, material):
-    runs = [item for item in items if item.run is not None]
-    ok = [item for item in runs if item.record and item.record["status"] == "ok"]
-    loads = sorted({_rounded(i.run.normal_load) for i in runs if i.run.normal_load is not None})
-    speeds = sorted({_rounded(v) for v in map(_imposed_velocity, runs) if v is not None})
-    preparations = sorted(
-        {str(i.run.meta["preparation"]) for i in runs if "preparation" in i.run.meta}
-    )
-    summary = {
-        "manifest": None if manifest is None else str(manifest.resolve()),
-        "analysed": len(ok),
-        "counts": {
-            "runs": len(items),
-            "analysed": len(ok),
-            "failed": len(items) - len(ok),
-            "tests": {kind: sum(1 for i in runs if i.kind == kind) for kind in _ANALYSES},
-            "normal_loads": loads,
-            "velocities": speeds,
-            "preparations": preparations,
-        },
-        "problems": [item.reason for item in items if item.run is None],
-    }
-    path, truth = _truth(manifest)
-    synthetic = bool(truth and truth.get("synthetic", True)) or any(
-        "synthetic" in str(i.run.meta.get("notes", "")).lower() for i in runs
-    )
-    if isinstance(truth, dict) and all(n in truth for n in ("mu_a", "mu_d", "alpha")):
-        contained = {}
-        for name in ("mu_a", "mu_d", "alpha"):
-            low, high = material[name]["ci95"]
-            contained[name] = bool(low is not None and low <= truth[name] <= high)
-        summary["truth"] = {
-            "file": _relative(path, manifest.parent),
-            "values": {n: truth[n] for n in ("mu_a", "mu_d", "alpha")},
-            "contained": contained,
-        }
-    return summary, synthetic
 
 
 def analyze(
@@ -645,13 +284,11 @@ def analyze(
         raise InvalidParameterError(f"seed must be an integer, got {seed!r}")
     seed = int(seed)
     if mcmc:
-        from granflow.fitting.mcmc import _emcee
-
-        _emcee()  # a missing extra is an error now, not after the fits
+        _require_emcee()  # a missing extra is an error now, not after the fits
     output = Path(output)
     reporter = _Progress(quiet, progress)
     stages = {}
-    items, manifest, inputs = _load(source)
+    items, manifest, inputs = load_campaign(source)
     stages["read_s"] = time.perf_counter() - clock
     executor = Executor(jobs, scheduler)
     try:
@@ -671,19 +308,24 @@ def analyze(
         stages["runs_s"] = time.perf_counter() - clock_stage
         reporter.line("joint analyses and predictions")
         clock_stage = time.perf_counter()
-        context = _joint_stage(items, executor, mcmc=mcmc, seed=seed)
+        entries = tuple(run_entry(item, index) for index, item in enumerate(items))
+        joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         stages["joint_s"] = time.perf_counter() - clock_stage
         description = executor.description
     finally:
         executor.close()
     clock_stage = time.perf_counter()
-    results = _assemble(items, manifest, inputs, context, mcmc, seed, reference)
-    results["tables"] = _write_tables(output, results, results["warnings"])
+    result = _assemble(items, entries, manifest, inputs, joint, mcmc, seed, reference)
+    notes = list(result.warnings)
+    tables = write_tables(output, result.to_dict(), notes)
     reporter.line("figures")
-    results["figures"] = _make_figures(output, context, results["warnings"])
+    figures = make_figures(output, result, joint, notes)
+    result = replace(
+        result, warnings=tuple(notes), figures=tuple(figures), tables=FrozenMap(tables)
+    )
     _remove_stale_records(output, items)
     stages["outputs_s"] = time.perf_counter() - clock_stage
-    results["timing"] = {
+    timing = {
         "started": started.isoformat(timespec="seconds"),
         "finished": None,
         "elapsed_s": None,
@@ -693,15 +335,23 @@ def analyze(
         "reused": reused,
         "stages_s": stages,
     }
-    results = json_safe(results)
+    result = replace(result, output=output, fitted_now=len(todo), reused=reused)
     reporter.line("report")
-    _finish_timing(results, clock)
-    report = _write_report(output, results)
-    _finish_timing(results, clock)
-    _write_json(output / RESULTS_FILE, results)
-    return AnalysisResult(
-        output=output, results=results, fitted_now=len(todo), reused=reused, report=report
-    )
+    report = write_report(output, replace(result, timing=_finished(timing, clock)))
+    result = replace(result, timing=_finished(timing, clock), report=report)
+    write_json(output / RESULTS_FILE, result.results)
+    return result
+
+
+def _require_emcee():
+    """An ImportError naming the extra when emcee is missing."""
+    try:
+        import emcee  # noqa: F401
+    except ImportError as exc:
+        raise ImportError(
+            "sample_posterior needs emcee: install the extra with "
+            "`pip install granflow[mcmc]` (emcee and corner)"
+        ) from exc
 
 
 def _reference_velocity(items):
@@ -715,7 +365,7 @@ def _reference_velocity(items):
 
 
 def _plan(items, output, reference, resume):
-    """Classify and key every run; attach the saved results that still match (resume).
+    """Classify and key every run; rebuild the saved results that still match (resume).
 
     Returns the ``(item, options)`` pairs still to analyse and the number reused.
     """
@@ -725,14 +375,14 @@ def _plan(items, output, reference, resume):
             continue
         item.kind = classify(item.run)
         options = {"reference_velocity": reference} if item.kind == "ramp" else {}
-        item.key = run_key(_identity(item), item.run, item.kind, options)
-        saved = _read_json(output / RUNS_DIR / f"{item.key}.json") if resume else None
+        item.key = run_key(identity(item), item.run, item.kind, options)
+        saved = read_json(output / RUNS_DIR / f"{item.key}.json") if resume else None
         if (
             isinstance(saved, dict)
-            and saved.get(_MARKER) == ANALYSIS_VERSION
+            and saved.get(RUN_RECORD_MARKER) == ANALYSIS_VERSION
             and saved.get("key") == item.key
         ):
-            item.record = saved
+            item.result = run_result_from_dict(item.kind, saved)
             reused += 1
         else:
             todo.append((item, options))
@@ -740,27 +390,24 @@ def _plan(items, output, reference, resume):
 
 
 def _run_all(todo, executor, output, reporter):
-    """Analyse the runs of ``todo``, saving each result (atomically) as soon as it is ready.
-
-    A result goes through JSON before it is used, so that a fresh result and a saved one are
-    the same values.
-    """
+    """Analyse the runs of ``todo``, saving each result (atomically) as soon as it is ready:
+    ``to_dict(include_arrays=True)``, which ``from_dict`` turns back into the same result."""
     reporter.start(len(todo))
     tasks = [(item.run, item.kind, options) for item, options in todo]
     try:
         for position, result in executor.run(analyse_run, tasks):
             item = todo[position][0]
             if isinstance(result, Exception):  # the worker died: not saved, retried on resume
-                item.record = {
-                    "status": "failed",
-                    "reason": f"the worker failed: {type(result).__name__}: {result}",
-                    "warnings": [],
-                }
+                reason = f"the worker failed: {type(result).__name__}: {result}"
+                item.result = FailedRun(reason=reason)
             else:
-                record = {_MARKER: ANALYSIS_VERSION, "key": item.key, **result}
-                record = json.loads(_dump(record))
-                _write_json(output / RUNS_DIR / f"{item.key}.json", record)
-                item.record = record
+                record = {
+                    RUN_RECORD_MARKER: ANALYSIS_VERSION,
+                    "key": item.key,
+                    **result.to_dict(include_arrays=True),
+                }
+                write_json(output / RUNS_DIR / f"{item.key}.json", record)
+                item.result = result
             reporter.step(item.name)
     finally:
         reporter.finish()
@@ -770,79 +417,62 @@ def _remove_stale_records(output, items):
     """Saved run results of runs that are no longer in the campaign (or whose data changed)."""
     keys = {item.key for item in items if item.key}
     for path in (output / RUNS_DIR).glob("*.json"):
-        if path.stem not in keys and _MARKER in (_read_json(path) or {}):
+        if path.stem not in keys and RUN_RECORD_MARKER in (read_json(path) or {}):
             with contextlib.suppress(OSError):
                 path.unlink()
 
 
-def _finish_timing(results, clock):
+def _finished(timing, clock):
+    """``timing`` with the time finished and the time elapsed now."""
     now = datetime.datetime.now(datetime.UTC)
-    results["timing"]["finished"] = now.isoformat(timespec="seconds")
-    results["timing"]["elapsed_s"] = round(time.perf_counter() - clock, 3)
+    return FrozenMap(
+        {
+            **timing,
+            "finished": now.isoformat(timespec="seconds"),
+            "elapsed_s": round(time.perf_counter() - clock, 3),
+        }
+    )
 
 
-def _assemble(items, manifest, inputs, context, mcmc, seed, reference):
-    """results.json without tables, figures and timing, in manifest order."""
+def _assemble(items, entries, manifest, inputs, joint, mcmc, seed, reference):
+    """The campaign's result without tables, figures and timing, in manifest order."""
     import platform
 
     import granflow
 
-    entries, failed, warnings_list = [], [], []
-    for index, item in enumerate(items):
-        entry = {"index": index, **_describe(item)}
-        if item.run is None:
-            entry.update(status="failed", reason=item.reason, stage="read")
-        else:
-            record = {k: v for k, v in item.record.items() if k != _MARKER}
-            warnings_list += record.pop("warnings", [])
-            entry.update(record)
-            if entry["status"] == "failed":
-                entry["stage"] = "analysis"
-        if entry["status"] == "failed":
-            failed.append(
-                {
-                    "name": item.name,
-                    "source": item.source,
-                    "interval": item.interval,
-                    "stage": entry["stage"],
-                    "reason": entry["reason"],
-                }
-            )
-            warnings_list.append(f"failed: {item.name}: {entry['reason']}")
-        entries.append(entry)
-    folder = manifest.parent if manifest is not None else None
-    provenance_inputs = [
-        {"file": file, "sha256": _sha256_file(folder / file if folder else file)} for file in inputs
-    ]
-    campaign, synthetic = _campaign_summary(items, manifest, context.material)
-    return {
+    warnings_list = []
+    for item, entry in zip(items, entries, strict=True):
+        if item.result is not None:
+            warnings_list += item.result.warnings
+        if not entry.ok:
+            warnings_list.append(f"failed: {entry.name}: {entry.reason}")
+    campaign, synthetic = campaign_summary(items, manifest, joint.material)
+    provenance = {
         "granflow_version": granflow.__version__,
-        "synthetic": synthetic,
-        "campaign": campaign,
-        "runs": entries,
-        "failed_runs": failed,
-        "material": context.material,
-        "analyses": context.analyses,
-        "predictions": context.predictions,
-        "warnings": warnings_list + context.warnings,
-        "figures": [],
-        "tables": {},
-        "provenance": {
-            "granflow_version": granflow.__version__,
-            "python": platform.python_version(),
-            "inputs": provenance_inputs,
-            "options": {
-                "mcmc": mcmc,
-                "seed": seed,
-                "analysis_version": ANALYSIS_VERSION,
-                "runaway_factor": RUNAWAY_FACTOR,
-                "reference_velocity": reference,
-                "elastic_ramp_tolerance": _RAMP_TOLERANCE,
-                "stability_map": {
-                    "switch_points": _MAP_POINTS,
-                    "stress_ratios": _MAP_RATIOS,
-                    "hold": _MAP_HOLD,
-                },
+        "python": platform.python_version(),
+        "inputs": input_hashes(manifest, inputs),
+        "options": {
+            "mcmc": mcmc,
+            "seed": seed,
+            "analysis_version": ANALYSIS_VERSION,
+            "runaway_factor": RUNAWAY_FACTOR,
+            "reference_velocity": reference,
+            "elastic_ramp_tolerance": ELASTIC_RAMP_TOLERANCE,
+            "stability_map": {
+                "switch_points": MAP_POINTS,
+                "stress_ratios": MAP_RATIOS,
+                "hold": MAP_HOLD,
             },
         },
     }
+    return AnalysisResult(
+        granflow_version=granflow.__version__,
+        synthetic=synthetic,
+        campaign=FrozenMap(campaign),
+        runs=entries,
+        material=joint.material,
+        analyses=joint.analyses,
+        predictions=joint.predictions,
+        warnings=tuple(warnings_list + list(joint.warnings)),
+        provenance=FrozenMap(provenance),
+    )

@@ -1,36 +1,16 @@
-"""The files :func:`granflow.analyze` writes (each atomically): tables, figures, report."""
+"""The files :func:`granflow.analyze` writes (each atomically): tables, figures, report.
 
-import json
+Tables are built from ``results.json``'s content (the ``to_dict()`` of the campaign's
+:class:`~granflow.analysis.result.AnalysisResult`); figures from the result's objects.
+"""
+
 import warnings
-from pathlib import Path
 
 from granflow._files import write_atomic
-from granflow.analysis.runs import _creep_from_record
+from granflow.analysis.files import FIGURES_DIR, TABLES_DIR
+from granflow.model.units import display_unit, si_unit, to_display
 
-RESULTS_FILE = "results.json"
-REPORT_FILE = "report.html"
-RUNS_DIR = "runs"
-TABLES_DIR = "tables"
-FIGURES_DIR = "figures"
-
-
-# ---------------------------------------------------------------- files written atomically
-
-
-def _dump(value):
-    return json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
-
-
-def _write_json(path, value):
-    text = _dump(value)
-    return write_atomic(path, lambda temporary: temporary.write_text(text, encoding="utf-8"))
-
-
-def _read_json(path):
-    try:
-        return json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
+__all__ = ["make_figures", "write_report", "write_tables"]
 
 
 # --------------------------------------------------------------------------- tables
@@ -105,7 +85,7 @@ def _material_table(material):
             "stderr": material[name]["stderr"],
             "ci95_low": material[name]["ci95"][0],
             "ci95_high": material[name]["ci95"][1],
-            "unit": "1/m" if name == "alpha" else "",
+            "unit": si_unit(name),
             "source": material.get("source"),
         }
         for name in ("mu_a", "mu_d", "alpha")
@@ -123,7 +103,7 @@ def _predictions_table(predictions):
     return rows
 
 
-def _write_tables(output, results, warnings_list):
+def write_tables(output, results, warnings_list):
     """CSV and Parquet of runs, loads, material and predictions; returns results["tables"]."""
     import pandas as pd
 
@@ -180,129 +160,125 @@ def _write_tables(output, results, warnings_list):
 # --------------------------------------------------------------------------- figures and report
 
 
-def _ok_items(context, kind):
-    return [
-        item
-        for item in context.items
-        if item.kind == kind and item.record is not None and item.record["status"] == "ok"
-    ]
-
-
-def _startup_figure(context):
+def _startup_figure(joint):
     """Fig. 2a: the start-ups of the representative load and velocity (at most six)."""
     from granflow.plotting import plot_startup
 
-    chosen = context.representative
-    group = [s for s in context.startups if (s.load, s.velocity) == (chosen.load, chosen.velocity)]
+    chosen = joint.representative
+    group = [s for s in joint.startups if (s.load, s.velocity) == (chosen.load, chosen.velocity)]
     group = group[:6]
-    axes = plot_startup([s.item.run for s in group], [s.fit for s in group])
+    axes = plot_startup([s.run for s in group], [s.fit for s in group])
     caption = (
         f"Friction force during start-up at {_display_load(chosen.load)} and "
-        f"{chosen.velocity * 1e6:.4g} µm/s: data (points), fits of Eq. 3 (lines) and "
-        "residuals (Fig. 2a)."
+        f"{to_display('velocity', chosen.velocity):.4g} µm/s: data (points), fits of Eq. 3 "
+        "(lines) and residuals (Fig. 2a)."
     )
     return axes, caption
 
 
-def _figure_specs(context):
+def _ok_entries(result, kind):
+    return [entry for entry in result.runs if entry.test == kind and entry.ok]
+
+
+def _figure_specs(result, joint):
     """(name, title, draw) for each figure the campaign allows; draw() -> (figure, caption)."""
     from granflow import plotting
 
+    analyses = result.analyses
     specs = []
-    if context.startups:
-        specs.append(("startup", "Start-up curves and fits", lambda: _startup_figure(context)))
-    if context.collapse is not None:
+    if joint.startups:
+        specs.append(("startup", "Start-up curves and fits", lambda: _startup_figure(joint)))
+    if analyses.velocity_collapse is not None:
         specs.append(
             (
                 "collapse",
                 "Velocity collapse",
                 lambda: (
-                    plotting.plot_collapse(context.collapse),
+                    plotting.plot_collapse(analyses.velocity_collapse.result),
                     "Start-ups at several velocities against slip, with the shared fit of "
                     "Eq. 3; inset: the short slips (Fig. 2b).",
                 ),
             )
         )
-    if context.amontons is not None:
+    if analyses.amontons is not None:
         specs.append(
             (
                 "amontons",
                 "Amontons' law",
                 lambda: (
-                    plotting.plot_amontons(context.amontons),
+                    plotting.plot_amontons(analyses.amontons.result),
                     "a, αv and F_d against the normal load: means over the repeats with "
                     "standard errors, F_d with its line through the origin (Fig. 2c).",
                 ),
             )
         )
-    ramps = _ok_items(context, "ramp")
+    ramps = _ok_entries(result, "ramp")
     if ramps:
+        params = {row.run: row.params for row in analyses.stress_ramp}
         specs.append(
             (
                 "stress_ramp",
                 "Stress ramp",
                 lambda: (
-                    plotting.plot_stress_ramp(ramps[0].run, context.ramp_params.get(ramps[0].name)),
+                    plotting.plot_stress_ramp(ramps[0].run, params.get(ramps[0].name)),
                     f"{ramps[0].name}: slip and imposed force against time under a stress "
                     "ramp, with the predicted static yield F_peak at its load (Fig. 3a).",
                 ),
             )
         )
-    creeps = _ok_items(context, "creep")
+    creeps = _ok_entries(result, "creep")
     if creeps:
         specs.append(
             (
                 "creep",
                 "Creep",
                 lambda: (
-                    plotting.plot_creep(
-                        [i.run for i in creeps],
-                        [_creep_from_record(i.record, i.run) for i in creeps],
-                    ),
+                    plotting.plot_creep([e.run for e in creeps], [e.result.fit for e in creeps]),
                     "Slip against time under constant forces, with fits of "
                     "δ = B ln(1 + t/τ_c) (Fig. 3b).",
                 ),
             )
         )
-    switches = _ok_items(context, "switch")
+    switches = _ok_entries(result, "switch")
     if switches:
-        item = switches[0]
+        entry = switches[0]
+        params = {row.run: row.params for row in analyses.switch}
         specs.append(
             (
                 "switch",
                 "Switch from rate to stress control",
                 lambda: (
                     plotting.plot_switch(
-                        item.run,
-                        context.switch_params.get(item.name),
-                        switch_time=item.record["switch"]["switch_time"],
+                        entry.run,
+                        params.get(entry.name),
+                        switch_time=entry.result.switch.switch_time,
                     ),
-                    f"{item.name}: slip and force against time, the switch marked, with the "
+                    f"{entry.name}: slip and force against time, the switch marked, with the "
                     "rate-controlled curve of the fitted parameters (Fig. 3c).",
                 ),
             )
         )
-    if context.stability is not None:
+    if result.predictions.stability_map is not None:
         specs.append(
             (
                 "stability_map",
                 "Stability map",
                 lambda: (
-                    plotting.plot_stability_map(context.stability),
+                    plotting.plot_stability_map(result.predictions.stability_map.map),
                     "Predicted outcome of a switch to force control, over the switch time and "
                     "the ratio of imposed to current force (quasi-static, slip clock): failure "
                     "(grey) or the slip to the stop.",
                 ),
             )
         )
-    if context.posterior is not None:
+    if analyses.mcmc is not None:
         specs.append(
             (
                 "corner",
                 "Posterior (MCMC)",
                 lambda: (
-                    plotting.plot_corner(context.posterior),
-                    f"Posterior of the Eq. 3 fit of {context.representative.item.name} "
+                    plotting.plot_corner(analyses.mcmc.result),
+                    f"Posterior of the Eq. 3 fit of {joint.representative.name} "
                     "(emcee), the least-squares values marked.",
                 ),
             )
@@ -311,19 +287,32 @@ def _figure_specs(context):
 
 
 def _display_load(load):
-    return "an unknown load" if load is None else f"F_N = {load * 1e3:.4g} mN"
+    if load is None:
+        return "an unknown load"
+    return f"F_N = {to_display('normal_load', load):.4g} {display_unit('normal_load')}"
 
 
-def _make_figures(output, context, warnings_list):
+def make_figures(output, result, joint, warnings_list):
     """Draw every figure the campaign allows into OUTPUT/figures (PNG and SVG, each written
-    atomically); returns the entries of results["figures"]."""
+    atomically); returns the entries of results["figures"].
+
+    Parameters
+    ----------
+    output : pathlib.Path
+    result : granflow.analysis.result.AnalysisResult
+        The campaign's result (its runs with their data).
+    joint : granflow.analysis.stage.JointStage
+        What the joint stage found (the start-ups and the representative one).
+    warnings_list : list of str
+        Figures that could not be drawn are added to it.
+    """
     import matplotlib.pyplot as plt
 
     from granflow.plotting import save_figure
 
     folder = output / FIGURES_DIR
     figures = []
-    for name, title, draw in _figure_specs(context):
+    for name, title, draw in _figure_specs(result, joint):
         before = set(plt.get_fignums())
         try:
             with warnings.catch_warnings():
@@ -342,8 +331,8 @@ def _make_figures(output, context, warnings_list):
     return figures
 
 
-def _write_report(output, results):
-    """report.html (written atomically by granflow.report.render_report)."""
+def write_report(output, result):
+    """report.html (written atomically by :func:`granflow.analysis.report.render_report`)."""
     from granflow.analysis.report import render_report
 
-    return render_report(results, output)
+    return render_report(result, output)

@@ -1,8 +1,9 @@
 """The per-run work of :func:`granflow.analyze` (rules in :mod:`granflow.analysis`).
 
 What a run is, the fit window of a start-up, and the analysis of one start-up, creep test,
-stress ramp or switch. A run's result is a JSON-safe dict; everything here is deterministic
-and runs as well in a worker process (local or Dask) as in the calling one.
+stress ramp or switch. A run's result is one of the frozen types of
+:mod:`granflow.analysis.run_results`; everything here is deterministic and runs as well in a
+worker process (local or Dask) as in the calling one.
 """
 
 import math
@@ -11,15 +12,37 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow._json import json_safe
+from granflow.analysis.run_results import (
+    CreepResult,
+    FailedRun,
+    ObservedPeak,
+    RampFailure,
+    RampResult,
+    StartupResult,
+    StartupWindow,
+    SwitchEvent,
+    SwitchResult,
+)
 from granflow.errors import ConvergenceWarning, FitError, GranflowError, InvalidDataError
+from granflow.fitting.results import FrozenMap
 
-__all__ = ["RUNAWAY_FACTOR", "StartupData", "analyse_run", "classify", "startup_data"]
+__all__ = [
+    "ANALYSES",
+    "ELASTIC_RAMP_TOLERANCE",
+    "RUNAWAY_FACTOR",
+    "StartupData",
+    "analyse_run",
+    "classify",
+    "increasing_time",
+    "noise_level",
+    "startup_data",
+]
 
 #: A slip velocity this many times the reference velocity is a runaway (failure): well above
 #: any creep (slower than the drive), well below the flow after a failure.
 RUNAWAY_FACTOR = 10.0
-_RAMP_TOLERANCE = 5.0  # noise standard deviations for the elastic ramp's straight line
+#: Noise standard deviations within which the elastic loading ramp is a straight line.
+ELASTIC_RAMP_TOLERANCE = 5.0
 _LEVEL_POINTS = 10  # points at one velocity that make a stress-controlled run a switch
 
 
@@ -91,20 +114,24 @@ class StartupData:
     velocity: float | None
 
     def describe(self):
-        """JSON-safe summary of the window."""
-        return {
-            "abscissa": self.abscissa,
-            "elastic_points": self.elastic_points,
-            "start": float(self.slip[0]),
-            "stop": float(self.slip[-1]),
-            "points": int(self.slip.size),
-        }
+        """The window as a :class:`~granflow.analysis.run_results.StartupWindow`."""
+        return StartupWindow(
+            abscissa=self.abscissa,
+            elastic_points=self.elastic_points,
+            start=float(self.slip[0]),
+            stop=float(self.slip[-1]),
+            points=int(self.slip.size),
+        )
 
 
-def _noise(values):
-    from granflow.fitting.single import _noise_level
-
-    return _noise_level(np.asarray(values, dtype=float))
+def noise_level(values):
+    """Robust point-to-point noise of ``values``: the median absolute deviation of the
+    second differences, scaled to a standard deviation (0 with fewer than 4 points)."""
+    values = np.asarray(values, dtype=float)
+    if values.size < 4:
+        return 0.0
+    second = np.diff(values, 2)
+    return float(1.4826 * np.median(np.abs(second - np.median(second))) / math.sqrt(6.0))
 
 
 def _elastic_ramp_end(x, force):
@@ -112,7 +139,7 @@ def _elastic_ramp_end(x, force):
     if x.size < 4:
         return None
     top = int(np.argmax(force))
-    tolerance = _RAMP_TOLERANCE * _noise(force) + 1e-6 * abs(float(force[top]))
+    tolerance = ELASTIC_RAMP_TOLERANCE * noise_level(force) + 1e-6 * abs(float(force[top]))
     end = None
     for index in range(2, top):
         span = x[index] - x[0]
@@ -170,12 +197,13 @@ def startup_data(run):
 # --------------------------------------------------------------------------- per-run work
 
 
-class _RunFailedError(GranflowError):
-    """A run that cannot be analysed; ``partial`` keeps what was found before the failure."""
+class RunFailedError(GranflowError):
+    """A run that cannot be analysed; ``found`` keeps what was found before the failure
+    (JSON-safe, as :attr:`granflow.analysis.run_results.FailedRun.found`)."""
 
-    def __init__(self, message, partial=None):
+    def __init__(self, message, found=None):
         super().__init__(message)
-        self.partial = dict(partial or {})
+        self.found = dict(found or {})
 
 
 def _fit_startup(data, name):
@@ -185,25 +213,31 @@ def _fit_startup(data, name):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         result = fit((data.slip, data.force), domain="slip", velocity=data.velocity)
-    out = {"fit": result.to_dict(), "window": data.describe(), "warnings": []}
+    window = data.describe()
     if not result.success:
-        raise _RunFailedError(f"the fit did not succeed: {result.message}", out)
+        found = {"fit": result.to_dict(), "window": window.to_dict()}
+        raise RunFailedError(f"the fit did not succeed: {result.message}", found)
+    notes = []
     bounds = [n for n in result.names if result.at_bound[n]]
     if bounds:
-        out["warnings"].append(f"{name}: fit at a bound of its search range: {', '.join(bounds)}")
+        notes.append(f"{name}: fit at a bound of its search range: {', '.join(bounds)}")
     try:
         top = peak(result.to_params(), velocity=data.velocity)
-        out["peak"] = top.to_dict()
     except NoPeakError:
-        out["peak"] = None
+        top = None
     smooth = (
         np.convolve(data.force, np.ones(5) / 5.0, mode="same")
         if data.force.size > 5
         else data.force
     )
     index = int(np.argmax(smooth))
-    out["observed_peak"] = {"force": float(smooth[index]), "slip": float(data.slip[index])}
-    return out
+    return StartupResult(
+        fit=result,
+        window=window,
+        peak=top,
+        observed_peak=ObservedPeak(force=float(smooth[index]), slip=float(data.slip[index])),
+        warnings=tuple(notes),
+    )
 
 
 def _analyse_startup(run, options):
@@ -211,7 +245,7 @@ def _analyse_startup(run, options):
     return _fit_startup(data, run.name)
 
 
-def _increasing_time(run, columns):
+def increasing_time(run, columns):
     """Finite rows (time and ``columns``), duplicate times reduced to their last row."""
     keep = np.isfinite(run.t)
     for name in columns:
@@ -227,7 +261,7 @@ def _increasing_time(run, columns):
 def _analyse_creep(run, options):
     from granflow.fitting.creep import fit_creep
 
-    rows = _increasing_time(run, ("slip", "force"))
+    rows = increasing_time(run, ("slip", "force"))
     if rows.size < 4:
         raise InvalidDataError(f"{run.name}: fewer than 4 points with time, slip and force")
     force = run.force[rows]
@@ -236,18 +270,17 @@ def _analyse_creep(run, options):
     rows = rows[start:]
     t = run.t[rows] - run.t[rows[0]]
     slip = run.slip[rows] - run.slip[rows[0]]
-    result = fit_creep(t, slip)
-    out = {
-        "fit": result.to_dict(),
-        "stress": level,
-        "creep_start": float(run.t[rows[0]]),
-        "creep_slip": float(slip[-1]),
-        "duration": float(t[-1]),
-        "warnings": [],
-    }
-    if not result.success:
-        raise _RunFailedError(f"the creep fit did not succeed: {result.message}", out)
-    return out
+    result = CreepResult(
+        fit=fit_creep(t, slip),
+        stress=level,
+        creep_start=float(run.t[rows[0]]),
+        creep_slip=float(slip[-1]),
+        duration=float(t[-1]),
+    )
+    if not result.fit.success:
+        found = {k: v for k, v in result.to_dict().items() if k not in ("status", "reason")}
+        raise RunFailedError(f"the creep fit did not succeed: {result.fit.message}", found)
+    return result
 
 
 def _slip_velocity(run):
@@ -255,7 +288,7 @@ def _slip_velocity(run):
     if np.isfinite(run.velocity).any():
         return np.array(run.velocity)
     velocity = np.full(run.t.shape, np.nan)
-    rows = _increasing_time(run, ("slip",))
+    rows = increasing_time(run, ("slip",))
     if rows.size >= 2:
         velocity[rows[1:]] = np.diff(run.slip[rows]) / np.diff(run.t[rows])
         velocity[rows[0]] = 0.0
@@ -291,27 +324,26 @@ def _runaway(velocity, threshold):
 def _analyse_ramp(run, options):
     threshold = RUNAWAY_FACTOR * options["reference_velocity"]
     runaway = _runaway(_slip_velocity(run), threshold)
-    rows = _increasing_time(run, ("force",))
-    out = {"warnings": []}
+    rows = increasing_time(run, ("force",))
+    rate = None
     if rows.size >= 2:
         end = rows.size if runaway is None else max(2, int(np.searchsorted(rows, runaway[0])))
-        out["loading_rate"] = float(np.polyfit(run.t[rows[:end]], run.force[rows[:end]], 1)[0])
+        rate = float(np.polyfit(run.t[rows[:end]], run.force[rows[:end]], 1)[0])
     if runaway is None:
-        out["failure"] = None
-        out["warnings"].append(f"{run.name}: no failure observed in the stress ramp")
-        return out
+        note = f"{run.name}: no failure observed in the stress ramp"
+        return RampResult(failure=None, loading_rate=rate, warnings=(note,))
     index, criterion = runaway
     # the failure force is the largest the layer held: the last point before the runaway
     force, where = _last_finite_force(run, max(index - 1, 0))
-    out["failure"] = {
-        "criterion": criterion,
-        "index": where,
-        "time": float(run.t[where]),
-        "slip": float(run.slip[where]) if np.isfinite(run.slip[where]) else None,
-        "force": force,
-        "runaway_time": float(run.t[index]),
-    }
-    return out
+    failure = RampFailure(
+        criterion=criterion,
+        index=where,
+        time=float(run.t[where]),
+        slip=float(run.slip[where]) if np.isfinite(run.slip[where]) else None,
+        force=force,
+        runaway_time=float(run.t[index]),
+    )
+    return RampResult(failure=failure, loading_rate=rate)
 
 
 def _switch_index(run, nominal):
@@ -361,31 +393,30 @@ def _analyse_switch(run, options):
     else:
         outcome = "creep"
     switch_time = float(run.meta.get("switch_time", run.t[where]))
-    out = {
-        "switch": {
-            "switch_time": switch_time,
-            "found_by": found,
-            "index": switch,
-            "velocity": nominal,
-            "switch_force": force_before,
-            "imposed_force": level,
-            "factor": level / force_before if force_before > 0 else None,
-            "hold_time": float(np.nanmax(run.t[switch:]) - switch_time),
-            "outcome": outcome,
-        },
-        "warnings": [],
-        "fit": None,
-    }
-    startup = run.select(np.arange(len(run)) < switch)
+    event = SwitchEvent(
+        switch_time=switch_time,
+        found_by=found,
+        index=switch,
+        velocity=nominal,
+        switch_force=force_before,
+        imposed_force=level,
+        factor=level / force_before if force_before > 0 else None,
+        hold_time=float(np.nanmax(run.t[switch:]) - switch_time),
+        outcome=outcome,
+    )
+    before = run.select(np.arange(len(run)) < switch)
     try:
-        out.update(_fit_startup(startup_data(startup), run.name), switch=out["switch"])
-    except (_RunFailedError, FitError, InvalidDataError) as exc:
-        out["fit_error"] = f"the start-up part could not be fitted: {exc}"
-        out["warnings"].append(f"{run.name}: {out['fit_error']}")
-    return out
+        startup = _fit_startup(startup_data(before), run.name)
+    except (RunFailedError, FitError, InvalidDataError) as exc:
+        error = f"the start-up part could not be fitted: {exc}"
+        return SwitchResult(
+            switch=event, startup=None, fit_error=error, warnings=(f"{run.name}: {error}",)
+        )
+    return SwitchResult(switch=event, startup=startup, warnings=startup.warnings)
 
 
-_ANALYSES = {
+#: The analysis of each kind of test: ``function(run, options)`` -> its result.
+ANALYSES = {
     "startup": _analyse_startup,
     "creep": _analyse_creep,
     "ramp": _analyse_ramp,
@@ -394,123 +425,23 @@ _ANALYSES = {
 
 
 def analyse_run(task):
-    """Analyse one run: ``task = (run, kind, options)`` -> a JSON-safe dict.
+    """Analyse one run: ``task = (run, kind, options)`` -> its result.
 
     A top-level function, so that process pools and Dask workers can run it. Never raises for
-    a problem of the run: ``status`` is ``"failed"`` and ``reason`` says why.
+    a problem of the run: it returns a :class:`~granflow.analysis.run_results.FailedRun`
+    saying why.
+
+    Returns
+    -------
+    StartupResult, CreepResult, RampResult, SwitchResult or FailedRun
     """
     run, kind, options = task
     try:
         with np.errstate(all="ignore"):
-            out = _ANALYSES[kind](run, options)
-        out.update(status="ok", reason=None)
-    except _RunFailedError as exc:
-        out = {**exc.partial, "status": "failed", "reason": str(exc)}
+            return ANALYSES[kind](run, options)
+    except RunFailedError as exc:
+        return FailedRun(reason=str(exc), found=FrozenMap(exc.found))
     except GranflowError as exc:
-        out = {"status": "failed", "reason": str(exc)}
+        return FailedRun(reason=str(exc))
     except Exception as exc:  # a batch reports what failed and goes on with the rest
-        out = {"status": "failed", "reason": f"{type(exc).__name__}: {exc}"}
-    out.setdefault("warnings", [])
-    return json_safe(out)
-
-
-# ------------------------------------------------------------ saved results as fit objects
-
-
-def _fit_from_record(record, data):
-    """The :class:`granflow.FitResult` of a saved start-up record, with its arrays rebuilt.
-
-    Saved results and fresh ones give the same object (JSON keeps every float exactly), so
-    joint analyses, figures and MCMC never depend on whether a run was fitted now.
-    """
-    from granflow.fitting.engine import FrozenMap, model_only
-    from granflow.fitting.single import FitResult
-
-    saved = record["fit"]
-    names = tuple(saved["params"])
-    keep = data.slip > 0
-    x, y = data.slip[keep], data.force[keep]
-
-    def number(value):
-        return math.nan if value is None else float(value)
-
-    params = {n: number(saved["params"][n]) for n in names}
-    best = model_only(np.ascontiguousarray(x), *(params[n] for n in names))
-    return FitResult(
-        domain=saved["domain"],
-        names=names,
-        params=FrozenMap(params),
-        stderr=FrozenMap({n: number(v) for n, v in saved["stderr"].items()}),
-        ci95=FrozenMap({n: tuple(number(b) for b in v) for n, v in saved["ci95"].items()}),
-        ci_method=FrozenMap(saved["ci_method"]),
-        covar=FrozenMap(
-            {
-                p: FrozenMap({q: number(v) for q, v in row.items()})
-                for p, row in saved["covar"].items()
-            }
-        ),
-        correl=FrozenMap(
-            {
-                p: FrozenMap({q: number(v) for q, v in row.items()})
-                for p, row in saved["correl"].items()
-            }
-        ),
-        fixed=tuple(saved["fixed"]),
-        at_bound=FrozenMap(saved["at_bound"]),
-        success=bool(saved["success"]),
-        message=saved["message"],
-        nfev=int(saved["nfev"]),
-        ndata=int(saved["ndata"]),
-        nfree=int(saved["nfree"]),
-        chisqr=number(saved["chisqr"]),
-        redchi=number(saved["redchi"]),
-        aic=number(saved["aic"]),
-        bic=number(saved["bic"]),
-        rsquared=number(saved["rsquared"]),
-        x=x,
-        data=y,
-        best_fit=best,
-        residuals=y - best,
-        weights=np.ones_like(x),
-        velocity=saved["velocity"],
-        window=tuple(saved["window"]),
-        sigma_known=bool(saved["sigma_known"]),
-        name=saved.get("name"),
-    )
-
-
-def _creep_from_record(record, run):
-    """The :class:`granflow.CurveFitResult` of a saved creep record, arrays rebuilt."""
-    from granflow.fitting.creep import CurveFitResult
-    from granflow.fitting.engine import FrozenMap
-
-    saved = record["fit"]
-    rows = _increasing_time(run, ("slip", "force"))
-    rows = rows[run.t[rows] >= record["creep_start"]]
-    t = run.t[rows] - run.t[rows[0]]
-    slip = run.slip[rows] - run.slip[rows[0]]
-    B, tau = saved["params"]["B"], saved["params"]["tau_c"]
-    best = B * np.log1p(t / tau)
-    return CurveFitResult(
-        model=saved["model"],
-        formula=saved["formula"],
-        names=tuple(saved["params"]),
-        units=FrozenMap(saved["units"]),
-        params=FrozenMap(saved["params"]),
-        stderr=FrozenMap(saved["stderr"]),
-        ci95=FrozenMap({k: tuple(v) for k, v in saved["ci95"].items()}),
-        covar=FrozenMap({k: FrozenMap(v) for k, v in saved["covar"].items()}),
-        success=bool(saved["success"]),
-        message=saved["message"],
-        ndata=int(saved["ndata"]),
-        nfree=int(saved["nfree"]),
-        chisqr=saved["chisqr"],
-        redchi=saved["redchi"],
-        aic=saved["aic"],
-        bic=saved["bic"],
-        sigma_known=bool(saved["sigma_known"]),
-        x=t,
-        data=slip,
-        best_fit=best,
-        residuals=slip - best,
-    )
+        return FailedRun(reason=f"{type(exc).__name__}: {exc}")

@@ -1,0 +1,305 @@
+"""The runs of a campaign as :func:`granflow.analyze` sees them, and what identifies them.
+
+Reading a manifest (or taking a :class:`granflow.Campaign`) into :class:`Item` values in
+manifest order, a file that cannot be read included; the key that names a run's saved result;
+the campaign's summary and provenance.
+"""
+
+import hashlib
+import json
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from granflow._json import json_safe
+from granflow.analysis.files import MANIFEST_NAMES, TRUTH_FILE, read_json
+from granflow.analysis.joint import rounded
+from granflow.analysis.joint_results import MATERIAL_CONSTANTS
+from granflow.analysis.result import RunEntry
+from granflow.analysis.run_results import FailedRun
+from granflow.analysis.runs import ANALYSES
+from granflow.errors import InvalidParameterError
+from granflow.model.run import Run
+
+__all__ = [
+    "ANALYSIS_VERSION",
+    "Item",
+    "campaign_summary",
+    "identity",
+    "imposed_velocity",
+    "input_hashes",
+    "load_campaign",
+    "relative_path",
+    "run_entry",
+    "run_key",
+]
+
+#: Bumped whenever a per-run result changes meaning, so older saved results are not reused.
+ANALYSIS_VERSION = 1
+
+
+def _sha256_file(path):
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as stream:
+            for block in iter(lambda: stream.read(1 << 20), b""):
+                digest.update(block)
+    except OSError:
+        return None
+    return digest.hexdigest()
+
+
+def _stem(text):
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("._")[:60] or "run"
+
+
+def run_key(identity, run, kind, options):
+    """The name of a run's result file: readable stem plus a hash of everything it depends on.
+
+    The hash covers the analysis version, the run's identity (file name relative to the
+    manifest, interval, metadata), its test kind and control mode, its four columns and the
+    options that change the per-run work.
+    """
+    digest = hashlib.sha256()
+    header = {
+        "version": ANALYSIS_VERSION,
+        "identity": identity,
+        "kind": kind,
+        "control": run.control,
+        "meta": {k: v for k, v in json_safe(dict(run.meta)).items() if k not in ("manifest",)},
+        "options": options,
+    }
+    header["meta"]["source"] = identity["source"]
+    digest.update(json.dumps(header, sort_keys=True).encode("utf-8"))
+    for name in ("t", "slip", "velocity", "force"):
+        digest.update(np.ascontiguousarray(getattr(run, name), dtype="<f8").tobytes())
+    return f"{_stem(identity['name'])}-{digest.hexdigest()[:20]}"
+
+
+@dataclass
+class Item:
+    """One manifest entry's run (or the failure to read it), in manifest order; the engine
+    fills in its kind, key and result as it goes."""
+
+    name: str
+    source: str | None
+    interval: int | None
+    run: Run | None = None
+    kind: str | None = None
+    reason: str | None = None
+    key: str | None = None
+    result: object = None
+
+    @property
+    def ok(self):
+        """Whether the run was read and analysed."""
+        return self.result is not None and not isinstance(self.result, FailedRun)
+
+
+def _find_manifest(source):
+    path = Path(source)
+    if path.is_dir():
+        for name in MANIFEST_NAMES:
+            if (path / name).is_file():
+                return path / name
+        raise InvalidParameterError(
+            f"{path}: the folder holds no manifest ({', '.join(MANIFEST_NAMES)})"
+        )
+    if not path.exists():
+        raise InvalidParameterError(f"{path}: no such manifest or folder")
+    if path.suffix.lower() not in (".yaml", ".yml", ".csv"):
+        raise InvalidParameterError(
+            f"{path}: a campaign is a manifest (.yaml, .yml or .csv) or a folder holding one"
+        )
+    return path
+
+
+def relative_path(file, folder):
+    """``file`` relative to ``folder`` (as given when there is no folder or another drive)."""
+    if folder is None:
+        return str(file)
+    try:
+        return os.path.relpath(os.path.abspath(file), os.path.abspath(folder))
+    except ValueError:  # another drive
+        return str(file)
+
+
+def _run_name(run, source):
+    if "name" in run.meta:
+        return str(run.meta["name"])
+    return f"{source}#{run.meta.get('interval', 1)}"
+
+
+def _items_from_manifest(manifest):
+    """Items in manifest order: each entry's runs, or the reason its file failed."""
+    from granflow.io.campaign import Campaign, read_manifest
+
+    entries = read_manifest(manifest)
+    campaign = Campaign.from_manifest(manifest, errors="collect")
+    folder = manifest.parent
+    runs, problems = list(campaign.runs), list(campaign.problems)
+    items, position, inputs = [], 0, []
+    for entry in entries:
+        file = str(folder / entry["file"])
+        relative = relative_path(file, folder)
+        if relative not in inputs:
+            inputs.append(relative)
+        taken = []
+        while position < len(runs) and runs[position].meta.get("source") == file:
+            taken.append(runs[position])
+            position += 1
+            if "interval" in entry:
+                break
+        if taken:
+            items += [_run_item(run, folder) for run in taken]
+            continue
+        reason = next((p for p in problems if file in p), None)
+        if reason is not None:
+            problems.remove(reason)
+        else:
+            reason = "the file holds no run"
+        name = relative if "interval" not in entry else f"{relative}#{entry['interval']}"
+        items.append(
+            Item(name=name, source=relative, interval=entry.get("interval"), reason=reason)
+        )
+    items += [_run_item(run, folder) for run in runs[position:]]
+    items += [Item(name="?", source=None, interval=None, reason=p) for p in problems]
+    return items, inputs
+
+
+def _run_item(run, folder):
+    source = relative_path(run.meta.get("source", "run"), folder)
+    return Item(
+        name=_run_name(run, source), source=source, interval=run.meta.get("interval"), run=run
+    )
+
+
+def load_campaign(source):
+    """(items, manifest path or None, input files relative to the manifest folder)."""
+    from granflow.io.campaign import Campaign
+
+    if isinstance(source, Campaign):
+        items = [_run_item(run, None) for run in source.runs]
+        items += [Item(name="?", source=None, interval=None, reason=p) for p in source.problems]
+        inputs = list(dict.fromkeys(item.source for item in items if item.source))
+        return items, None, inputs
+    manifest = _find_manifest(source)
+    items, inputs = _items_from_manifest(manifest)
+    return items, manifest, [manifest.name, *inputs]
+
+
+def identity(item):
+    """What names a run in its key: its name, file and interval."""
+    return {"name": item.name, "source": item.source, "interval": item.interval}
+
+
+def imposed_velocity(item):
+    """The imposed velocity [m/s]: the nominal one of a start-up, the manifest's otherwise
+    (the median measured velocity of a stress-controlled run is no imposed velocity)."""
+    if item.kind == "startup":
+        return item.run.nominal_velocity
+    value = item.run.meta.get("velocity")
+    return None if value is None else float(value)
+
+
+def run_entry(item, index):
+    """The :class:`~granflow.analysis.result.RunEntry` of an item whose work is done."""
+    run = item.run
+    result = item.result if run is not None else FailedRun(reason=item.reason)
+    common = {"index": index, **identity(item), "result": result, "key": item.key}
+    if run is None:
+        return RunEntry(
+            **common,
+            test=None,
+            control=None,
+            normal_load=None,
+            velocity=None,
+            preparation=None,
+            points=0,
+            stage="read",
+        )
+    return RunEntry(
+        **common,
+        test=item.kind,
+        control=run.control,
+        normal_load=run.normal_load,
+        velocity=imposed_velocity(item),
+        preparation=run.meta.get("preparation"),
+        points=len(run),
+        stage=None if item.ok else "analysis",
+        run=run,
+    )
+
+
+def input_hashes(manifest, inputs):
+    """``[{"file", "sha256"}]`` of the input files (relative to the manifest's folder)."""
+    folder = manifest.parent if manifest is not None else None
+    return [
+        {"file": file, "sha256": _sha256_file(folder / file if folder else file)} for file in inputs
+    ]
+
+
+def _truth(manifest):
+    """The synthetic truth file of a demo campaign, beside the manifest or one folder up."""
+    if manifest is None:
+        return None, None
+    for folder in (manifest.parent, manifest.parent.parent):
+        path = folder / TRUTH_FILE
+        if path.is_file():
+            return path, read_json(path)
+    return None, None
+
+
+def campaign_summary(items, manifest, material):
+    """The ``campaign`` entry of ``results.json`` and whether the campaign is synthetic.
+
+    Parameters
+    ----------
+    items : sequence of Item
+        The campaign's items, their work done.
+    manifest : pathlib.Path or None
+    material : granflow.analysis.joint_results.Material
+
+    Returns
+    -------
+    (dict, bool)
+    """
+    runs = [item for item in items if item.run is not None]
+    ok = [item for item in runs if item.ok]
+    loads = sorted({rounded(i.run.normal_load) for i in runs if i.run.normal_load is not None})
+    speeds = sorted({rounded(v) for v in map(imposed_velocity, runs) if v is not None})
+    preparations = sorted(
+        {str(i.run.meta["preparation"]) for i in runs if "preparation" in i.run.meta}
+    )
+    summary = {
+        "manifest": None if manifest is None else str(manifest.resolve()),
+        "analysed": len(ok),
+        "counts": {
+            "runs": len(items),
+            "analysed": len(ok),
+            "failed": len(items) - len(ok),
+            "tests": {kind: sum(1 for i in runs if i.kind == kind) for kind in ANALYSES},
+            "normal_loads": loads,
+            "velocities": speeds,
+            "preparations": preparations,
+        },
+        "problems": [item.reason for item in items if item.run is None],
+    }
+    path, truth = _truth(manifest)
+    synthetic = bool(truth and truth.get("synthetic", True)) or any(
+        "synthetic" in str(i.run.meta.get("notes", "")).lower() for i in runs
+    )
+    if isinstance(truth, dict) and all(n in truth for n in MATERIAL_CONSTANTS):
+        contained = {}
+        for name in MATERIAL_CONSTANTS:
+            low, high = getattr(material, name).ci95
+            contained[name] = bool(low is not None and low <= truth[name] <= high)
+        summary["truth"] = {
+            "file": relative_path(path, manifest.parent),
+            "values": {n: truth[n] for n in MATERIAL_CONSTANTS},
+            "contained": contained,
+        }
+    return summary, synthetic

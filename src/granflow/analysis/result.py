@@ -1,0 +1,331 @@
+"""The result of a campaign analysis: :class:`AnalysisResult` and its :class:`RunEntry` rows.
+
+``AnalysisResult.to_dict()`` is ``results.json`` without its ``timing`` entry, and
+``AnalysisResult.from_dict`` inverts it; every part is a frozen value of
+:mod:`granflow.analysis.run_results` or :mod:`granflow.analysis.joint_results`.
+"""
+
+import functools
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from granflow._json import json_safe
+from granflow.analysis.files import RESULTS_FILE
+from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Material
+from granflow.analysis.prediction_results import Predictions
+from granflow.analysis.run_results import FailedRun, run_result_from_dict
+from granflow.analysis.values import Value, frozen_json
+from granflow.fitting.results import FrozenMap
+from granflow.model.units import display_unit, to_display
+
+__all__ = ["AnalysisResult", "RunEntry"]
+
+_DESCRIPTION = (
+    "index",
+    "name",
+    "source",
+    "interval",
+    "test",
+    "control",
+    "normal_load",
+    "velocity",
+    "preparation",
+    "points",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class RunEntry(Value):
+    """One run of the campaign (or one file that could not be read), in manifest order.
+
+    Attributes
+    ----------
+    index : int
+        Position in the manifest's order.
+    name, source : str or None
+        The run's name and its file (relative to the manifest's folder).
+    interval : int or None
+        The interval of the file.
+    test : {"startup", "creep", "ramp", "switch"} or None
+        None for a file that could not be read.
+    control : {"rate", "stress"} or None
+    normal_load : float or None
+        [N]
+    velocity : float or None
+        The imposed velocity [m/s].
+    preparation : str or None
+    points : int
+    result : StartupResult, CreepResult, RampResult, SwitchResult or FailedRun
+    key : str or None
+        The name of its saved result in ``runs/`` (None when it was not saved).
+    stage : {"read", "analysis"} or None
+        Where a failed run failed.
+    run : granflow.Run or None
+        The data (not in ``to_dict``; None when rebuilt from JSON).
+    """
+
+    index: int
+    name: str
+    source: str | None
+    interval: int | None
+    test: str | None
+    control: str | None
+    normal_load: float | None
+    velocity: float | None
+    preparation: object
+    points: int
+    result: object
+    key: str | None = None
+    stage: str | None = None
+    run: object = field(default=None, repr=False)
+
+    @property
+    def ok(self):
+        """Whether the run was analysed."""
+        return not isinstance(self.result, FailedRun)
+
+    @property
+    def reason(self):
+        """Why the run failed (None when it did not)."""
+        return None if self.ok else self.result.reason
+
+    def to_dict(self):
+        """The run's entry in ``results["runs"]``."""
+        out = {name: getattr(self, name) for name in _DESCRIPTION}
+        if self.key is not None:
+            out["key"] = self.key
+        out.update({k: v for k, v in self.result.to_dict().items() if k != "warnings"})
+        if self.stage is not None:
+            out["stage"] = self.stage
+        return json_safe(out)
+
+    def failure(self):
+        """The run's entry in ``results["failed_runs"]`` (None when it did not fail)."""
+        if self.ok:
+            return None
+        return {
+            "name": self.name,
+            "source": self.source,
+            "interval": self.interval,
+            "stage": self.stage,
+            "reason": self.reason,
+        }
+
+    @classmethod
+    def from_dict(cls, saved):
+        """The entry of :meth:`to_dict`."""
+        rest = {k: v for k, v in saved.items() if k not in (*_DESCRIPTION, "key", "stage")}
+        return cls(
+            **{name: saved[name] for name in _DESCRIPTION},
+            result=run_result_from_dict(saved["test"], rest),
+            key=saved.get("key"),
+            stage=saved.get("stage"),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class AnalysisResult(Value):
+    """What :func:`granflow.analyze` found and wrote (SI units).
+
+    ``to_dict()`` is the content of ``results.json`` apart from ``timing``;
+    ``AnalysisResult.from_dict(result.to_dict())`` rebuilds an equal result (equality
+    compares ``to_dict()``).
+
+    Attributes
+    ----------
+    granflow_version : str
+    synthetic : bool
+        Whether the campaign is synthetic (a banner in the report).
+    campaign : mapping
+        Manifest, counts (runs, tests, loads, velocities, preparations), problems reading
+        it, and the synthetic truth where there is one.
+    runs : tuple of RunEntry
+        In manifest order.
+    material : Material
+        The material constants (reads as ``results.json``'s mapping too).
+    analyses : Analyses
+    predictions : Predictions
+    warnings : tuple of str
+    figures : tuple of mapping
+        ``name``, ``title``, ``caption``, ``png``, ``svg`` (paths relative to ``output``).
+    tables : mapping
+        Table name to its files (relative to ``output``).
+    provenance : mapping
+        Version, Python, input files with their SHA-256, options.
+    timing : mapping
+        Dates, durations, jobs, scheduler, runs fitted now or reused (not in ``to_dict``).
+    output : pathlib.Path or None
+        The output folder.
+    fitted_now, reused : int
+        Runs analysed in this call, and saved results reused.
+    report : pathlib.Path or None
+        The HTML report.
+    """
+
+    granflow_version: str
+    synthetic: bool
+    campaign: FrozenMap
+    runs: tuple
+    material: Material
+    analyses: Analyses
+    predictions: Predictions
+    warnings: tuple = ()
+    figures: tuple = ()
+    tables: FrozenMap = field(default_factory=FrozenMap)
+    provenance: FrozenMap = field(default_factory=FrozenMap)
+    timing: FrozenMap = field(default_factory=FrozenMap, repr=False)
+    output: Path | None = None
+    fitted_now: int = 0
+    reused: int = 0
+    report: Path | None = None
+
+    def __repr__(self):
+        output = None if self.output is None else str(self.output)
+        return (
+            f"AnalysisResult({len(self.runs)} runs, {len(self.failed_runs)} failed, "
+            f"output={output!r})"
+        )
+
+    def to_dict(self):
+        """The content of ``results.json`` apart from ``timing`` (JSON-safe)."""
+        return json_safe(
+            {
+                "granflow_version": self.granflow_version,
+                "synthetic": self.synthetic,
+                "campaign": self.campaign,
+                "runs": [entry.to_dict() for entry in self.runs],
+                "failed_runs": self.failed_runs,
+                "material": self.material.to_dict(),
+                "analyses": self.analyses.to_dict(),
+                "predictions": self.predictions.to_dict(),
+                "warnings": list(self.warnings),
+                "figures": list(self.figures),
+                "tables": self.tables,
+                "provenance": self.provenance,
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, saved, *, output=None):
+        """The result of :meth:`to_dict` (or of ``results.json``, its ``timing`` kept).
+
+        Parameters
+        ----------
+        saved : mapping
+        output : str or pathlib.Path, optional
+            The folder it was written to.
+        """
+        return cls(
+            granflow_version=saved["granflow_version"],
+            synthetic=bool(saved["synthetic"]),
+            campaign=frozen_json(saved["campaign"], tuple),
+            runs=tuple(RunEntry.from_dict(entry) for entry in saved["runs"]),
+            material=Material.from_dict(saved["material"]),
+            analyses=Analyses.from_dict(saved["analyses"]),
+            predictions=Predictions.from_dict(saved["predictions"]),
+            warnings=tuple(saved["warnings"]),
+            figures=frozen_json(saved["figures"], tuple),
+            tables=frozen_json(saved["tables"], tuple),
+            provenance=frozen_json(saved["provenance"], tuple),
+            timing=frozen_json(saved.get("timing", {}), tuple),
+            output=None if output is None else Path(output),
+        )
+
+    @functools.cached_property
+    def results(self):
+        """The content of ``results.json``: :meth:`to_dict` plus ``timing``."""
+        return {**self.to_dict(), "timing": json_safe(self.timing)}
+
+    @property
+    def results_path(self):
+        """``OUTPUT/results.json``."""
+        return self.output / RESULTS_FILE
+
+    @property
+    def failed_runs(self):
+        """The runs that could not be analysed: ``name``, ``source``, ``interval``, ``stage``,
+        ``reason``."""
+        return [entry.failure() for entry in self.runs if not entry.ok]
+
+    @property
+    def exit_code(self):
+        """0 when every run was analysed, 1 when some failed (the command's exit code)."""
+        return 1 if self.failed_runs else 0
+
+    def summary(self):
+        """A one-screen summary: counts, material constants with intervals, predictions,
+        failed runs, and where the output is (display units)."""
+        counts = self.campaign["counts"]
+        lines = [
+            f"campaign: {counts['runs']} runs"
+            + (" (synthetic data)" if self.synthetic else "")
+            + f", {counts['analysed']} analysed, {counts['failed']} failed "
+            f"({self.fitted_now} analysed now, {self.reused} reused)"
+        ]
+        lines += _material_lines(self.material)
+        truth = self.campaign.get("truth")
+        if truth:
+            inside = ", ".join(
+                f"{name} {'inside' if ok else 'OUTSIDE'}" for name, ok in truth["contained"].items()
+            )
+            lines.append(f"  synthetic truth: {inside} the 95 % intervals")
+        lines += _prediction_lines(self.predictions, self.analyses)
+        if self.warnings:
+            lines.append(f"warnings: {len(self.warnings)} (see results.json or the report)")
+        failed = self.failed_runs
+        if failed:
+            lines.append(f"failed runs ({len(failed)}):")
+            lines += [f"  {entry['name']}: {entry['reason']}" for entry in failed[:10]]
+            if len(failed) > 10:
+                lines.append(f"  ... and {len(failed) - 10} more in results.json")
+        if self.output is not None:
+            lines.append(f"output: {self.output.resolve()}")
+        return "\n".join(lines)
+
+
+def _material_lines(material):
+    if not material.determined:
+        return [f"material constants: not determined ({material.reason})"]
+    lines = [f"material constants ({material.source}):"]
+    for name in MATERIAL_CONSTANTS:
+        estimate = getattr(material, name)
+        unit = f" {display_unit(name)}" if display_unit(name) else ""
+        low, high = estimate.ci95
+        lines.append(
+            f"  {name:<5} = {estimate.value:.5g} +/- {estimate.stderr:.2g}{unit}   "
+            f"95%: [{low:.5g}, {high:.5g}]"
+        )
+    return lines
+
+
+def _millinewton(value):
+    return to_display("force", value)
+
+
+def _prediction_lines(predictions, analyses):
+    lines = []
+    rows = predictions.static_yield
+    if rows:
+        text = "; ".join(
+            f"{_millinewton(row.normal_load):.4g} mN -> {_millinewton(row.F_peak):.4g} "
+            f"+/- {_millinewton(row.stderr):.2g} mN"
+            for row in rows[:6]
+        )
+        lines.append(f"static yield F_peak: {text}" + (" ..." if len(rows) > 6 else ""))
+    for row in analyses.stress_ramp:
+        if row.observed is not None and row.predicted_force is not None:
+            width = math.hypot(row.F_peak_stderr, row.F_peak_spread)
+            lines.append(
+                f"stress ramp {row.run}: failed at "
+                f"{_millinewton(row.observed['failure_force']):.4g} mN, predicted F_peak "
+                f"{_millinewton(row.predicted_force):.4g} +/- {_millinewton(width):.2g} mN"
+                + (" (consistent)" if row.consistent else " (NOT consistent)")
+            )
+    for row in analyses.switch:
+        if row.predicted is not None:
+            lines.append(
+                f"switch {row.run}: observed {row.observed['outcome']}, predicted "
+                f"{row.predicted}" + (" (agree)" if row.agree else " (DISAGREE)")
+            )
+    return lines

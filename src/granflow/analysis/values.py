@@ -1,0 +1,40 @@
+"""What the frozen result types of :mod:`granflow.analysis` share.
+
+:class:`Value` gives them equality by content (their ``to_dict()``); :func:`as_json` and
+:func:`frozen_json` move between fitting results, their JSON and read-only JSON.
+"""
+
+from collections.abc import Mapping
+
+from granflow.fitting.results import FrozenMap
+
+__all__ = ["Value", "as_json", "frozen_json"]
+
+
+class Value:
+    """Base of the frozen results: two are equal when they are of one type and their
+    ``to_dict()`` are equal (so a result rebuilt by ``from_dict`` equals the original)."""
+
+    __slots__ = ()
+
+    def __eq__(self, other):
+        if type(other) is not type(self):
+            return NotImplemented
+        return self.to_dict() == other.to_dict()
+
+    __hash__ = None
+
+
+def as_json(result):
+    """The JSON of a result: ``result.to_dict()``, or ``result`` itself as a dict when it is
+    already a mapping (a result rebuilt from JSON)."""
+    return dict(result.to_dict()) if hasattr(result, "to_dict") else dict(result)
+
+
+def frozen_json(value, sequence=list):
+    """JSON with its mappings as :class:`FrozenMap` and its lists as ``sequence``."""
+    if isinstance(value, Mapping):
+        return FrozenMap({key: frozen_json(item, sequence) for key, item in value.items()})
+    if isinstance(value, list | tuple):
+        return sequence(frozen_json(item, sequence) for item in value)
+    return value
