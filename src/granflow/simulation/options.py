@@ -11,8 +11,10 @@ keywords of :func:`~granflow.simulate`.
 * :class:`Numerics`: output points, tolerances and bounds on the work.
 """
 
-import numbers
+import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from granflow import _validate as check
 from granflow.errors import InvalidParameterError
@@ -58,8 +60,24 @@ def _set(instance, name, value):
     object.__setattr__(instance, name, value)
 
 
+def _positive(value, name, unit=""):
+    """:func:`granflow._validate.positive`, with a fast path for a plain finite float."""
+    if type(value) is float and 0.0 < value < math.inf:
+        return value
+    return check.positive(value, name, unit)
+
+
+def _non_negative(value, name, unit=""):
+    """:func:`granflow._validate.non_negative`, with a fast path for a plain finite float."""
+    if type(value) is float and 0.0 <= value < math.inf:
+        return value
+    return check.non_negative(value, name, unit)
+
+
 def _positive_int(value, name):
-    """A positive integer (a float that is a whole number counts), as int."""
+    """A positive number as int (as the keywords of simulate have always been read)."""
+    if type(value) is int and value > 0:
+        return value
     return int(check.positive(value, name))
 
 
@@ -88,8 +106,8 @@ class Aging:
 
     def __post_init__(self):
         check_choice(self.clock, "clock", CLOCKS)
-        _set(self, "t0", check.positive(self.t0, "t0", "s"))
-        _set(self, "F_init", check.non_negative(self.F_init, "F_init", "N"))
+        _set(self, "t0", _positive(self.t0, "t0", "s"))
+        _set(self, "F_init", _non_negative(self.F_init, "F_init", "N"))
 
 
 @dataclass(frozen=True, slots=True)
@@ -124,8 +142,8 @@ class Drive:
     stiffness: float | None = None
 
     def __post_init__(self):
-        _set(self, "v_fail", check.positive(self.v_fail, "v_fail", "m/s"))
-        _set(self, "v_stop", check.positive(self.v_stop, "v_stop", "m/s"))
+        _set(self, "v_fail", _positive(self.v_fail, "v_fail", "m/s"))
+        _set(self, "v_stop", _positive(self.v_stop, "v_stop", "m/s"))
         if self.mass is None:
             for name in ("damping", "stiffness"):
                 if getattr(self, name) is not None:
@@ -133,12 +151,12 @@ class Drive:
                         f"{name} applies to an inertial drive only (give mass as well)"
                     )
             return
-        _set(self, "mass", check.positive(self.mass, "mass", "kg"))
+        _set(self, "mass", _positive(self.mass, "mass", "kg"))
         if self.damping is None:
             raise InvalidParameterError("damping is missing: an inertial drive needs it [N s/m]")
-        _set(self, "damping", check.non_negative(self.damping, "damping", "N s/m"))
+        _set(self, "damping", _non_negative(self.damping, "damping", "N s/m"))
         if self.stiffness is not None:
-            _set(self, "stiffness", check.positive(self.stiffness, "stiffness", "N/m"))
+            _set(self, "stiffness", _positive(self.stiffness, "stiffness", "N/m"))
 
     @property
     def inertial(self):
@@ -167,9 +185,9 @@ class DirectEffect:
     velocity: float | None = None
 
     def __post_init__(self):
-        _set(self, "amplitude", check.positive(self.amplitude, "amplitude", "N"))
+        _set(self, "amplitude", _positive(self.amplitude, "amplitude", "N"))
         if self.velocity is not None:
-            _set(self, "velocity", check.positive(self.velocity, "velocity", "m/s"))
+            _set(self, "velocity", _positive(self.velocity, "velocity", "m/s"))
 
     def to_dict(self):
         return {"amplitude": self.amplitude, "velocity": self.velocity}
@@ -209,13 +227,13 @@ class Numerics:
 
     def __post_init__(self):
         points = self.points
-        if isinstance(points, bool) or not isinstance(points, numbers.Integral) or points < 2:
+        if isinstance(points, bool) or not isinstance(points, int | np.integer) or points < 2:
             raise InvalidParameterError(f"points must be an integer of at least 2, got {points!r}")
         _set(self, "points", int(points))
-        _set(self, "rtol", check.positive(self.rtol, "rtol"))
+        _set(self, "rtol", _positive(self.rtol, "rtol"))
         _set(self, "max_evaluations", _positive_int(self.max_evaluations, "max_evaluations"))
         _set(self, "max_transitions", _positive_int(self.max_transitions, "max_transitions"))
-        _set(self, "max_wall", check.positive(self.max_wall, "max_wall", "s"))
+        _set(self, "max_wall", _positive(self.max_wall, "max_wall", "s"))
 
     @property
     def implicit(self):
