@@ -16,11 +16,6 @@ from granflow.simulation.stepper import Stepper
 V = 0.86e-6
 
 
-@pytest.fixture(scope="module")
-def blue():
-    return gf.Params.from_time_domain(a=3.31e-3, k=0.036, t0=0.23, Fd=10e-3, velocity=V)
-
-
 # -- the option objects ---------------------------------------------------------------------
 
 

@@ -14,12 +14,6 @@ V = 0.86e-6  # m/s, the paper's velocity
 RAMP_RATE = 0.05e-3  # N/s
 
 
-@pytest.fixture(scope="module")
-def blue():
-    """The blue set of SPEC §4 with Fd = 10 mN."""
-    return gf.Params.from_time_domain(a=3.31e-3, k=0.036, t0=0.23, Fd=10e-3, velocity=V)
-
-
 def _switch(duration, factor=1.01, hold=60.0):
     return gf.Protocol([gf.Velocity(V, duration), gf.SwitchToForce(hold, factor=factor)])
 
