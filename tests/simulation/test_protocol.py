@@ -1,49 +1,11 @@
-"""Protocol segments: validation at the door, pieces, YAML round trips."""
-
-import math
+"""Protocols: sequences of segments, their summaries, YAML round trips with units."""
 
 import pytest
 
 import granflow as gf
-from granflow.simulation.protocol import ForcePiece, RatePiece
-
-
-def test_invalid_protocol_error_is_both_granflow_and_value_error():
-    assert issubclass(gf.InvalidProtocolError, gf.GranflowError)
-    assert issubclass(gf.InvalidProtocolError, ValueError)
-
-
-@pytest.mark.parametrize(
-    ("make", "words"),
-    [
-        (lambda: gf.Velocity(0.86e-6, -1.0), "duration must be positive"),
-        (lambda: gf.Velocity(-1e-6, 10.0), "velocity must be positive"),
-        (lambda: gf.Velocity(math.nan, 10.0), "velocity must be finite"),
-        (lambda: gf.Velocity(0.86e-6), "duration is missing"),
-        (lambda: gf.Hold(-5.0), "duration must be positive"),
-        (lambda: gf.Hold(5.0, reset="yes"), "reset must be true or false"),
-        (lambda: gf.Force(duration=10.0), "level is missing"),
-        (lambda: gf.Force(-1e-3, 10.0), "level must be non-negative"),
-        (lambda: gf.Force(math.inf, 10.0), "level must be finite"),
-        (lambda: gf.ForceRamp(rate=math.nan, duration=10.0), "rate must be finite"),
-        (lambda: gf.ForceRamp(rate=-1e-3, duration=10.0, start=5e-3), "below zero"),
-        (lambda: gf.ForceSteps([1e-3, math.nan], 10.0), "must be finite"),
-        (lambda: gf.ForceSteps([], 10.0), "non-empty"),
-        (lambda: gf.ForceSteps([1e-3], 0.0), "step_duration must be positive"),
-        (lambda: gf.SwitchToForce(10.0), "exactly one of factor"),
-        (lambda: gf.SwitchToForce(10.0, factor=1.1, level=1e-3), "exactly one of factor"),
-        (lambda: gf.SwitchToForce(10.0, factor=-1.0), "factor must be positive"),
-        (lambda: gf.SwitchToForce(10.0, factor=1.1, ramp=20.0), "ramp must not exceed"),
-        (lambda: gf.VelocityTable([0.0, 2.0, 1.0], [1e-6, 1e-6, 1e-6]), "times must increase"),
-        (lambda: gf.VelocityTable([1.0, 2.0], [1e-6, 1e-6]), "first time must be 0"),
-        (lambda: gf.VelocityTable([0.0, 2.0], [1e-6]), "same length"),
-        (lambda: gf.ForceTable([0.0, 1.0], [1e-3, -1e-3]), "non-negative"),
-        (lambda: gf.VelocitySteps("fast", 1.0), "list of numbers"),
-    ],
-)
-def test_bad_segments_are_rejected_with_a_clear_message(make, words):
-    with pytest.raises(gf.InvalidProtocolError, match=words):
-        make()
+from granflow.model.units import QUANTITIES
+from granflow.simulation import protocol as protocol_module
+from granflow.simulation.segments import SEGMENT_TYPES
 
 
 def test_protocol_needs_segments():
@@ -72,28 +34,6 @@ def test_protocol_summary_properties():
     assert "4 segments" in repr(protocol)
     assert gf.Protocol([gf.Force(1e-3, 1.0)]).first_velocity is None
     assert gf.Protocol(gf.Hold(2.0)).duration == 2.0
-
-
-def test_segments_expand_into_pieces():
-    assert gf.Velocity(1e-6, 3.0).pieces() == [RatePiece(1e-6, 1e-6, 3.0)]
-    assert gf.Hold(4.0, reset=True).pieces() == [RatePiece(0.0, 0.0, 4.0, hold=True, reset=True)]
-    table = gf.VelocityTable([0.0, 1.0, 3.0], [0.0, 2e-6, 1e-6])
-    assert table.pieces() == [RatePiece(0.0, 2e-6, 1.0), RatePiece(2e-6, 1e-6, 2.0)]
-    assert table.duration == 3.0
-    ramp = gf.ForceRamp(rate=2e-3, duration=5.0)
-    assert ramp.pieces(current=1e-3) == [ForcePiece(1e-3, 11e-3, 5.0)]
-    assert gf.ForceRamp(rate=2e-3, duration=5.0, start=0.0).pieces(1e-3)[0].start == 0.0
-    switch = gf.SwitchToForce(10.0, factor=1.5, ramp=4.0)
-    assert switch.pieces(2e-3) == [ForcePiece(2e-3, 3e-3, 4.0), ForcePiece(3e-3, 3e-3, 6.0)]
-    assert gf.SwitchToForce(10.0, level=5e-3).pieces(2e-3) == [ForcePiece(5e-3, 5e-3, 10.0)]
-    steps = gf.ForceSteps([1e-3, 2e-3], 3.0)
-    assert steps.duration == 6.0
-    assert [piece.rate for piece in steps.pieces(0.0)] == [0.0, 0.0]
-
-
-def test_a_ramp_from_the_current_force_may_not_go_negative():
-    with pytest.raises(gf.InvalidProtocolError, match="below zero"):
-        gf.ForceRamp(rate=-1e-3, duration=10.0).pieces(current=2e-3)
 
 
 def _example():
@@ -164,3 +104,43 @@ def test_bad_yaml_names_the_source_and_the_segment(text, words):
 def test_load_names_a_missing_file(tmp_path):
     with pytest.raises(gf.InvalidProtocolError, match="cannot read the protocol"):
         gf.Protocol.load(tmp_path / "missing.yaml")
+
+
+def test_every_field_with_a_unit_has_a_quantity_in_the_one_unit_table():
+    """The fields YAML may give with a unit are exactly the segments' physical fields."""
+    physical = {
+        item
+        for cls in SEGMENT_TYPES.values()
+        for item in cls.__dataclass_fields__
+        if item != "reset"
+    }
+    assert set(protocol_module._FIELD_QUANTITIES) == physical
+    assert set(protocol_module._FIELD_QUANTITIES.values()) <= set(QUANTITIES)
+
+
+def test_yaml_units_of_every_field_convert_to_si():
+    """Hand conversions: 1.5 min = 90 s, 2 mN = 2e-3 N, 300 ms = 0.3 s, 1 mN/min = 1e-3/60 N/s."""
+    text = """
+segments:
+  - velocity_steps: {velocities: [1 um/s, 2 um/s], step_duration: 1.5 min}
+  - velocity_table: {time: [0 s, 300 ms], velocity: [0 um/s, 2 um/s]}
+  - force_table: {time: [0 s, 1 min], force: [1 mN, 2 mN]}
+  - force_ramp: {rate: 1 mN/min, duration: 10 s, start: 2 mN}
+  - force_steps: {levels: [3 mN], step_duration: 1 s}
+  - force: {level: 500 uN, duration: 1 s}
+  - switch_to_force: {duration: 1 min, level: 4 mN, ramp: 500 ms}
+"""
+    steps, table, force_table, ramp, force_steps, force, switch = gf.Protocol.from_yaml(text)
+    assert steps.velocities == pytest.approx((1e-6, 2e-6), rel=1e-12)
+    assert steps.step_duration == pytest.approx(90.0, rel=1e-12)
+    assert table.time == pytest.approx((0.0, 0.3), rel=1e-12)
+    assert table.velocity == pytest.approx((0.0, 2e-6), rel=1e-12)
+    assert force_table.time == pytest.approx((0.0, 60.0), rel=1e-12)
+    assert force_table.force == pytest.approx((1e-3, 2e-3), rel=1e-12)
+    assert ramp.rate == pytest.approx(1e-3 / 60.0, rel=1e-12)
+    assert ramp.start == pytest.approx(2e-3, rel=1e-12)
+    assert force_steps.levels == pytest.approx((3e-3,), rel=1e-12)
+    assert force.level == pytest.approx(5e-4, rel=1e-12)
+    assert switch.level == pytest.approx(4e-3, rel=1e-12)
+    assert switch.ramp == pytest.approx(0.5, rel=1e-12)
+    assert switch.duration == pytest.approx(60.0, rel=1e-12)

@@ -1,8 +1,7 @@
 """simulate(): rate control against the closed form and an ODE solver; the quasi-static
-answers under imposed forces; the result object. (The dynamic method: test_simulate_dynamic.)"""
+answers under imposed forces; the arguments. (The dynamic method: test_simulate_dynamic; the
+result object: test_results.)"""
 
-import dataclasses
-import json
 import math
 
 import numpy as np
@@ -315,41 +314,7 @@ def test_direct_effect_makes_the_layer_creep_logarithmically(blue):
     assert increments[1] == pytest.approx(increments[0], rel=0.3)  # about B ln(10) per decade
 
 
-# -- the result object and the arguments ------------------------------------------------------
-
-
-def test_result_is_frozen_with_read_only_arrays(blue):
-    result = gf.simulate(blue, _switch(10.0))
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        result.failed = True
-    with pytest.raises(ValueError, match="read-only"):
-        result.force[0] = 1.0
-    lengths = {len(getattr(result, name)) for name in ("t", "slip", "velocity", "force", "state")}
-    assert len(lengths) == 1
-    assert np.all(np.diff(result.t) >= 0)
-
-
-def test_result_exports(blue):
-    result = gf.simulate(blue, _switch(80.0))
-    frame = result.to_frame()
-    assert list(frame.columns) == [
-        "t",
-        "slip",
-        "velocity",
-        "force",
-        "state",
-        "age",
-        "displacement",
-        "segment",
-    ]
-    assert frame.attrs["events"][-1]["kind"] == "failure"
-    text = json.dumps(result.to_dict())
-    assert '"failure"' in text
-    report = result.report()
-    assert "[[Events]]" in report and "failure" in report and "quasistatic" in report
-    run = result.to_run()
-    assert isinstance(run, gf.Run) and run.control == "stress" and len(run) == len(result.t)
-    assert "failed" in repr(result)
+# -- the arguments ------------------------------------------------------------------------
 
 
 def test_bad_arguments_are_rejected(blue):

@@ -114,3 +114,43 @@ def test_bad_arguments(blue):
         gf.stability_map(blue, [1.0], [1.0], velocity=V, mass=1.0)
     with pytest.raises(gf.InvalidParameterError, match="empty"):
         gf.stability_map(blue, [], [1.0], velocity=V)
+
+
+def test_any_executor_with_map_runs_the_rows(blue):
+    class InOrder:
+        def __init__(self):
+            self.calls = 0
+
+        def map(self, function, tasks):
+            self.calls += 1
+            return [function(task) for task in tasks]
+
+    executor = InOrder()
+    points, ratios = [5.0, 80.0], [0.95, 1.3]
+    smap = gf.stability_map(blue, points, ratios, velocity=V, executor=executor)
+    assert executor.calls == 1
+    serial = gf.stability_map(blue, points, ratios, velocity=V)
+    np.testing.assert_array_equal(smap.outcome, serial.outcome)
+    np.testing.assert_array_equal(smap.stop_slip, serial.stop_slip)
+
+
+def test_a_dask_scheduler_gives_the_same_map(blue):
+    distributed = pytest.importorskip("distributed")
+    points, ratios = [5.0, 10.0, 80.0], [0.95, 1.01]
+    serial = gf.stability_map(blue, points, ratios, velocity=V)
+    with distributed.Client(
+        processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None
+    ) as client:
+        smap = gf.stability_map(blue, points, ratios, velocity=V, scheduler=client)
+        assert client.status == "running"  # the map leaves a client it was given open
+    np.testing.assert_array_equal(smap.outcome, serial.outcome)
+    np.testing.assert_array_equal(smap.stop_slip, serial.stop_slip)
+    np.testing.assert_array_equal(smap.switch_force, serial.switch_force)
+    assert "scheduler" not in smap.options
+
+
+def test_executor_and_scheduler_exclude_each_other(blue):
+    with pytest.raises(gf.InvalidParameterError, match="executor or scheduler"):
+        gf.stability_map(
+            blue, [1.0], [1.0], velocity=V, executor=object(), scheduler="tcp://localhost:1"
+        )

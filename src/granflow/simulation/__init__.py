@@ -1,8 +1,10 @@
 """Experiments under any imposed history: protocols, the simulator and stability maps.
 
-``protocol`` (segments under rate or force control, YAML with units), ``driver``
-(:func:`simulate`, its result and events) and ``stability`` (which switches fail, over a
-grid). Stands on :mod:`granflow.model`.
+``segments`` (rate or force control, cut into linear pieces) and ``protocol`` (a sequence of
+them, YAML with units); ``driver`` (:func:`simulate`, picking a stepper from ``METHODS``:
+``quasistatic`` or ``dynamic``, over ``stepper``, ``state``, ``curve`` and ``direct``);
+``options`` (frozen, checked option objects) and ``results`` (the result, its events and
+segments); ``stability`` (which switches fail, over a grid). Stands on :mod:`granflow.model`.
 """
 
 from granflow._lazy import attach
@@ -22,7 +24,9 @@ __getattr__, __dir__, __all__ = attach(
             "VelocitySteps",
             "VelocityTable",
         ],
-        "driver": ["DirectEffect", "Event", "SimulationResult", "simulate"],
+        "options": ["Aging", "DirectEffect", "Drive", "Numerics"],
+        "results": ["Event", "SegmentRecord", "SimulationResult"],
+        "driver": ["METHODS", "simulate"],
         "stability": ["StabilityMap", "stability_map"],
     },
 )

@@ -5,20 +5,20 @@ force control at time ``t_switch`` with the force set to ``ratio`` times the for
 moment, held for ``hold`` seconds. The cell records whether the layer fails or stops, the
 slip from the switch to the stop and the time from the switch to the failure.
 
-The cells run in local processes (:class:`concurrent.futures.ProcessPoolExecutor`); the work
-of one switch point is the top-level function :func:`map_row`, so any executor that pickles
-functions (Dask included) can run it.
+The switch points run on granflow's one executor (:class:`granflow._parallel.Executor`:
+local processes, or a Dask cluster with ``scheduler=``); the work of one switch point is the
+top-level function :func:`map_row`, so any executor that pickles functions can run it.
 """
 
 import math
 import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
 import numpy as np
 
 from granflow import _validate as check
+from granflow._parallel import Executor
 from granflow.errors import InvalidParameterError
 from granflow.model.params import Params
 from granflow.simulation.driver import simulate
@@ -246,6 +246,7 @@ def stability_map(
     clock="slip",
     jobs=1,
     executor=None,
+    scheduler=None,
     **options,
 ):
     """Fail or stop, for each switch point of a start-up and each imposed-to-current ratio.
@@ -274,6 +275,9 @@ def stability_map(
         Runs the switch points instead of ``jobs``: anything with a ``map(function,
         iterable)`` method that returns the results in order (a
         :class:`concurrent.futures.Executor` one already has, or an adapter of a Dask client).
+    scheduler : str or distributed.Client, optional
+        Runs the switch points on a Dask cluster (an address such as ``"tcp://host:8786"``, or
+        a client) instead of ``jobs``; needs the ``dask`` extra.
     **options
         Further keyword arguments of :func:`granflow.simulate` (mass, damping, ...).
 
@@ -310,6 +314,8 @@ def stability_map(
         jobs = os.cpu_count() or 1
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
         raise InvalidParameterError(f"jobs must be a positive integer or None, got {jobs!r}")
+    if executor is not None and scheduler is not None:
+        raise InvalidParameterError("give executor or scheduler, not both")
     sim_options = {"method": method, "clock": clock, **options}
     ratio_list = [float(r) for r in ratios]
     tasks = [
@@ -320,11 +326,9 @@ def stability_map(
     simulate(params, Protocol([Velocity(velocity, float(points[0]))]), **sim_options)
     if executor is not None:
         rows = list(executor.map(map_row, tasks))
-    elif jobs == 1 or len(tasks) == 1:
-        rows = [map_row(task) for task in tasks]
     else:
-        with ProcessPoolExecutor(max_workers=min(jobs, len(tasks))) as pool:
-            rows = list(pool.map(map_row, tasks))
+        with Executor(min(jobs, len(tasks)), scheduler) as pool:
+            rows = pool.map(map_row, tasks)
     shape = (points.size, ratios.size)
     columns = {name: np.full(shape, np.nan) for name in ("stop", "time", "force")}
     outcome = np.empty(shape, dtype=object)
