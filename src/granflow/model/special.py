@@ -212,9 +212,3 @@ def scaled_ei_diff(x, x0):
     _scaled_ei_diff_loop(flat_x, flat_x0, out)
     out = out.reshape(xb.shape)
     return float(out) if out.ndim == 0 else out
-
-
-# The names simulation/driver.py imports until it calls granflow.model.kernel.general_value.
-_jit = compiled
-_scaled_ei_scalar = scaled_ei_scalar
-_scaled_ei_diff_scalar = scaled_ei_diff_scalar

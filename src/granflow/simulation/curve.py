@@ -3,28 +3,19 @@
 From a state (x_s, F_s) the layer, when it slides, follows
 ``F(x) = friction_slip(x, params.replace(x0=x_s), F_init=F_s)``; :class:`Curve` evaluates it,
 finds its peak and inverts it on the rising branch (root finding). This is the one place the
-simulator calls the compiled Eq. 3 point kernel (:func:`_curve_scalar`).
+simulator calls the compiled Eq. 3 point kernel
+(:func:`granflow.model.kernel.general_value`).
 """
-
-import math
 
 import numpy as np
 from scipy.optimize import brentq
 
 from granflow.model.friction import friction_slip, has_peak, peak
-from granflow.model.special import _jit, _scaled_ei_diff_scalar, _scaled_ei_scalar
+from granflow.model.kernel import general_value
 
 __all__ = ["Curve", "offset_of", "offsets"]
 
 _RTOL = 4 * np.finfo(float).eps  # the finest relative tolerance brentq accepts
-
-
-@_jit
-def _curve_scalar(z, alpha, a, Fd, s0, scaled_ei_s0, offset):
-    """F(z) from the state (z0 = s0/alpha, Fd + offset): Eq. 3 with the general condition."""
-    s = alpha * z
-    decay = math.exp(s0 - s)
-    return Fd + offset * decay + a * _scaled_ei_diff_scalar(s, s0, scaled_ei_s0, decay)
 
 
 class Curve:
@@ -34,14 +25,12 @@ class Curve:
         self.params = params.replace(x0=start)
         self.start = start
         self.force = force
-        self._s0 = params.alpha * start
-        self._scaled_ei_s0 = float(_scaled_ei_scalar(self._s0))
         self._peak = None
         self._peak_known = False
 
     def __call__(self, z):
         p = self.params
-        return _curve_scalar(z, p.alpha, p.a, p.Fd, self._s0, self._scaled_ei_s0, self.force - p.Fd)
+        return general_value(z, p.a, p.alpha, p.Fd, self.start, self.force)
 
     def values(self, z):
         return friction_slip(np.maximum(z, self.start), self.params, F_init=self.force)
