@@ -154,3 +154,21 @@ def test_executor_and_scheduler_exclude_each_other(blue):
         gf.stability_map(
             blue, [1.0], [1.0], velocity=V, executor=object(), scheduler="tcp://localhost:1"
         )
+
+
+def test_from_dict_inverts_to_dict_through_json(blue):
+    direct = gf.DirectEffect(1e-4)
+    built = gf.stability_map(
+        blue, [5.0, 60.0], [0.9, 1.05], velocity=0.86e-6, jobs=1, direct_effect=direct
+    )
+    again = type(built).from_dict(json.loads(json.dumps(built.to_dict())))
+    assert again.to_dict() == built.to_dict()
+    for name in ("switch_points", "stress_ratios", "switch_slip", "switch_force"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(built, name))
+    for name in ("stop_slip", "failure_time", "failure_force"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(built, name))  # NaN == NaN
+    np.testing.assert_array_equal(again.outcome, built.outcome)
+    np.testing.assert_array_equal(again.messages, built.messages)
+    assert again.params == built.params
+    assert again.options["direct_effect"] == direct
+    assert (again.velocity, again.method, again.clock) == (0.86e-6, built.method, built.clock)

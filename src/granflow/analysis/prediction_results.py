@@ -4,17 +4,16 @@
 :class:`Predictions` (static yield per load as :class:`YieldPrediction` rows, and the
 stability map) and the comparisons of the stress-controlled runs with the model
 (:class:`RampComparison`, :class:`CreepComparison`, :class:`SwitchComparison`), which
-``results.json`` lists under ``analyses``. The stability map rebuilt from JSON is held as its
-``to_dict()`` mapping (:class:`granflow.StabilityMap` has no ``from_dict``); equality
-compares ``to_dict()``.
+``results.json`` lists under ``analyses``. Equality compares ``to_dict()``.
 """
 
 from dataclasses import dataclass, field
 
 from granflow._json import json_safe
-from granflow.analysis.values import Value, as_json, frozen_json
+from granflow.analysis.values import Value, as_json
 from granflow.fitting.creep import CurveFitResult
 from granflow.fitting.results import FrozenMap
+from granflow.simulation.stability import StabilityMap
 
 __all__ = [
     "CreepComparison",
@@ -336,8 +335,8 @@ class StabilityPrediction(Value):
     ----------
     normal_load : float or None
         [N]
-    map : granflow.StabilityMap or mapping
-        The map (its ``to_dict()`` mapping when rebuilt from JSON).
+    map : granflow.StabilityMap
+        The map.
     """
 
     normal_load: float | None
@@ -351,7 +350,7 @@ class StabilityPrediction(Value):
     def from_dict(cls, saved):
         """The prediction of :meth:`to_dict`."""
         rest = {k: v for k, v in saved.items() if k != "normal_load"}
-        return cls(normal_load=saved["normal_load"], map=frozen_json(rest))
+        return cls(normal_load=saved["normal_load"], map=StabilityMap.from_dict(rest))
 
 
 @dataclass(frozen=True, eq=False)

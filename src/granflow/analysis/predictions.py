@@ -19,8 +19,8 @@ from granflow.analysis.prediction_results import (
     SwitchComparison,
     YieldPrediction,
 )
-from granflow.fitting.engine import WALD_Z
 from granflow.fitting.results import FrozenMap
+from granflow.fitting.statistics import WALD_Z
 
 __all__ = [
     "MAP_HOLD",

@@ -149,7 +149,40 @@ class StabilityMap:
             "stop_slip": listed(self.stop_slip),
             "failure_time": listed(self.failure_time),
             "failure_force": listed(self.failure_force),
+            "messages": self.messages.tolist(),
         }
+
+    @classmethod
+    def from_dict(cls, saved):
+        """The map of :meth:`to_dict` (None read back as NaN); inverts ``to_dict``."""
+        from granflow.simulation.options import DirectEffect
+
+        def grid(key):
+            return np.array(
+                [[math.nan if v is None else v for v in row] for row in saved[key]], dtype=float
+            )
+
+        options = dict(saved.get("options", {}))
+        if isinstance(options.get("direct_effect"), dict):
+            options["direct_effect"] = DirectEffect.from_dict(options["direct_effect"])
+        outcome = np.array(saved["outcome"], dtype=str)
+        messages = saved.get("messages")
+        return cls(
+            switch_points=np.array(saved["switch_points"], dtype=float),
+            stress_ratios=np.array(saved["stress_ratios"], dtype=float),
+            switch_slip=np.array(saved["switch_slip"], dtype=float),
+            switch_force=np.array(saved["switch_force"], dtype=float),
+            outcome=outcome,
+            stop_slip=grid("stop_slip"),
+            failure_time=grid("failure_time"),
+            failure_force=grid("failure_force"),
+            messages=np.full(outcome.shape, "") if messages is None else np.array(messages),
+            velocity=float(saved["velocity"]),
+            method=saved["method"],
+            clock=saved["clock"],
+            params=Params(**saved["params"]),
+            options=options,
+        )
 
     def report(self):
         """A plain-text summary (display units)."""
