@@ -265,24 +265,27 @@ def fit_creep(t, slip, *, sigma=None, params=None):
     else:
         candidates = np.geomspace(positive[0] * 0.1, t[-1] * 10, 25)
 
-    def cost(start):
-        B, tau = start
-        return float(np.sum((B * np.log1p(t / tau) - slip) ** 2))
+    def cost(B, shape):
+        return float(np.sum((B * shape - slip) ** 2))
 
-    starts = []
+    best = None
     for tau in candidates:
         shape = np.log1p(t / tau)
-        starts.append((held.get("B", float(shape @ slip / (shape @ shape))), tau))
-    best = min(starts, key=cost)
+        B = held.get("B", float(shape @ slip / (shape @ shape)))
+        candidate = (cost(B, shape), B, tau)
+        if best is None or candidate[0] < best[0]:
+            best = candidate
     if requested.starts:  # the caller's start, completed from the best of the grid
-        guess = tuple(requested.starts.get(n, v) for n, v in zip(CREEP.slots, best, strict=True))
-        best = min((best, guess), key=cost)
+        B = requested.starts.get("B", best[1])
+        tau = requested.starts.get("tau_c", best[2])
+        guess = (cost(B, np.log1p(t / tau)), B, tau)
+        best = min(best, guess, key=lambda item: item[0])
     return fit_curve(
         CREEP,
         name="creep",
         formula="delta(t) = B ln(1 + t/tau_c)",
         units={name: si_unit(name) for name in CREEP.slots},
-        start=best,
+        start=best[1:],
         x=t,
         y=slip,
         sigma=sigma,
