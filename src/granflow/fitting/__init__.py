@@ -1,7 +1,10 @@
 """Fits with honest uncertainties: one least-squares engine and the fits built on it.
 
-``engine`` (least squares of a :class:`Model` over named parameters, profile intervals),
-``statistics`` (the one builder of fit statistics and the report lines every result shares),
+``parameters`` (:class:`Parameter` and :class:`Parameters`, lmfit-style named parameters
+that :func:`fit`, :func:`fit_joint` and :func:`fit_creep` take as ``params=``), ``engine``
+(least squares of a :class:`Model` over named parameters, profile intervals),
+``statistics`` (the one builder of fit statistics, the fields every result shares and the
+one report, :func:`fit_report`),
 ``results`` (equality by value and the JSON codec of every result), ``curves`` (data at the
 door, starting values), ``single`` (:func:`fit` of one curve), ``batch`` (:func:`fit_many`),
 ``joint`` (tied parameters, velocity collapse,
@@ -17,6 +20,8 @@ __getattr__, __dir__, __all__ = attach(
         "single": ["FitResult", "fit"],
         "batch": ["fit_many"],
         "engine": ["Model"],
+        "parameters": ["Parameter", "Parameters"],
+        "statistics": ["fit_report"],
         "joint": [
             "AmontonsResult",
             "CollapseResult",

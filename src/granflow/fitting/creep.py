@@ -5,31 +5,39 @@
 :func:`granflow.compare_models`.
 """
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from granflow.errors import InvalidDataError
+from granflow.fitting.curves import real_column
 from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
+from granflow.fitting.parameters import Split, require_positive, split
 from granflow.fitting.results import (
     FrozenMap,
-    ValueEquality,
     decode,
     encode,
     intervals,
     matrix,
-    number,
     numbers,
     read_only,
 )
-from granflow.fitting.statistics import estimates, fit_statistics, statistics, variable_line
+from granflow.fitting.statistics import (
+    FitOutcome,
+    decoded,
+    estimates,
+    fit_report,
+    fit_statistics,
+    statistics,
+)
 from granflow.model.units import si_unit
 
 __all__ = ["CurveFitResult", "fit_creep"]
 
 
 @dataclass(frozen=True, eq=False)
-class CurveFitResult(ValueEquality):
+class CurveFitResult(FitOutcome):
     """A least-squares fit of a small closed-form model.
 
     Attributes
@@ -43,96 +51,79 @@ class CurveFitResult(ValueEquality):
         Values and standard errors [SI].
     ci95 : mapping of str to (float, float)
         95 % Wald intervals.
-    covar : mapping of str to mapping of str to float
+    covar, correl : mapping of str to mapping of str to float
+        Covariance and correlation (a property) of the free parameters, by name.
     success, message, ndata, nfree, chisqr, redchi, aic, bic, sigma_known
         As in :class:`granflow.FitResult`.
     x, data, best_fit, residuals : numpy.ndarray
+    fixed : tuple of str
+        The parameters held at their value (``params=`` with ``vary=False``).
     """
 
     model: str
     formula: str
     names: tuple
     units: FrozenMap
-    params: FrozenMap
-    stderr: FrozenMap
-    ci95: FrozenMap
-    covar: FrozenMap
-    success: bool
-    message: str
-    ndata: int
-    nfree: int
-    chisqr: float
-    redchi: float
-    aic: float
-    bic: float
-    sigma_known: bool
     x: np.ndarray
     data: np.ndarray
     best_fit: np.ndarray
     residuals: np.ndarray
+    fixed: tuple = ()
 
     def __repr__(self):
         values = ", ".join(f"{n}={self.params[n]:.4g}" for n in self.names)
         return f"CurveFitResult({self.model}, success={self.success}, {values})"
 
+    @property
+    def correl(self):
+        """Correlation of the free parameters, by name (from the covariance)."""
+        free = [name for name in self.names if name in self.covar]
+        scale = {name: math.sqrt(self.covar[name][name]) for name in free}
+        return FrozenMap(
+            {
+                p: FrozenMap(
+                    {
+                        q: self.covar[p][q] / (scale[p] * scale[q])
+                        if scale[p] * scale[q] > 0
+                        else 0.0
+                        for q in free
+                    }
+                )
+                for p in free
+            }
+        )
+
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
-        lines = [
-            f"[[Fit of {self.formula}]]",
-            f"    success = {self.success}; # data points = {self.ndata}; "
-            f"# variables = {self.nfree}",
-            f"    chi-square = {self.chisqr:.6g}; reduced chi-square = {self.redchi:.6g}",
-            f"    AIC = {self.aic:.6g}; BIC = {self.bic:.6g}",
-        ]
-        lines += [
-            variable_line(
-                name,
-                self.params[name],
-                self.stderr[name],
-                self.ci95[name],
-                unit=self.units[name],
-            )
-            for name in self.names
-        ]
-        return "\n".join(lines)
+        return fit_report(self, title=f"Fit of {self.formula}")
 
     def to_dict(self):
         """JSON-safe mapping with the arrays as lists; :meth:`from_dict` inverts it."""
-        return encode(
-            {
-                "model": self.model,
-                "formula": self.formula,
-                "names": list(self.names),
-                **estimates(self),
-                "units": dict(self.units),
-                **statistics(self),
-                **{key: getattr(self, key) for key in _ARRAYS},
-            }
-        )
+        out = {
+            "model": self.model,
+            "formula": self.formula,
+            "names": list(self.names),
+            **estimates(self),
+            "units": dict(self.units),
+            **statistics(self),
+            **{key: getattr(self, key) for key in _ARRAYS},
+        }
+        if self.fixed:
+            out["fixed"] = list(self.fixed)
+        return encode(out)
 
     @classmethod
     def from_dict(cls, d):
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         return cls(
+            **decoded(d),
             model=d["model"],
             formula=d["formula"],
             names=tuple(d.get("names") or d["params"]),
             units=FrozenMap(d["units"]),
-            params=numbers(d["params"]),
-            stderr=numbers(d["stderr"]),
-            ci95=intervals(d["ci95"]),
-            covar=matrix(d["covar"]),
-            success=d["success"],
-            message=d["message"],
-            ndata=d["ndata"],
-            nfree=d["nfree"],
-            chisqr=number(d["chisqr"]),
-            redchi=number(d["redchi"]),
-            aic=number(d["aic"]),
-            bic=number(d["bic"]),
-            sigma_known=d["sigma_known"],
             **{key: read_only(d.get(key, [])) for key in _ARRAYS},
+            fixed=tuple(d.get("fixed", ())),
         )
 
 
@@ -141,19 +132,7 @@ _ARRAYS = ("x", "data", "best_fit", "residuals")
 
 def check_xy(x, y, names, minimum):
     """Finite 1-d float arrays of one length, x strictly increasing; at least ``minimum``."""
-    arrays = []
-    for values, name in zip((x, y), names, strict=True):
-        try:
-            array = np.array(values, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise InvalidDataError(f"{name} must be an array of real numbers: {exc}") from None
-        if array.ndim != 1:
-            raise InvalidDataError(f"{name} must be one-dimensional, got shape {array.shape}")
-        if not np.all(np.isfinite(array)):
-            index = int(np.argmax(~np.isfinite(array)))
-            raise InvalidDataError(f"{name} must be finite, got {array[index]} at index {index}")
-        arrays.append(array)
-    x, y = arrays
+    x, y = (real_column(values, name) for values, name in zip((x, y), names, strict=True))
     if x.shape != y.shape:
         raise InvalidDataError(f"{names[0]} and {names[1]} must have the same length")
     if x.size < minimum:
@@ -167,52 +146,59 @@ def check_xy(x, y, names, minimum):
     return x, y
 
 
-def fit_curve(model, *, name, formula, units, start, x, y, sigma=None):
+def fit_curve(model, *, name, formula, units, start, x, y, sigma=None, held=None, ranges=None):
     """Least squares of a small :class:`~granflow.fitting.engine.Model` from ``start``.
 
     The engine's Levenberg-Marquardt (trust-region reflective if it does not converge) in the
     model's coordinates (log for its scale parameters); covariance from the analytic
     Jacobian, scaled by the residual variance unless ``sigma`` (the known noise) is given.
+    ``held``: values [SI] of parameters held fixed; ``ranges``: (min, max) search ranges
+    [SI] by name (the start is moved inside).
     """
+    held, ranges = held or {}, ranges or {}
     weights = np.ones_like(y) if sigma is None else 1.0 / np.broadcast_to(sigma, y.shape)
-    parameters = [
-        GlobalParameter(name=slot, value=float(value), log=log)
-        for slot, value, log in zip(model.slots, start, model.log, strict=True)
-    ]
+    parameters = []
+    for slot, value, log in zip(model.slots, start, model.log, strict=True):
+        lower, upper = ranges.get(slot, (-math.inf, math.inf))
+        parameters.append(
+            GlobalParameter(
+                name=slot,
+                value=float(held.get(slot, min(max(value, lower), upper))),
+                log=log,
+                fixed=slot in held,
+                lower=lower,
+                upper=upper,
+            )
+        )
     identity = tuple((slot, 1.0) for slot in range(len(parameters)))
     problem = Problem([Curve(x, y, weights, identity)], parameters, model)
     solution = problem.solve_from(problem.internal(), rtol=1e-13, max_nfev=400)
     values = problem.values(solution.x)
     stats = fit_statistics(problem, values, model.slots, sigma_known=sigma is not None)
-    stderr, ci95, covar = stats.stderr, stats.ci95, stats.covar
+    changes = {}
     message = solution.message
     if not stats.invertible:  # no uncertainty rather than a pseudo-inverse's
         message = f"{message}; singular covariance"
-        stderr = numbers(dict.fromkeys(model.slots))
-        ci95 = intervals({name: (None, None) for name in model.slots})
-        covar = matrix({p: dict.fromkeys(model.slots) for p in model.slots})
+        free = [slot for slot in model.slots if slot not in held]
+        changes = {
+            "stderr": numbers(dict.fromkeys(model.slots)),
+            "ci95": intervals({slot: (None, None) for slot in model.slots}),
+            "covar": matrix({p: dict.fromkeys(free) for p in free}),
+        }
     return CurveFitResult(
+        **stats.summary(**changes),
+        success=bool(solution.status > 0 and stats.invertible),
+        message=message,
+        sigma_known=sigma is not None,
         model=name,
         formula=formula,
         names=tuple(model.slots),
         units=FrozenMap(dict(units)),
-        params=stats.params,
-        stderr=stderr,
-        ci95=ci95,
-        covar=covar,
-        success=bool(solution.status > 0 and stats.invertible),
-        message=message,
-        ndata=stats.ndata,
-        nfree=stats.nfree,
-        chisqr=stats.chisqr,
-        redchi=stats.redchi,
-        aic=stats.aic,
-        bic=stats.bic,
-        sigma_known=sigma is not None,
         x=read_only(x),
         data=read_only(y),
         best_fit=read_only(stats.best_fit),
         residuals=read_only(stats.residuals),
+        fixed=tuple(slot for slot in model.slots if slot in held),
     )
 
 
@@ -229,7 +215,7 @@ def _creep_jacobian(t, B, tau_c):
 CREEP = Model(slots=("B", "tau_c"), function=_creep, jacobian=_creep_jacobian, log=(False, True))
 
 
-def fit_creep(t, slip, *, sigma=None):
+def fit_creep(t, slip, *, sigma=None, params=None):
     """Fit logarithmic creep ``delta(t) = B ln(1 + t / tau_c)`` (Fig. 3b).
 
     Parameters
@@ -240,6 +226,10 @@ def fit_creep(t, slip, *, sigma=None):
         Creep slip delta [m] (or angle, in any unit: B takes it).
     sigma : float, optional
         Known noise of the slip [m]; default: the residual variance.
+    params : Parameters or sequence of Parameter, optional
+        :class:`granflow.fitting.Parameter` s ``B`` and ``tau_c``: held at their value
+        (``vary=False``), or searched in ``[min, max]`` with their value as one more start
+        beside those the fit finds itself.
 
     Returns
     -------
@@ -250,6 +240,8 @@ def fit_creep(t, slip, *, sigma=None):
     ------
     InvalidDataError
         Fewer than 4 points, NaN, a non-increasing time, or no creep (slip not growing).
+    InvalidParameterError
+        A parameter other than B and tau_c, or a tau_c that is not positive.
 
     Examples
     --------
@@ -264,23 +256,39 @@ def fit_creep(t, slip, *, sigma=None):
         raise InvalidDataError(f"t must be non-negative (time since loading), got {t[0]:g} s")
     if not slip[-1] > slip[0]:
         raise InvalidDataError("the slip does not grow: there is no creep to fit")
+    requested = Split({}, {}, {}) if params is None else split(params, CREEP.slots, "the creep law")
+    require_positive(requested, ("tau_c",))
+    held = requested.held
     positive = t[t > 0]
-    candidates = np.geomspace(positive[0] * 0.1, t[-1] * 10, 25)
+    if "tau_c" in held:
+        candidates = [held["tau_c"]]
+    else:
+        candidates = np.geomspace(positive[0] * 0.1, t[-1] * 10, 25)
+
+    def cost(B, shape):
+        return float(np.sum((B * shape - slip) ** 2))
+
     best = None
     for tau in candidates:
         shape = np.log1p(t / tau)
-        B = float(shape @ slip / (shape @ shape))
-        cost = float(np.sum((B * shape - slip) ** 2))
-        if best is None or cost < best[0]:
-            best = (cost, B, tau)
-    _, B, tau = best
+        B = held.get("B", float(shape @ slip / (shape @ shape)))
+        candidate = (cost(B, shape), B, tau)
+        if best is None or candidate[0] < best[0]:
+            best = candidate
+    if requested.starts:  # the caller's start, completed from the best of the grid
+        B = requested.starts.get("B", best[1])
+        tau = requested.starts.get("tau_c", best[2])
+        guess = (cost(B, np.log1p(t / tau)), B, tau)
+        best = min(best, guess, key=lambda item: item[0])
     return fit_curve(
         CREEP,
         name="creep",
         formula="delta(t) = B ln(1 + t/tau_c)",
         units={name: si_unit(name) for name in CREEP.slots},
-        start=(B, tau),
+        start=best[1:],
         x=t,
         y=slip,
         sigma=sigma,
+        held=held,
+        ranges=requested.ranges,
     )

@@ -22,6 +22,7 @@ __all__ = [
     "curve_features",
     "noise_level",
     "prepare",
+    "real_column",
     "start_candidates",
 ]
 
@@ -64,27 +65,35 @@ def _as_curve_arrays(data, domain):
             f"got {type(data).__name__}"
         )
     abscissa, unit = ABSCISSA[domain]
-    arrays = []
-    for values, name, unit_ in ((data[0], abscissa, unit), (data[1], "force", "N")):
-        try:
-            array = np.array(values, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise InvalidDataError(f"{name} must be an array of real numbers: {exc}") from None
-        if array.ndim != 1:
-            raise InvalidDataError(f"{name} must be one-dimensional, got shape {array.shape}")
-        bad = ~np.isfinite(array)
-        if bad.any():
-            index = int(np.argmax(bad))
-            raise InvalidDataError(
-                f"{name} must be finite, got {array[index]} {unit_} at index {index}"
-            )
-        arrays.append(array)
+    arrays = [real_column(data[0], abscissa, unit), real_column(data[1], "force", "N")]
     if arrays[0].shape != arrays[1].shape:
         raise InvalidDataError(
             f"{abscissa} and force must have the same length, got {arrays[0].size} and "
             f"{arrays[1].size}"
         )
     return arrays[0], arrays[1], None, None
+
+
+def real_column(values, name, unit=""):
+    """``values`` as a new one-dimensional float array of finite numbers [``unit``].
+
+    Raises
+    ------
+    InvalidDataError
+        Not real numbers, not one-dimensional, or a NaN or infinity (its index named).
+    """
+    try:
+        array = np.array(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise InvalidDataError(f"{name} must be an array of real numbers: {exc}") from None
+    if array.ndim != 1:
+        raise InvalidDataError(f"{name} must be one-dimensional, got shape {array.shape}")
+    bad = ~np.isfinite(array)
+    if bad.any():
+        index = int(np.argmax(bad))
+        unit = f" {unit}" if unit else ""
+        raise InvalidDataError(f"{name} must be finite, got {array[index]}{unit} at index {index}")
+    return array
 
 
 def prepare(data, domain, velocity, window, weights, sigma):

@@ -53,10 +53,6 @@ __all__ = [
     "velocity_collapse",
 ]
 
-_LOG_SLOTS = (False, True, False, True)
-_TIME_ALIASES = {"alpha": "k", "x0": "t0"}
-
-
 # --------------------------------------------------------------------------- velocity collapse
 
 

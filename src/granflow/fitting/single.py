@@ -40,6 +40,7 @@ from granflow.fitting.curves import (
 )
 from granflow.fitting.curves import noise_level as _noise_level
 from granflow.fitting.engine import (
+    EQ3,
     SLOTS,
     Curve,
     GlobalParameter,
@@ -48,23 +49,16 @@ from granflow.fitting.engine import (
     multistart,
     profile_interval,
 )
-from granflow.fitting.results import (
-    FrozenMap,
-    ValueEquality,
-    decode,
-    encode,
-    intervals,
-    matrix,
-    number,
-    numbers,
-    read_only,
-)
+from granflow.fitting.parameters import split
+from granflow.fitting.results import FrozenMap, decode, encode, matrix, number, read_only
 from granflow.fitting.statistics import (
     WALD_Z,
+    FitOutcome,
+    decoded,
     estimates,
+    fit_report,
     fit_statistics,
     statistics,
-    statistics_lines,
 )
 from granflow.model.params import Params
 from granflow.model.units import si_unit
@@ -74,7 +68,7 @@ __all__ = ["FitResult", "fit", "parameter_names"]
 _NAMES = {"slip": ("a", "alpha", "Fd", "x0"), "time": ("a", "k", "Fd", "t0")}
 #: SI unit of each parameter, by domain (from granflow.model.units).
 _UNITS = {domain: {name: si_unit(name) for name in names} for domain, names in _NAMES.items()}
-_LOG_SLOTS = (False, True, False, True)
+_LOG_SLOTS = EQ3.log  # alpha and x0 (k and t0) are searched in log coordinates
 _FEW_RISE_POINTS = 50  # below this many points up to the peak, always check x0 < x_first
 
 
@@ -97,7 +91,7 @@ _ARRAYS = ("x", "data", "best_fit", "residuals", "weights")
 
 
 @dataclass(frozen=True, eq=False)
-class FitResult(ValueEquality):
+class FitResult(FitOutcome):
     """The outcome of :func:`fit`: parameters with uncertainties and goodness of fit.
 
     Attributes
@@ -141,23 +135,11 @@ class FitResult(ValueEquality):
 
     domain: str
     names: tuple
-    params: FrozenMap
-    stderr: FrozenMap
-    ci95: FrozenMap
     ci_method: FrozenMap
-    covar: FrozenMap
     correl: FrozenMap
     fixed: tuple
     at_bound: FrozenMap
-    success: bool
-    message: str
     nfev: int
-    ndata: int
-    nfree: int
-    chisqr: float
-    redchi: float
-    aic: float
-    bic: float
     rsquared: float
     x: np.ndarray
     data: np.ndarray
@@ -166,7 +148,6 @@ class FitResult(ValueEquality):
     weights: np.ndarray
     velocity: float | None
     window: tuple
-    sigma_known: bool
     name: str | None = None
 
     def __repr__(self):
@@ -209,37 +190,13 @@ class FitResult(ValueEquality):
 
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
-        lines = statistics_lines(
+        unit = ABSCISSA[self.domain][1]
+        return fit_report(
             self,
             title="Fit Statistics",
             extra=(("domain", self.domain), ("# function evals", self.nfev)),
+            after=(("window", f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {unit}"),),
         )
-        lines += [
-            f"    R-squared          = {self.rsquared:.8f}",
-            f"    window             = [{self.window[0]:.6g}, {self.window[1]:.6g}] "
-            f"{ABSCISSA[self.domain][1]}",
-            "[[Variables]]",
-        ]
-        for n in self.names:
-            unit = self.units[n]
-            if n in self.fixed:
-                lines.append(f"    {n:<5} = {self.params[n]:.8g} {unit} (fixed)")
-                continue
-            value, err = self.params[n], self.stderr[n]
-            rel = f" ({100 * err / abs(value):.2f}%)" if value else ""
-            low, high = self.ci95[n]
-            flag = " at bound" if self.at_bound[n] else ""
-            lines.append(
-                f"    {n:<5} = {value:.8g} +/- {err:.4g}{rel} {unit}  "
-                f"95%: [{low:.6g}, {high:.6g}] ({self.ci_method[n]}){flag}"
-            )
-        lines.append("[[Correlations]] (unreported correlations are < 0.100)")
-        free = [n for n in self.names if n not in self.fixed]
-        pairs = [(self.correl[p][q], p, q) for i, p in enumerate(free) for q in free[i + 1 :]]
-        for value, p, q in sorted(pairs, key=lambda item: -abs(item[0])):
-            if abs(value) >= 0.1:
-                lines.append(f"    C({p}, {q}) = {value:+.4f}")
-        return "\n".join(lines)
 
     def to_dict(self, include_arrays=True):
         """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
@@ -287,30 +244,18 @@ class FitResult(ValueEquality):
         d = decode(d, cls)
         names = tuple(d.get("names") or d["params"])
         return cls(
+            **decoded(d),
             domain=d["domain"],
             names=names,
-            params=numbers(d["params"]),
-            stderr=numbers(d["stderr"]),
-            ci95=intervals(d["ci95"]),
             ci_method=FrozenMap(d["ci_method"]),
-            covar=matrix(d["covar"]),
             correl=matrix(d["correl"]),
             fixed=tuple(d["fixed"]),
             at_bound=FrozenMap(d["at_bound"]),
-            success=d["success"],
-            message=d["message"],
             nfev=d["nfev"],
-            ndata=d["ndata"],
-            nfree=d["nfree"],
-            chisqr=number(d["chisqr"]),
-            redchi=number(d["redchi"]),
-            aic=number(d["aic"]),
-            bic=number(d["bic"]),
             rsquared=number(d["rsquared"]),
             **{key: read_only(d.get(key, [])) for key in _ARRAYS},
             velocity=None if d["velocity"] is None else float(d["velocity"]),
             window=tuple(number(v) for v in d["window"]),
-            sigma_known=d["sigma_known"],
             name=d.get("name"),
         )
 
@@ -324,8 +269,12 @@ class FitResult(ValueEquality):
 # --------------------------------------------------------------------------- the fit
 
 
-def _global_parameters(names, start, fixed, bounds, z):
-    """The four global parameters with their default search ranges (in SI)."""
+def _global_parameters(names, start, fixed, bounds, z, from_params=False):
+    """The four global parameters with their default search ranges (in SI).
+
+    ``from_params``: ``bounds`` holds the (min, max) of :class:`Parameter` s, whose infinite
+    sides keep the default range.
+    """
     z_first, z_last = float(z[0]), float(z[-1])
     default = {
         0: (0.0, math.inf),
@@ -337,14 +286,21 @@ def _global_parameters(names, start, fixed, bounds, z):
     for slot, name in enumerate(names):
         lower, upper = default[slot]
         if name in bounds:
-            lower, upper = (check.real_scalar(b, f"bounds[{name!r}]") for b in bounds[name])
+            if from_params:
+                low, high = bounds[name]
+                lower = low if math.isfinite(low) else lower
+                upper = high if math.isfinite(high) else upper
+                where = f"the search range [{lower:g}, {upper:g}] of parameter {name!r}"
+            else:
+                lower, upper = (check.real_scalar(b, f"bounds[{name!r}]") for b in bounds[name])
+                where = f"bounds[{name!r}]"
             if not lower < upper:
-                raise InvalidParameterError(f"bounds[{name!r}] must have lower < upper")
+                raise InvalidParameterError(f"{where} must have lower < upper")
             if _LOG_SLOTS[slot] and lower <= 0:
-                raise InvalidParameterError(f"bounds[{name!r}] must be positive")
+                raise InvalidParameterError(f"{where} must be positive")
         value = fixed.get(name, start[slot])
         if name not in fixed:
-            value = min(max(value, lower), upper) if math.isfinite(upper) else max(value, lower)
+            value = _clip(value, lower, upper)
             if _LOG_SLOTS[slot] and value <= 0:
                 value = lower if lower > 0 else 1.0
         parameters.append(
@@ -360,17 +316,36 @@ def _global_parameters(names, start, fixed, bounds, z):
     return parameters
 
 
-def _check_fixed(fixed, names, domain):
+def _clip(value, lower, upper):
+    return min(max(value, lower), upper) if math.isfinite(upper) else max(value, lower)
+
+
+def _check_fixed(fixed, names, domain, label="fixed[{!r}]"):
+    """The held values, checked (``label`` names one of them in an error)."""
     fixed = check_mapping(fixed, names, "fixed", domain)
     for slot, name in enumerate(names):
         if name in fixed:
-            value = check.real_scalar(fixed[name], f"fixed[{name!r}]", _UNITS[domain][name])
+            where = label.format(name)
+            value = check.real_scalar(fixed[name], where, _UNITS[domain][name])
             if _LOG_SLOTS[slot] and value <= 0:
-                raise InvalidParameterError(f"fixed[{name!r}] must be positive, got {value:g}")
+                raise InvalidParameterError(f"{where} must be positive, got {value:g}")
             if value < 0:
-                raise InvalidParameterError(f"fixed[{name!r}] must be non-negative, got {value:g}")
+                raise InvalidParameterError(f"{where} must be non-negative, got {value:g}")
             fixed[name] = value
     return fixed
+
+
+def _requested(params, fixed, bounds, names, domain):
+    """(fixed, bounds, starting values) asked for by ``params`` or by ``fixed`` and
+    ``bounds``."""
+    if params is None:
+        fixed = _check_fixed(fixed, names, domain)
+        return fixed, check_mapping(bounds, names, "bounds", domain), {}
+    if fixed is not None or bounds is not None:
+        raise InvalidParameterError("give params, or fixed and bounds, not both")
+    requested = split(params, names, f"the {domain} domain")
+    held = _check_fixed(requested.held, names, domain, label="held parameter {!r}")
+    return held, requested.ranges, requested.starts
 
 
 def _require_overshoot(features, fixed, names):
@@ -404,6 +379,7 @@ def fit(
     sigma=None,
     window=None,
     profile=True,
+    params=None,
 ):
     """Fit Eq. 3 to one friction curve, with no initial guess.
 
@@ -433,6 +409,11 @@ def fit(
     profile : bool
         Profile-likelihood intervals for alpha (k) and x0 (t0); False gives Wald intervals
         for all (faster).
+    params : Parameters or sequence of Parameter, optional
+        Instead of ``fixed`` and ``bounds``: :class:`granflow.fitting.Parameter` s by name.
+        One with ``vary=False`` is held at its value; the others are searched in
+        ``[min, max]`` (an infinite side keeps the default range), and their values make one
+        more start beside those read from the curve.
 
     Returns
     -------
@@ -440,6 +421,9 @@ def fit(
 
     Raises
     ------
+    InvalidParameterError
+        An unknown parameter name, a held value or search range that Eq. 3 cannot take,
+        ``params`` together with ``fixed`` or ``bounds``.
     InvalidDataError
         NaN or infinite values, a non-increasing abscissa, fewer than 10 points.
     FitError
@@ -457,15 +441,20 @@ def fit(
     (0.036, 0.23)
     """
     names = parameter_names(domain)
-    fixed = _check_fixed(fixed, names, domain)
-    bounds = check_mapping(bounds, names, "bounds", domain)
+    fixed, bounds, guesses = _requested(params, fixed, bounds, names, domain)
     prepared = prepare(data, domain, velocity, window, weights, sigma)
     z, y = prepared.z, prepared.y
     features = curve_features(z, y)
     slot_fixed = {SLOTS[names.index(n)]: v for n, v in fixed.items()}
     _require_overshoot(features, slot_fixed, SLOTS)
     starts = start_candidates(z, y, slot_fixed, features)
-    parameters = _global_parameters(names, starts[0], fixed, bounds, z)
+    parameters = _global_parameters(names, starts[0], fixed, bounds, z, params is not None)
+    if guesses:
+        guess = [
+            _clip(guesses[p.name], p.lower, p.upper) if p.name in guesses else start
+            for p, start in zip(parameters, starts[0], strict=True)
+        ]
+        starts = [*starts, tuple(guess)]
     curve = Curve(z, y, prepared.w, tuple((slot, 1.0) for slot in range(4)))
     problem = Problem([curve], parameters)
     unweighted = bool(np.all(prepared.w == 1.0))
@@ -552,25 +541,16 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
+        **stats.summary(ci95=_frozen({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})),
+        success=success,
+        message="; ".join(messages),
         domain=domain,
         names=names,
-        params=stats.params,
-        stderr=stats.stderr,
-        ci95=_frozen({k: (float(v[0]), float(v[1])) for k, v in ci95.items()}),
         ci_method=_frozen(ci_method),
-        covar=stats.covar,
         correl=stats.correl,
         fixed=tuple(n_ for n_ in names if n_ in fixed),
         at_bound=_frozen(at_bound),
-        success=success,
-        message="; ".join(messages),
         nfev=int(solution.nfev),
-        ndata=stats.ndata,
-        nfree=stats.nfree,
-        chisqr=stats.chisqr,
-        redchi=stats.redchi,
-        aic=stats.aic,
-        bic=stats.bic,
         rsquared=stats.rsquared,
         x=read_only(prepared.z),
         data=read_only(prepared.y),

@@ -1,47 +1,105 @@
-"""The one builder of fit statistics, and the report lines every fit result shares.
+"""The one builder of fit statistics, the fields every fit result shares, and the one report.
 
 :func:`fit_statistics` turns a solved :class:`granflow.fitting.engine.Problem` into the
 numbers every result carries (lmfit's names): params, stderr, covariance and correlation by
-name, Wald intervals, chisqr, redchi, AIC, BIC and R-squared. :func:`statistics_lines` and
-:func:`variable_line` are the lmfit-style report every result prints.
+name, Wald intervals, chisqr, redchi, AIC, BIC and R-squared. :class:`FitSummary` declares the
+fields that the statistics and every result share, :class:`FitOutcome` those of every result
+(with success, message and sigma_known); :func:`estimates`, :func:`statistics` and
+:func:`decoded` are their JSON codec, and :func:`fit_report` is the lmfit-style report of
+every single, joint and curve fit.
 """
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from granflow.fitting.engine import covariance
-from granflow.fitting.results import FrozenMap
+from granflow.fitting.results import (
+    FrozenMap,
+    ValueEquality,
+    intervals,
+    matrix,
+    number,
+    numbers,
+)
 
 STATISTICS = ("success", "message", "ndata", "nfree", "chisqr", "redchi", "aic", "bic")
 WALD_Z = 1.959963984540054  # the 97.5 % quantile of the standard normal distribution
+_CORRELATION_SHOWN = 0.1  # the report lists correlations at least this large
 
 
-@dataclass(frozen=True)
-class FitStatistics:
-    """What :func:`fit_statistics` finds; the fields have lmfit's names and meanings.
+@dataclass(frozen=True, eq=False)
+class FitSummary:
+    """The numbers every fit reports, with lmfit's names and meanings.
 
-    ``best_fit`` and ``residuals`` (data - model) run over every curve's points in order;
-    ``invertible`` tells whether J^T J could be inverted (else the covariance is a
-    pseudo-inverse).
+    Attributes
+    ----------
+    params, stderr : mapping of str to float
+        Values and standard errors by name [SI].
+    ci95 : mapping of str to (float, float)
+        95 % intervals [SI].
+    covar : mapping of str to mapping of str to float
+        Covariance of the free parameters, by name.
+    ndata, nfree : int
+        Points fitted, free parameters.
+    chisqr, redchi, aic, bic : float
+        Weighted sum of squared residuals, its value per degree of freedom, Akaike and
+        Bayesian information criteria.
     """
 
     params: FrozenMap
     stderr: FrozenMap
-    covar: FrozenMap
-    correl: FrozenMap
     ci95: FrozenMap
+    covar: FrozenMap
     ndata: int
     nfree: int
     chisqr: float
     redchi: float
     aic: float
     bic: float
+
+    def summary(self, **changes):
+        """The :class:`FitSummary` fields as keyword arguments of a result (``changes``
+        replace some of them)."""
+        fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(FitSummary)}
+        return {**fields, **changes}
+
+
+@dataclass(frozen=True, eq=False)
+class FitStatistics(FitSummary):
+    """What :func:`fit_statistics` finds, beside the :class:`FitSummary` fields.
+
+    ``best_fit`` and ``residuals`` (data - model) run over every curve's points in order;
+    ``invertible`` tells whether J^T J could be inverted (else the covariance is a
+    pseudo-inverse).
+    """
+
+    correl: FrozenMap
     rsquared: float
     best_fit: np.ndarray
     residuals: np.ndarray
     invertible: bool
+
+
+@dataclass(frozen=True, eq=False)
+class FitOutcome(FitSummary, ValueEquality):
+    """The fields every fit result shares: :class:`FitSummary`, and
+
+    Attributes
+    ----------
+    success : bool
+        Whether the optimiser converged and the uncertainties could be computed.
+    message : str
+        Why it stopped, and any caveat.
+    sigma_known : bool
+        Whether the covariance uses a known noise (True) or the residual variance (False).
+    """
+
+    success: bool
+    message: str
+    sigma_known: bool
 
 
 def fit_statistics(problem, values, names, *, sigma_known, hessian=None):
@@ -135,9 +193,47 @@ def statistics(result):
     }
 
 
-def statistics_lines(result, *, title, extra=()):
-    """The lmfit-style header block: ``[[title]]`` then one aligned line per statistic
-    (``extra``: (label, text) pairs inserted after the message)."""
+def decoded(d):
+    """The :class:`FitOutcome` fields of a result from what :func:`estimates` and
+    :func:`statistics` wrote (the inverse of both)."""
+    return {
+        "params": numbers(d["params"]),
+        "stderr": numbers(d["stderr"]),
+        "ci95": intervals(d["ci95"]),
+        "covar": matrix(d["covar"]),
+        "success": d["success"],
+        "message": d["message"],
+        "ndata": d["ndata"],
+        "nfree": d["nfree"],
+        **{key: number(d[key]) for key in ("chisqr", "redchi", "aic", "bic")},
+        "sigma_known": d["sigma_known"],
+    }
+
+
+def fit_report(result, *, title, extra=(), after=()):
+    """The report of a fit result in the manner of lmfit's ``fit_report``.
+
+    Parameters
+    ----------
+    result : FitOutcome
+        A single, joint or curve fit. Besides the :class:`FitOutcome` fields it needs
+        ``names`` and ``units`` (mapping of name to SI unit); where the result has them it
+        reports ``rsquared``, ``fixed`` (held parameters), ``ci_method`` and ``at_bound``
+        (per parameter) and ``correl`` (correlations of the free parameters).
+    title : str
+        The heading of the statistics block.
+    extra : sequence of (str, object)
+        Rows shown after the message (e.g. the domain).
+    after : sequence of (str, object)
+        Rows shown after the goodness of fit (e.g. the window).
+
+    Returns
+    -------
+    str
+        ``[[title]]`` and one aligned line per statistic, ``[[Variables]]`` with one line per
+        parameter (value, standard error, relative error, unit, 95 % interval), and
+        ``[[Correlations]]`` with those of at least 0.1 in magnitude, largest first.
+    """
     rows = [("success", result.success), ("message", result.message), *extra]
     rows += [
         ("# data points", result.ndata),
@@ -147,11 +243,39 @@ def statistics_lines(result, *, title, extra=()):
         ("Akaike info crit", f"{result.aic:.6g}"),
         ("Bayesian info crit", f"{result.bic:.6g}"),
     ]
-    return [f"[[{title}]]", *(f"    {label:<18} = {value}" for label, value in rows)]
+    if hasattr(result, "rsquared"):
+        rows.append(("R-squared", f"{result.rsquared:.8f}"))
+    rows += after
+    lines = [f"[[{title}]]", *(f"    {label:<18} = {value}" for label, value in rows)]
+    lines.append("[[Variables]]")
+    lines += [_variable_line(result, name) for name in result.names]
+    correl = getattr(result, "correl", None)
+    if correl is not None:
+        lines.append(f"[[Correlations]] (unreported correlations are < {_CORRELATION_SHOWN:.3f})")
+        free = [name for name in result.names if name in correl]
+        pairs = [(correl[p][q], p, q) for i, p in enumerate(free) for q in free[i + 1 :]]
+        for value, p, q in sorted(pairs, key=lambda item: -abs(item[0])):
+            if abs(value) >= _CORRELATION_SHOWN:
+                lines.append(f"    C({p}, {q}) = {value:+.4f}")
+    return "\n".join(lines)
 
 
-def variable_line(name, value, stderr, interval, *, unit="", width=6):
-    """One ``[[Variables]]`` line: ``name = value +/- stderr unit  95%: [low, high]``."""
-    unit = f" {unit}" if unit else ""
-    low, high = interval
-    return f"    {name:<{width}} = {value:.8g} +/- {stderr:.4g}{unit}  95%: [{low:.6g}, {high:.6g}]"
+def _variable_line(result, name):
+    """One ``[[Variables]]`` line: ``name = value +/- stderr (rel) unit  95%: [low, high]``,
+    with the interval's method and ``at bound`` where the result knows them."""
+    width = max(5, *(len(n) for n in result.names))
+    value = result.params[name]
+    unit = f" {result.units[name]}" if result.units[name] else ""
+    if name in getattr(result, "fixed", ()):
+        return f"    {name:<{width}} = {value:.8g}{unit} (fixed)"
+    err = result.stderr[name]
+    rel = f" ({100 * err / abs(value):.2f}%)" if value else ""
+    low, high = result.ci95[name]
+    method = getattr(result, "ci_method", None)
+    method = f" ({method[name]})" if method is not None else ""
+    at_bound = getattr(result, "at_bound", None)
+    flag = " at bound" if at_bound is not None and at_bound[name] else ""
+    return (
+        f"    {name:<{width}} = {value:.8g} +/- {err:.4g}{rel}{unit}  "
+        f"95%: [{low:.6g}, {high:.6g}]{method}{flag}"
+    )

@@ -6,6 +6,7 @@ the joint fit, which the engine solves with a factor per tie (the Amontons fit o
 :mod:`granflow.fitting.joint` uses the normal load as the factor of a and Fd).
 """
 
+import math
 import warnings
 from dataclasses import dataclass
 
@@ -13,24 +14,17 @@ import numpy as np
 
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
 from granflow.fitting.curves import prepare
-from granflow.fitting.engine import Curve, GlobalParameter, Problem
-from granflow.fitting.results import (
-    FrozenMap,
-    ValueEquality,
-    decode,
-    encode,
-    intervals,
-    matrix,
-    number,
-    numbers,
-)
+from granflow.fitting.engine import EQ3, Curve, GlobalParameter, Problem
+from granflow.fitting.parameters import require_positive, split, unit_of
+from granflow.fitting.results import FrozenMap, decode, encode, matrix, numbers
 from granflow.fitting.single import FitResult, fit, parameter_names
 from granflow.fitting.statistics import (
+    FitOutcome,
+    decoded,
     estimates,
+    fit_report,
     fit_statistics,
     statistics,
-    statistics_lines,
-    variable_line,
 )
 from granflow.model.run import Run
 
@@ -43,12 +37,12 @@ __all__ = [
     "solve_joint",
 ]
 
-_LOG_SLOTS = (False, True, False, True)
+_LOG_SLOTS = EQ3.log  # alpha and x0 (k and t0) are searched in log coordinates
 _TIME_ALIASES = {"alpha": "k", "x0": "t0"}
 
 
 @dataclass(frozen=True, eq=False)
-class JointFitResult(ValueEquality):
+class JointFitResult(FitOutcome):
     """The outcome of :func:`fit_joint` (or of :func:`fit_amontons`).
 
     Attributes
@@ -63,6 +57,8 @@ class JointFitResult(ValueEquality):
         95 % Wald intervals.
     covar, correl : mapping of str to mapping of str to float
         Covariance and correlation of the free parameters, by name.
+    units : mapping of str to str
+        The SI unit of each parameter (a property; ``x0_3`` has the unit of x0).
     run_params : tuple of mapping
         The four model parameters of each run as the joint fit sets them.
     run_names : tuple of str
@@ -75,25 +71,12 @@ class JointFitResult(ValueEquality):
 
     domain: str
     names: tuple
-    params: FrozenMap
-    stderr: FrozenMap
-    ci95: FrozenMap
-    covar: FrozenMap
     correl: FrozenMap
     fixed: tuple
     run_params: tuple
     run_names: tuple
     individual: tuple
-    success: bool
-    message: str
     nfev: int
-    ndata: int
-    nfree: int
-    chisqr: float
-    redchi: float
-    aic: float
-    bic: float
-    sigma_known: bool
 
     def __repr__(self):
         return (
@@ -101,24 +84,18 @@ class JointFitResult(ValueEquality):
             f"success={self.success}, redchi={self.redchi:.3g})"
         )
 
+    @property
+    def units(self):
+        """Mapping of parameter name to its SI unit (``x0_3`` has the unit of x0)."""
+        return FrozenMap({name: unit_of(name) for name in self.names})
+
     def report(self):
         """A text report in the manner of lmfit's ``fit_report``."""
-        lines = statistics_lines(
+        return fit_report(
             self,
             title="Joint Fit Statistics",
             extra=(("domain", self.domain), ("runs", len(self.run_names))),
         )
-        lines += [
-            "[[Variables]]",
-        ]
-        for name in self.names:
-            if name in self.fixed:
-                lines.append(f"    {name:<10} = {self.params[name]:.8g} (fixed)")
-                continue
-            lines.append(
-                variable_line(name, self.params[name], self.stderr[name], self.ci95[name], width=10)
-            )
-        return "\n".join(lines)
 
     def to_dict(self):
         """JSON-safe mapping of the result (with the separate fits); :meth:`from_dict` inverts
@@ -143,27 +120,15 @@ class JointFitResult(ValueEquality):
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         return cls(
+            **decoded(d),
             domain=d["domain"],
             names=tuple(d["names"]),
-            params=numbers(d["params"]),
-            stderr=numbers(d["stderr"]),
-            ci95=intervals(d["ci95"]),
-            covar=matrix(d["covar"]),
             correl=matrix(d["correl"]),
             fixed=tuple(d["fixed"]),
             run_params=tuple(numbers(p) for p in d["run_params"]),
             run_names=tuple(d["run_names"]),
             individual=tuple(FitResult.from_dict(r) for r in d.get("individual", [])),
-            success=d["success"],
-            message=d["message"],
             nfev=d["nfev"],
-            ndata=d["ndata"],
-            nfree=d["nfree"],
-            chisqr=number(d["chisqr"]),
-            redchi=number(d["redchi"]),
-            aic=number(d["aic"]),
-            bic=number(d["bic"]),
-            sigma_known=d["sigma_known"],
         )
 
 
@@ -197,19 +162,25 @@ def run_names(datasets, fits):
     return tuple(names)
 
 
-def solve_joint(spec, prepared, fits, domain, fixed, sigma_known, names_order):
-    """Solve the joint problem ``spec``; the fields of its :class:`JointFitResult`."""
+def solve_joint(spec, prepared, fits, domain, fixed, sigma_known, names_order, ranges=None):
+    """Solve the joint problem ``spec``; the fields of its :class:`JointFitResult`.
+
+    ``ranges``: (min, max) search ranges by global name [SI]; an infinite min keeps the
+    default lower bound 0.
+    """
     parameters, index_of = [], {}
+    ranges = ranges or {}
     for name in names_order:
         slot, start = spec.globals[name]
-        lower = 0.0
+        lower, upper = ranges.get(name, (0.0, math.inf))
         parameters.append(
             GlobalParameter(
                 name=name,
                 value=fixed.get(name, start),
                 log=_LOG_SLOTS[slot],
                 fixed=name in fixed,
-                lower=lower if not _LOG_SLOTS[slot] else 0.0,
+                lower=lower if math.isfinite(lower) else 0.0,
+                upper=upper,
             )
         )
         index_of[name] = len(parameters) - 1
@@ -231,26 +202,17 @@ def solve_joint(spec, prepared, fits, domain, fixed, sigma_known, names_order):
     if not stats.invertible:
         messages.append("the parameters are not all determined by the data (singular J^T J)")
     return dict(
+        **stats.summary(),
+        success=bool(solution.status > 0 and stats.invertible),
+        message="; ".join(messages),
+        sigma_known=sigma_known,
         domain=domain,
         names=tuple(names_order),
-        params=params,
-        stderr=stats.stderr,
-        ci95=stats.ci95,
-        covar=stats.covar,
         correl=stats.correl,
         fixed=tuple(n_ for n_ in names_order if n_ in fixed),
         run_params=run_params,
         individual=tuple(fits),
-        success=bool(solution.status > 0 and stats.invertible),
-        message="; ".join(messages),
         nfev=int(solution.nfev),
-        ndata=stats.ndata,
-        nfree=stats.nfree,
-        chisqr=stats.chisqr,
-        redchi=stats.redchi,
-        aic=stats.aic,
-        bic=stats.bic,
-        sigma_known=sigma_known,
     )
 
 
@@ -265,6 +227,7 @@ def fit_joint(
     fixed=None,
     sigma=None,
     window=None,
+    params=None,
 ):
     """Fit Eq. 3 to several runs at once, with parameters tied by name.
 
@@ -289,6 +252,11 @@ def fit_joint(
         Known noise [N] (unscaled covariance); default: the residual variance.
     window : (float, float), optional
         Fit window, the same for every run (see :func:`granflow.fit`).
+    params : Parameters or sequence of Parameter, optional
+        Instead of ``fixed``: :class:`granflow.fitting.Parameter` s by global name. One with
+        ``vary=False`` is held at its value; the others start from their value (instead of
+        the median of the separate fits) and are searched in ``[min, max]`` (default
+        ``[0, inf)``).
 
     Returns
     -------
@@ -354,11 +322,20 @@ def fit_joint(
                 order.append(key)
             links.append((key, 1.0))
         spec.links.append(tuple(links))
+    ranges = {}
+    if params is not None:
+        if fixed is not None:
+            raise InvalidParameterError("give params or fixed, not both")
+        requested = split(params, order, "this joint fit")
+        require_positive(requested, [k for k in order if _LOG_SLOTS[spec.globals[k][0]]])
+        fixed, ranges = requested.held, requested.ranges
+        for key, value in requested.starts.items():
+            spec.globals[key] = (spec.globals[key][0], value)
     fixed = dict(fixed or {})
     for key in fixed:
         if key not in spec.globals:
             raise InvalidParameterError(
                 f"fixed: unknown parameter {key!r}; the parameters are {', '.join(order)}"
             )
-    fields = solve_joint(spec, prepared, fits, domain, fixed, sigma is not None, order)
+    fields = solve_joint(spec, prepared, fits, domain, fixed, sigma is not None, order, ranges)
     return JointFitResult(run_names=run_names(datasets, fits), **fields)
