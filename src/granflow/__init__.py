@@ -35,6 +35,8 @@ __getattr__, __dir__, _names = attach(
             "FitResult",
             "JointFitResult",
             "ModelComparison",
+            "Parameter",
+            "Parameters",
             "PosteriorResult",
             "PreparationSpread",
             "compare_models",

@@ -2,8 +2,8 @@
 
 ``parameters`` (:class:`Parameter` and :class:`Parameters`, lmfit-style named parameters
 that :func:`fit`, :func:`fit_joint` and :func:`fit_creep` take as ``params=``), ``engine``
-(least squares of a :class:`Model` over named parameters, profile intervals),
-``statistics`` (the one builder of fit statistics, the fields every result shares and the
+(least squares of a :class:`Model` over named parameters, multistart), ``profile``
+(covariance and profile-likelihood intervals), ``statistics`` (the one builder of fit statistics, the fields every result shares and the
 one report, :func:`fit_report`),
 ``results`` (equality by value and the JSON codec of every result), ``curves`` (data at the
 door, starting values), ``single`` (:func:`fit` of one curve), ``batch`` (:func:`fit_many`),

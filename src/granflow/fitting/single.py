@@ -47,9 +47,9 @@ from granflow.fitting.engine import (
     Problem,
     model_only,
     multistart,
-    profile_interval,
 )
 from granflow.fitting.parameters import split
+from granflow.fitting.profile import profile_interval
 from granflow.fitting.results import FrozenMap, decode, encode, matrix, number, read_only
 from granflow.fitting.statistics import (
     WALD_Z,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow.fitting.engine import covariance
+from granflow.fitting.profile import covariance
 from granflow.fitting.results import (
     FrozenMap,
     ValueEquality,
