@@ -321,6 +321,7 @@ def test_mcmc_is_seeded(tmp_path):
     second = analyze(campaign, tmp_path / "b", jobs=1, quiet=True, mcmc=True, seed=11)
     posterior = first.results["analyses"]["mcmc"]
     assert posterior["seed"] == 11
+    assert "chain" not in posterior and posterior["shape"][0] > 0  # the compact form
     assert posterior == second.results["analyses"]["mcmc"]
     low, high = posterior["ci95"]["alpha"]
     assert low <= SMALL_TRUTH["alpha"] <= high

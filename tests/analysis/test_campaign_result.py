@@ -42,6 +42,38 @@ def test_results_json_is_the_result_to_dict_plus_timing(analysed):
     assert analysed.results == {**written, "timing": timing}
 
 
+#: Keys of the per-point arrays of the fit results (and of a posterior's chain).
+ARRAY_KEYS = {"x", "data", "best_fit", "residuals", "weights", "chain"}
+
+
+def _keys_and_lists(value):
+    """Every mapping key inside ``value`` and the length of every list."""
+    keys, lengths = set(), []
+    stack = [value]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, dict):
+            keys.update(item)
+            stack.extend(item.values())
+        elif isinstance(item, list):
+            lengths.append(len(item))
+            stack.extend(item)
+    return keys, lengths
+
+
+def test_results_json_holds_no_per_point_arrays(analysed):
+    written = json.loads((analysed.output / "results.json").read_text(encoding="utf-8"))
+    keys, lengths = _keys_and_lists(written)
+    assert keys & ARRAY_KEYS == set()
+    assert max(lengths) <= 2 * len(written["runs"])
+    # the joint fits, the comparison and the creep fits are there, in their compact form
+    analyses = written["analyses"]
+    joint = analyses["amontons"]["joint"]
+    assert len(joint["individual"]) == len(joint["run_names"]) > 0
+    assert set(analyses["model_comparison"]["fits"]) == {"eq3", "log_aging", "exponential"}
+    assert analyses["creep"][0]["fit"]["ndata"] > 0
+
+
 def test_campaign_result_round_trips(analysed):
     rebuilt = AnalysisResult.from_dict(analysed.to_dict())
     assert rebuilt == analysed
@@ -92,6 +124,9 @@ def test_saved_records_rebuild_the_same_objects(analysed):
         if entry.test == "startup":  # the weights survive (they used to be lost)
             assert np.array_equal(rebuilt.fit.weights, entry.result.fit.weights)
             assert rebuilt.fit.report() == entry.result.fit.report()
+        if entry.test in ("startup", "creep"):  # the records are complete: the fitted points
+            assert rebuilt.fit.x.size == rebuilt.fit.ndata > 0
+            assert rebuilt.fit == entry.result.fit
 
 
 def test_failed_run_round_trips():
@@ -171,7 +206,11 @@ def test_rebuilt_campaign_holds_the_real_fit_objects(analysed):
     analyses = rebuilt.analyses
     assert isinstance(analyses.velocity_collapse.result, gf.CollapseResult)
     assert isinstance(analyses.amontons.result, gf.AmontonsResult)
-    assert analyses.amontons.result == analysed.analyses.amontons.result
+    # results.json holds the compact form: everything but the per-point arrays, left empty
+    amontons = analysed.analyses.amontons.result
+    compact = gf.AmontonsResult.from_dict(amontons.to_dict(include_arrays=False))
+    assert analyses.amontons.result == compact
+    assert analyses.amontons.result.report() == amontons.report()
     assert isinstance(analyses.model_comparison.result, gf.ModelComparison)
     assert all(isinstance(row.result, gf.PreparationSpread) for row in analyses.preparation_spread)
     assert isinstance(analyses.creep[0].fit, gf.CurveFitResult)

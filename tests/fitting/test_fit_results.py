@@ -133,6 +133,97 @@ def test_posterior_round_trip():
     assert rebuilt.chain.shape == posterior.chain.shape
 
 
+# --------------------------------------------------------------------------- the compact form
+
+#: Keys of the per-point arrays (and of a posterior's chain).
+ARRAY_KEYS = {"x", "data", "best_fit", "residuals", "weights", "chain"}
+
+
+def _keys(value):
+    """Every mapping key inside a ``to_dict()`` output."""
+    if isinstance(value, dict):
+        return set(value).union(*(_keys(item) for item in value.values()))
+    if isinstance(value, list):
+        return set().union(*(_keys(item) for item in value))
+    return set()
+
+
+def _arrays(result):
+    """The per-point arrays of ``result`` and of every result it holds."""
+    if isinstance(result, dict | FrozenMap):
+        return [a for item in result.values() for a in _arrays(item)]
+    if isinstance(result, tuple):
+        return [a for item in result for a in _arrays(item)]
+    if not hasattr(result, "__dataclass_fields__"):
+        return []
+    found = [getattr(result, key) for key in getattr(type(result), "ARRAYS", ())]
+    for name in result.__dataclass_fields__:
+        found += _arrays(getattr(result, name))
+    return found
+
+
+def _curves(count, seed=0, **values):
+    return [_curve(seed=seed + i, **values) for i in range(count)]
+
+
+def _posterior():
+    pytest.importorskip("emcee")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", granflow.ConvergenceWarning)
+        return granflow.sample_posterior(granflow.fit(_curve()), nwalkers=8, nsteps=40, seed=2)
+
+
+COMPACT_CASES = {
+    "FitResult": lambda: granflow.fit(_curve(), weights=np.linspace(1, 2, 400), velocity=1e-6),
+    "FitResult-time": lambda: granflow.fit(
+        (_curve()[0] / 1e-6, _curve()[1]), domain="time", velocity=1e-6, fixed={"Fd": 10e-3}
+    ),
+    "CurveFitResult": lambda: granflow.fit_creep(
+        np.linspace(0, 300, 301), 2e-6 * np.log1p(np.linspace(0, 300, 301) / 5.0)
+    ),
+    "JointFitResult": lambda: granflow.fit_joint(_curves(2)),
+    "CollapseResult": lambda: granflow.velocity_collapse(_curves(4), [1e-6, 1e-6, 2e-6, 2e-6]),
+    "AmontonsResult": lambda: granflow.fit_amontons(
+        [_curve(Fd=0.2 * load, seed=10 + i) for i, load in enumerate((0.05, 0.05, 0.1, 0.1))],
+        [0.05, 0.05, 0.1, 0.1],
+        velocities=[1e-6] * 4,
+    ),
+    "PreparationSpread": lambda: granflow.preparation_spread(
+        [granflow.fit(_curve(x0=x0, seed=i)) for i, x0 in enumerate((1e-7, 2e-7, 3e-7))]
+    ),
+    "ModelComparison": lambda: granflow.compare_models(_curve()),
+    "PosteriorResult": _posterior,
+}
+
+
+@pytest.mark.parametrize("case", list(COMPACT_CASES))
+def test_compact_form_round_trips(case):
+    result = COMPACT_CASES[case]()
+    assert type(result).__name__ == case.split("-")[0]
+    assert result.to_dict() == result.to_dict(include_arrays=True)  # complete by default
+    compact = result.to_dict(include_arrays=False)
+    assert _keys(compact) & ARRAY_KEYS == set()
+    assert _keys(compact) == _keys(result.to_dict()) - ARRAY_KEYS
+    rebuilt = type(result).from_dict(json.loads(json.dumps(compact)))
+    assert type(result).from_dict(compact) == rebuilt
+    assert rebuilt.to_dict(include_arrays=False) == compact
+    # the compact result is the original with its arrays emptied: its report is the same
+    assert all(array.size == 0 for array in _arrays(rebuilt))
+    assert len(_arrays(rebuilt)) == len(_arrays(result))
+    assert rebuilt.report() == result.report()
+    assert (rebuilt == result) == (not any(array.size for array in _arrays(result)))
+
+
+def test_compact_posterior_keeps_the_shape_of_its_chain():
+    posterior = _posterior()
+    rebuilt = granflow.PosteriorResult.from_dict(posterior.to_dict(include_arrays=False))
+    steps = posterior.chain.shape[0]  # after burn-in
+    assert 0 < steps < 40
+    assert rebuilt.shape == posterior.shape == posterior.chain.shape == (steps, 8, 4)
+    assert rebuilt.chain.shape == (0, 8, 4) and rebuilt.samples.shape == (0, 4)
+    assert repr(rebuilt) == repr(posterior)
+
+
 def test_from_dict_refuses_what_is_not_a_mapping():
     with pytest.raises(granflow.InvalidParameterError, match=r"FitResult\.from_dict"):
         granflow.FitResult.from_dict([1, 2])

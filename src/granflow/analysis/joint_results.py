@@ -167,8 +167,9 @@ class JointAnalysis(Value):
     result: object
 
     def to_dict(self):
-        """``{**conditions, **result.to_dict()}``."""
-        return json_safe({**self.conditions, **as_json(self.result)})
+        """``{**conditions, **result.to_dict(include_arrays=False)}``: the result's compact
+        form, without per-point arrays or chains."""
+        return json_safe({**self.conditions, **as_json(self.result, include_arrays=False)})
 
     @classmethod
     def from_dict(cls, saved, result_type=None):

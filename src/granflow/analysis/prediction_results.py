@@ -142,7 +142,7 @@ class CreepComparison(Value):
                 {"stress_over_peak": self.stress_over_peak, "stress_over_Fd": self.stress_over_Fd}
             )
         )
-        out["fit"] = as_json(self.fit)
+        out["fit"] = as_json(self.fit, include_arrays=False)
         return json_safe(out)
 
     @classmethod

@@ -130,7 +130,9 @@ class AnalysisResult(Value):
 
     ``to_dict()`` is the content of ``results.json`` apart from ``timing``;
     ``AnalysisResult.from_dict(result.to_dict())`` rebuilds an equal result (equality
-    compares ``to_dict()``).
+    compares ``to_dict()``). It holds every fitting result in its compact form
+    (``to_dict(include_arrays=False)``: no per-point arrays, no posterior chain); each run's
+    complete result is in ``runs/<key>.json``.
 
     Attributes
     ----------

@@ -8,7 +8,7 @@ inverts it (through :meth:`granflow.FitResult.from_dict` and
 :meth:`granflow.CurveFitResult.from_dict`): ``OUTPUT/runs/<key>.json`` holds
 ``to_dict(include_arrays=True)`` (a start-up's fitted points and weights too), so that
 ``resume=True`` rebuilds the same objects a fresh analysis makes; ``results.json`` lists
-``to_dict()`` (a start-up fit without its arrays). Two results are equal when their
+``to_dict()`` (the fits without their arrays). Two results are equal when their
 ``to_dict()`` are.
 """
 
@@ -218,7 +218,7 @@ class CreepResult(Value):
     def to_dict(self, include_arrays=False):
         """JSON-safe mapping (the fitted points too with ``include_arrays``)."""
         fields = {
-            "fit": self.fit.to_dict(),
+            "fit": self.fit.to_dict(include_arrays=include_arrays),
             "stress": self.stress,
             "creep_start": self.creep_start,
             "creep_slip": self.creep_slip,
@@ -464,7 +464,7 @@ class FailedRun(Value):
         Why.
     found : mapping
         What was found before the failure, JSON-safe (a start-up's fit and window, a creep
-        test's fit and level); empty when nothing was.
+        test's fit and level; the fits in their compact form); empty when nothing was.
     warnings : tuple of str
     """
 

@@ -215,7 +215,7 @@ def _fit_startup(data, name):
         result = fit((data.slip, data.force), domain="slip", velocity=data.velocity)
     window = data.describe()
     if not result.success:
-        found = {"fit": result.to_dict(), "window": window.to_dict()}
+        found = {"fit": result.to_dict(include_arrays=False), "window": window.to_dict()}
         raise RunFailedError(f"the fit did not succeed: {result.message}", found)
     notes = []
     bounds = [n for n in result.names if result.at_bound[n]]
@@ -278,7 +278,8 @@ def _analyse_creep(run, options):
         duration=float(t[-1]),
     )
     if not result.fit.success:
-        found = {k: v for k, v in result.to_dict().items() if k not in ("status", "reason")}
+        compact = result.to_dict(include_arrays=False)
+        found = {k: v for k, v in compact.items() if k not in ("status", "reason")}
         raise RunFailedError(f"the creep fit did not succeed: {result.fit.message}", found)
     return result
 

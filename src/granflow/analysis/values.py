@@ -25,10 +25,14 @@ class Value:
     __hash__ = None
 
 
-def as_json(result):
-    """The JSON of a result: ``result.to_dict()``, or ``result`` itself as a dict when it is
-    already a mapping (a result rebuilt from JSON)."""
-    return dict(result.to_dict()) if hasattr(result, "to_dict") else dict(result)
+def as_json(result, **options):
+    """The JSON of a result: ``result.to_dict(**options)``, or ``result`` itself as a dict when
+    it is already a mapping (a result rebuilt from JSON).
+
+    ``include_arrays=False`` in ``options`` gives a fitting result's compact form (without its
+    per-point arrays), the form ``results.json`` holds.
+    """
+    return dict(result.to_dict(**options)) if hasattr(result, "to_dict") else dict(result)
 
 
 def frozen_json(value, sequence=list):

@@ -61,16 +61,23 @@ class ModelComparison(ValueEquality):
         lines.append(f"best by AIC: {self.best_aic}; by BIC: {self.best_bic}")
         return "\n".join(lines)
 
-    def to_dict(self):
+    def to_dict(self, include_arrays=True):
         """JSON-safe mapping: the rows, the winners and each model's fit; :meth:`from_dict`
-        inverts it."""
+        inverts it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Include each fit's per-point arrays (False: a compact summary, which
+            :meth:`from_dict` rebuilds with empty arrays).
+        """
         return encode(
             {
                 "rows": [dict(r) for r in self.rows],
                 "best_aic": self.best_aic,
                 "best_bic": self.best_bic,
                 "fits": {
-                    model: None if result is None else result.to_dict()
+                    model: None if result is None else result.to_dict(include_arrays=include_arrays)
                     for model, result in self.fits.items()
                 },
             }

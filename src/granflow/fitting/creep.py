@@ -16,11 +16,13 @@ from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
 from granflow.fitting.parameters import Split, require_positive, split
 from granflow.fitting.results import (
     FrozenMap,
+    arrays,
     decode,
     encode,
     intervals,
     matrix,
     numbers,
+    read_arrays,
     read_only,
 )
 from granflow.fitting.statistics import (
@@ -70,6 +72,9 @@ class CurveFitResult(FitOutcome):
     residuals: np.ndarray
     fixed: tuple = ()
 
+    #: The per-point arrays, which the compact ``to_dict(include_arrays=False)`` leaves out.
+    ARRAYS = ("x", "data", "best_fit", "residuals")
+
     def __repr__(self):
         values = ", ".join(f"{n}={self.params[n]:.4g}" for n in self.names)
         return f"CurveFitResult({self.model}, success={self.success}, {values})"
@@ -97,8 +102,15 @@ class CurveFitResult(FitOutcome):
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(self, title=f"Fit of {self.formula}")
 
-    def to_dict(self):
-        """JSON-safe mapping with the arrays as lists; :meth:`from_dict` inverts it."""
+    def to_dict(self, include_arrays=True):
+        """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Include ``x``, ``data``, ``best_fit`` and ``residuals`` as lists (False: a compact
+            summary, which :meth:`from_dict` rebuilds with empty arrays).
+        """
         out = {
             "model": self.model,
             "formula": self.formula,
@@ -106,7 +118,7 @@ class CurveFitResult(FitOutcome):
             **estimates(self),
             "units": dict(self.units),
             **statistics(self),
-            **{key: getattr(self, key) for key in _ARRAYS},
+            **arrays(self, include_arrays),
         }
         if self.fixed:
             out["fixed"] = list(self.fixed)
@@ -122,12 +134,9 @@ class CurveFitResult(FitOutcome):
             formula=d["formula"],
             names=tuple(d.get("names") or d["params"]),
             units=FrozenMap(d["units"]),
-            **{key: read_only(d.get(key, [])) for key in _ARRAYS},
+            **read_arrays(cls, d),
             fixed=tuple(d.get("fixed", ())),
         )
-
-
-_ARRAYS = ("x", "data", "best_fit", "residuals")
 
 
 def check_xy(x, y, names, minimum):

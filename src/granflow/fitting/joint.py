@@ -104,13 +104,20 @@ class CollapseResult(ValueEquality):
             )
         return "\n".join(lines)
 
-    def to_dict(self):
-        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+    def to_dict(self, include_arrays=True):
+        """JSON-safe mapping; :meth:`from_dict` inverts it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Include the per-point arrays of the fits it holds (False: a compact summary,
+            which :meth:`from_dict` rebuilds with empty arrays).
+        """
         return encode(
             {
                 "velocities": list(self.velocities),
-                "shared": self.shared.to_dict(),
-                "per_velocity": self.per_velocity.to_dict(),
+                "shared": self.shared.to_dict(include_arrays=include_arrays),
+                "per_velocity": self.per_velocity.to_dict(include_arrays=include_arrays),
                 "statistic": self.statistic,
                 "df": self.df,
                 "p_value": self.p_value,
@@ -232,11 +239,18 @@ class AmontonsResult(ValueEquality):
             lines.append(f"    {key} = ({slope:.5g} +/- {error:.2g}) F_N")
         return "\n".join(lines)
 
-    def to_dict(self):
-        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+    def to_dict(self, include_arrays=True):
+        """JSON-safe mapping; :meth:`from_dict` inverts it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Include the per-point arrays of the fits it holds (False: a compact summary,
+            which :meth:`from_dict` rebuilds with empty arrays).
+        """
         return encode(
             {
-                "joint": self.joint.to_dict(),
+                "joint": self.joint.to_dict(include_arrays=include_arrays),
                 "per_load": [dict(row) for row in self.per_load],
                 "lines": {k: list(v) for k, v in self.lines.items()},
             }
@@ -413,8 +427,15 @@ class PreparationSpread(ValueEquality):
             ]
         )
 
-    def to_dict(self):
-        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+    def to_dict(self, include_arrays=True):
+        """JSON-safe mapping; :meth:`from_dict` inverts it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Accepted for every result alike; the spread holds no per-point arrays, so both
+            forms are the same.
+        """
         return encode(
             {
                 "domain": self.domain,

@@ -17,12 +17,13 @@ from granflow.fitting.engine import model_only
 from granflow.fitting.results import (
     FrozenMap,
     ValueEquality,
+    arrays,
     decode,
     encode,
     intervals,
     number,
     numbers,
-    read_only,
+    read_arrays,
 )
 from granflow.fitting.single import FitResult
 
@@ -69,6 +70,9 @@ class PosteriorResult(ValueEquality):
         The least-squares values the sampler started from.
     priors : mapping of str to (str, float, float)
     seed : int or None
+    shape : (int, int, int)
+        Steps, walkers and parameters of the chain sampled (taken from ``chain`` when not
+        given; kept when the compact ``to_dict(include_arrays=False)`` leaves the chain out).
     """
 
     names: tuple
@@ -83,6 +87,14 @@ class PosteriorResult(ValueEquality):
     least_squares: FrozenMap
     priors: FrozenMap
     seed: int | None
+    shape: tuple | None = None
+
+    #: The samples, which the compact ``to_dict(include_arrays=False)`` leaves out.
+    ARRAYS = ("chain",)
+
+    def __post_init__(self):
+        if self.shape is None:
+            object.__setattr__(self, "shape", tuple(self.chain.shape))
 
     @property
     def samples(self):
@@ -91,13 +103,13 @@ class PosteriorResult(ValueEquality):
 
     def __repr__(self):
         values = ", ".join(f"{n}={self.medians[n]:.4g}" for n in self.names)
-        steps, walkers, _ = self.chain.shape
+        steps, walkers, _ = self.shape
         return f"PosteriorResult({steps} steps x {walkers} walkers, {values})"
 
     def report(self):
         """Medians with 68 % and 95 % intervals, autocorrelation times."""
         lines = [
-            f"[[Posterior]] {self.chain.shape[0]} steps x {self.chain.shape[1]} walkers, "
+            f"[[Posterior]] {self.shape[0]} steps x {self.shape[1]} walkers, "
             f"acceptance {self.acceptance_fraction:.2f}, "
             f"{'converged' if self.converged else 'CHAINS TOO SHORT'}"
         ]
@@ -109,8 +121,15 @@ class PosteriorResult(ValueEquality):
             )
         return "\n".join(lines)
 
-    def to_dict(self):
-        """JSON-safe mapping with the chain as nested lists; :meth:`from_dict` inverts it."""
+    def to_dict(self, include_arrays=True):
+        """JSON-safe mapping with the chain as nested lists; :meth:`from_dict` inverts it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Include the chain (False: a compact summary with the statistics and the chain's
+            shape, which :meth:`from_dict` rebuilds with an empty chain).
+        """
         return encode(
             {
                 "names": list(self.names),
@@ -124,8 +143,8 @@ class PosteriorResult(ValueEquality):
                 "least_squares": dict(self.least_squares),
                 "priors": {k: list(v) for k, v in self.priors.items()},
                 "seed": self.seed,
-                "shape": list(self.chain.shape),
-                "chain": self.chain,
+                "shape": list(self.shape),
+                **arrays(self, include_arrays),
             }
         )
 
@@ -133,7 +152,8 @@ class PosteriorResult(ValueEquality):
     def from_dict(cls, d):
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
-        chain = read_only(d["chain"]).reshape(d["shape"])
+        shape = tuple(int(size) for size in d["shape"])
+        chain = read_arrays(cls, d)["chain"].reshape(shape if "chain" in d else (0, *shape[1:]))
         return cls(
             names=tuple(d["names"]),
             chain=chain,
@@ -152,6 +172,7 @@ class PosteriorResult(ValueEquality):
                 }
             ),
             seed=d["seed"],
+            shape=shape,
         )
 
     def plot_corner(self, **kwargs):

@@ -6,6 +6,11 @@ an ``__eq__`` that compares arrays by value (NaN equal to NaN); :func:`encode` t
 a ``to_dict()`` builds into JSON-safe values and records where it held an infinity (JSON has
 none), and the ``decode_*`` helpers turn the pieces back for ``from_dict``. Floats survive
 ``json.dumps``/``json.loads`` exactly (Python writes the shortest repr that reads back).
+
+Every ``to_dict`` takes ``include_arrays``: True (the default) gives the complete result, which
+``from_dict`` turns back into an equal one; False gives the compact form, without the per-point
+arrays a result type names in its ``ARRAYS`` (nor those of the results it holds), which
+``from_dict`` rebuilds with empty arrays. :func:`arrays` and :func:`read_arrays` are that codec.
 """
 
 import copy
@@ -21,12 +26,14 @@ from granflow.errors import InvalidParameterError
 __all__ = [
     "FrozenMap",
     "ValueEquality",
+    "arrays",
     "decode",
     "encode",
     "intervals",
     "matrix",
     "number",
     "numbers",
+    "read_arrays",
     "read_only",
     "same",
 ]
@@ -162,3 +169,17 @@ def read_only(values):
     array = np.array(values, dtype=np.float64)
     array.flags.writeable = False
     return array
+
+
+def arrays(result, include_arrays):
+    """The per-point arrays of ``result`` by name (those its type lists in ``ARRAYS``) for a
+    complete ``to_dict()``; none for the compact form (``include_arrays=False``)."""
+    if not include_arrays:
+        return {}
+    return {key: getattr(result, key) for key in type(result).ARRAYS}
+
+
+def read_arrays(cls, d):
+    """The per-point arrays of a ``cls`` from its ``to_dict()`` output ``d``: read-only float
+    arrays, empty where the compact form left them out."""
+    return {key: read_only(d.get(key, [])) for key in cls.ARRAYS}

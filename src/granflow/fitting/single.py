@@ -50,7 +50,16 @@ from granflow.fitting.engine import (
 )
 from granflow.fitting.parameters import split
 from granflow.fitting.profile import profile_interval
-from granflow.fitting.results import FrozenMap, decode, encode, matrix, number, read_only
+from granflow.fitting.results import (
+    FrozenMap,
+    arrays,
+    decode,
+    encode,
+    matrix,
+    number,
+    read_arrays,
+    read_only,
+)
 from granflow.fitting.statistics import (
     WALD_Z,
     FitOutcome,
@@ -85,9 +94,6 @@ def parameter_names(domain="slip"):
 
 def _frozen(mapping):
     return FrozenMap(dict(mapping))
-
-
-_ARRAYS = ("x", "data", "best_fit", "residuals", "weights")
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,6 +155,9 @@ class FitResult(FitOutcome):
     velocity: float | None
     window: tuple
     name: str | None = None
+
+    #: The per-point arrays, which the compact ``to_dict(include_arrays=False)`` leaves out.
+    ARRAYS = ("x", "data", "best_fit", "residuals", "weights")
 
     def __repr__(self):
         values = ", ".join(f"{n}={self.params[n]:.4g}" for n in self.names)
@@ -222,10 +231,8 @@ class FitResult(FitOutcome):
             "rsquared": self.rsquared,
             "velocity": self.velocity,
             "window": list(self.window),
+            **arrays(self, include_arrays),
         }
-        if include_arrays:
-            for key in _ARRAYS:
-                out[key] = getattr(self, key)
         return encode(out)
 
     @classmethod
@@ -253,7 +260,7 @@ class FitResult(FitOutcome):
             at_bound=FrozenMap(d["at_bound"]),
             nfev=d["nfev"],
             rsquared=number(d["rsquared"]),
-            **{key: read_only(d.get(key, [])) for key in _ARRAYS},
+            **read_arrays(cls, d),
             velocity=None if d["velocity"] is None else float(d["velocity"]),
             window=tuple(number(v) for v in d["window"]),
             name=d.get("name"),

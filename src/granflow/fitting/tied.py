@@ -97,9 +97,16 @@ class JointFitResult(FitOutcome):
             extra=(("domain", self.domain), ("runs", len(self.run_names))),
         )
 
-    def to_dict(self):
+    def to_dict(self, include_arrays=True):
         """JSON-safe mapping of the result (with the separate fits); :meth:`from_dict` inverts
-        it."""
+        it.
+
+        Parameters
+        ----------
+        include_arrays : bool
+            Include the points and curves of the separate fits (False: a compact summary, the
+            separate fits without their arrays, which :meth:`from_dict` rebuilds empty).
+        """
         return encode(
             {
                 "domain": self.domain,
@@ -111,7 +118,9 @@ class JointFitResult(FitOutcome):
                 "run_names": list(self.run_names),
                 "nfev": self.nfev,
                 **statistics(self),
-                "individual": [result.to_dict() for result in self.individual],
+                "individual": [
+                    result.to_dict(include_arrays=include_arrays) for result in self.individual
+                ],
             }
         )
 
