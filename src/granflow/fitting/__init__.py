@@ -3,13 +3,13 @@
 ``parameters`` (:class:`Parameter` and :class:`Parameters`, lmfit-style named parameters
 that :func:`fit`, :func:`fit_joint` and :func:`fit_creep` take as ``params=``), ``engine``
 (least squares of a :class:`Model` over named parameters, multistart), ``profile``
-(covariance and profile-likelihood intervals), ``statistics`` (the one builder of fit statistics, the fields every result shares and the
-one report, :func:`fit_report`),
+(covariance and profile-likelihood intervals), ``statistics`` (the one builder of fit
+statistics, the fields every result shares and the one report, :func:`fit_report`),
 ``results`` (equality by value and the JSON codec of every result), ``curves`` (data at the
 door, starting values), ``single`` (:func:`fit` of one curve), ``batch`` (:func:`fit_many`),
-``joint`` (tied parameters, velocity collapse,
-Amontons' law, preparation spread), ``creep``, ``compare`` (Eq. 3 against simpler laws) and
-``mcmc`` (posterior sampling with emcee). Stands on :mod:`granflow.model`.
+``joint`` (tied parameters, velocity collapse, Amontons' law, preparation spread),
+``creep``, ``compare`` (Eq. 3 against simpler laws) and ``mcmc`` (posterior sampling with
+emcee). Stands on :mod:`granflow.model`.
 """
 
 from granflow._lazy import attach
