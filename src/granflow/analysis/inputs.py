@@ -38,7 +38,7 @@ __all__ = [
 ]
 
 #: Bumped whenever a per-run result changes meaning, so older saved results are not reused.
-ANALYSIS_VERSION = 1
+ANALYSIS_VERSION = 2
 
 
 def _sha256_file(path):
