@@ -34,6 +34,18 @@ def shared_dir():
     return Path(__file__).resolve().parents[1].parent / "shared"
 
 
+def shared_data(*parts):
+    """A path under shared/data; the test skips with the reason when shared/ is missing (a
+    user's clone) and fails instead when the ``CI`` environment variable is set."""
+    path = shared_dir().joinpath("data", *parts)
+    if not path.exists():
+        reason = f"{path} is missing: the shared data folder is not beside this clone"
+        if os.environ.get("CI"):
+            pytest.fail(reason)
+        pytest.skip(reason)
+    return path
+
+
 # --------------------------------------------------------------------------- a small campaign
 
 #: Material constants of the small synthetic campaign (mu_a, mu_d [-], alpha [1/m]).

@@ -1,9 +1,7 @@
 """granflow inspect and granflow convert, in-process."""
 
-import os
-from pathlib import Path
-
 import numpy as np
+from conftest import shared_data
 
 import granflow
 from granflow.cli import main
@@ -11,9 +9,7 @@ from granflow.io import write_rheocompass
 
 
 def _shear_export():
-    beside = Path(__file__).resolve().parents[2].parent / "shared"
-    root = Path(os.environ.get("GRANFLOW_SHARED", beside))
-    return root / "data" / "instrument-exports" / "rheocompass-en-utf16-shear.txt"
+    return shared_data("instrument-exports", "rheocompass-en-utf16-shear.txt")
 
 
 def test_inspect_prints_format_columns_and_rows(capsys):

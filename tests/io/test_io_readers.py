@@ -3,28 +3,17 @@
 Expected values are copied from the files by hand (spot checks), not from the reader.
 """
 
-import os
-from pathlib import Path
-
 import numpy as np
 import pytest
+from conftest import shared_data
 
 import granflow
 from granflow.io import parse_csv, parse_rheocompass, parse_rheoplus, parse_trios
 from granflow.io._text import NumberFormat, decode, sniff_numbers
 
 
-def _exports():
-    beside = Path(__file__).resolve().parents[2].parent / "shared"
-    root = Path(os.environ.get("GRANFLOW_SHARED", beside))
-    return root / "data" / "instrument-exports"
-
-
-EXPORTS = _exports()
-
-
 def export(name):
-    return EXPORTS / name
+    return shared_data("instrument-exports", name)
 
 
 def test_utf16_shear_file_columns_units_and_values():
@@ -117,7 +106,7 @@ def test_rheoplus_series_missing_markers_and_units():
 
 
 def test_every_export_gives_runs_with_source_and_interval():
-    for path in sorted(EXPORTS.glob("*.*")):
+    for path in sorted(shared_data("instrument-exports").glob("*.*")):
         if path.suffix == ".md":
             continue
         runs = granflow.read_runs(path)
