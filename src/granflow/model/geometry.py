@@ -31,6 +31,76 @@ def _speed_factor(unit):
         raise InvalidParameterError(f"unit must be one of {known}, got {unit!r}") from None
 
 
+_SPEC_KEYS = (
+    "outer_diameter",
+    "wall_thickness",
+    "outer_radius",
+    "inner_radius",
+    "effective_radius",
+    "mean_radius",
+    "torque_radius",
+)
+
+
+def _spec_fields(spec):
+    """A geometry spec (mapping or "key=value,..." string) as a dict with known keys."""
+    if isinstance(spec, str):
+        fields = {}
+        for item in filter(None, (part.strip() for part in spec.split(","))):
+            key, sep, value = item.partition("=")
+            if not sep:
+                raise InvalidParameterError(
+                    f"geometry: expected 'paper' or key=value pairs, got {item!r} in {spec!r}"
+                )
+            fields[key.strip()] = value.strip()
+    elif hasattr(spec, "items"):
+        fields = {str(key): value for key, value in spec.items()}
+    else:
+        raise InvalidParameterError(
+            f"geometry must be 'paper', a mapping or a 'key=value,...' string, "
+            f"got {type(spec).__name__}"
+        )
+    unknown = sorted(set(fields) - set(_SPEC_KEYS))
+    if unknown:
+        raise InvalidParameterError(
+            f"geometry: unknown key {unknown[0]!r}; known: {', '.join(_SPEC_KEYS)}"
+        )
+    return fields
+
+
+def _length(value, key):
+    """A positive length [m] from a number (metres) or a string with a unit."""
+    from granflow.model.units import parse_quantity
+
+    length = parse_quantity(value, "m", f"geometry {key}")
+    if not length > 0:
+        raise InvalidParameterError(f"geometry {key} must be positive, got {value!r}")
+    return length
+
+
+def _from_radii(effective, mean, cls):
+    """The annulus whose uniform-stress radius is ``effective`` and mean radius ``mean``.
+
+    With s = R_o + R_i = 2 r_m and p = R_o R_i, r_eff = (2/3)(s^2 - p)/s gives
+    p = s^2 - (3/2) r_eff s; R_o and R_i are the roots of z^2 - s z + p.
+    """
+    if not mean <= effective < 4.0 / 3.0 * mean:
+        raise InvalidParameterError(
+            f"geometry: effective_radius {effective:g} m must lie in [mean_radius, 4/3 "
+            f"mean_radius) = [{mean:g}, {4 * mean / 3:g}) m for an annulus"
+        )
+    total = 2.0 * mean
+    product = total * total - 1.5 * effective * total
+    half_gap = math.sqrt(max(total * total / 4.0 - product, 0.0))
+    outer, inner = total / 2.0 + half_gap, total / 2.0 - half_gap
+    if half_gap == 0.0:
+        raise InvalidParameterError(
+            f"geometry: effective_radius equal to mean_radius ({mean:g} m) is a line, not "
+            "an annulus"
+        )
+    return cls(2 * outer, outer - inner)
+
+
 def _scale(value, factor, name, unit=None):
     """value * factor, keeping scalars as floats and arrays as new arrays; ``unit`` (for
     messages) defaults to the SI unit of the quantity ``name``."""
@@ -88,6 +158,65 @@ class Annulus:
     def paper(cls, torque_radius="uniform"):
         """The aluminium tube of Farain & Bonn: outer diameter 29.7 mm, wall 2.3 mm."""
         return cls(outer_diameter=29.7e-3, wall_thickness=2.3e-3, torque_radius=torque_radius)
+
+    @classmethod
+    def from_spec(cls, spec):
+        """The annulus a user describes in a manifest, on the command line or in Python.
+
+        Parameters
+        ----------
+        spec : str, mapping or Annulus
+            ``"paper"`` (:meth:`paper`); an :class:`Annulus` (returned as it is); a mapping, or
+            a string ``"key=value,key=value"``, holding one of these pairs of lengths, each a
+            number in metres or a string with its unit ("14.85 mm"):
+
+            - ``outer_diameter`` and ``wall_thickness``;
+            - ``outer_radius`` and ``inner_radius``;
+            - ``effective_radius`` (r_eff, torque to force) and ``mean_radius`` (r_m, angle
+              to slip), with r_m <= r_eff < (4/3) r_m, from which the radii of the annulus
+              with uniform shear stress follow.
+
+            ``torque_radius`` ("uniform" or "mean") may be added to the first two.
+
+        Raises
+        ------
+        granflow.InvalidParameterError
+            An unknown key, a missing or extra length, a length that is not a positive
+            length, or radii that make no annulus; the message names the key.
+
+        Examples
+        --------
+        >>> tube = Annulus.from_spec("outer_radius=14.85mm, inner_radius=12.55mm")
+        >>> round(tube.effective_radius * 1e3, 2)  # mm
+        13.73
+        """
+        if isinstance(spec, cls):
+            return spec
+        if isinstance(spec, str) and spec.strip().lower() == "paper":
+            return cls.paper()
+        fields = _spec_fields(spec)
+        torque_radius = fields.pop("torque_radius", None)
+        lengths = {key: _length(value, key) for key, value in fields.items()}
+        keys = frozenset(lengths)
+        if keys == {"outer_diameter", "wall_thickness"}:
+            return cls(torque_radius=torque_radius or "uniform", **lengths)
+        if keys == {"outer_radius", "inner_radius"}:
+            outer, inner = lengths["outer_radius"], lengths["inner_radius"]
+            if inner >= outer:
+                raise InvalidParameterError(
+                    f"geometry: inner_radius {inner:g} m must be less than outer_radius {outer:g} m"
+                )
+            return cls(2 * outer, outer - inner, torque_radius=torque_radius or "uniform")
+        if keys == {"effective_radius", "mean_radius"}:
+            if torque_radius is not None:
+                raise InvalidParameterError(
+                    "geometry: torque_radius cannot be given with effective_radius"
+                )
+            return _from_radii(lengths["effective_radius"], lengths["mean_radius"], cls)
+        raise InvalidParameterError(
+            "geometry must be 'paper' or give outer_diameter and wall_thickness, outer_radius "
+            f"and inner_radius, or effective_radius and mean_radius; got {sorted(keys)}"
+        )
 
     @property
     def outer_radius(self):

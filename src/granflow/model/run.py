@@ -49,6 +49,9 @@ class Run:
     meta : mapping
         Metadata: ``source`` (file), ``interval``, ``normal_load`` [N], ``velocity`` (nominal,
         [m/s]), ``preparation``, ``rest_time`` [s], ``sample``, and anything else found.
+    problems : tuple of str
+        Data-quality problems found while reading (a truncated block, non-finite cells, gaps,
+        dropped rows, time running backwards), one sentence each; empty when clean.
 
     Arrays are stored as read-only copies, so a Run never shares memory with the caller.
     """
@@ -59,6 +62,7 @@ class Run:
     force: np.ndarray
     control: str = "rate"
     meta: MappingProxyType = field(default_factory=dict)
+    problems: tuple = ()
 
     def __post_init__(self):
         time = _column(self.t, "t", None)
@@ -68,11 +72,12 @@ class Run:
         if self.control not in CONTROL_MODES:
             raise InvalidDataError(f"Run control must be 'rate' or 'stress', got {self.control!r}")
         object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+        object.__setattr__(self, "problems", _problems(self.problems))
 
     def __reduce__(self):
         # MappingProxyType cannot be pickled: rebuild from plain values (for process pools)
         columns = (self.t, self.slip, self.velocity, self.force)
-        return (_rebuild, (*columns, self.control, dict(self.meta)))
+        return (_rebuild, (*columns, self.control, dict(self.meta), self.problems))
 
     def __len__(self):
         return self.t.shape[0]
@@ -119,6 +124,7 @@ class Run:
                 frame[key] = value
         frame.attrs["meta"] = dict(self.meta)
         frame.attrs["units"] = dict(_UNITS)
+        frame.attrs["problems"] = list(self.problems)
         return frame
 
     @classmethod
@@ -126,7 +132,7 @@ class Run:
         """Build a Run from a frame with columns t, slip, velocity, force (missing -> NaN).
 
         ``meta`` defaults to ``frame.attrs['meta']``; the ``control`` column (if any) gives the
-        control mode.
+        control mode; ``frame.attrs['problems']`` (if any) the data-quality problems.
         """
         if "t" not in frame:
             raise InvalidDataError("a Run frame needs a 't' column [s]")
@@ -138,7 +144,8 @@ class Run:
         control = str(frame["control"].iloc[0]) if "control" in frame and length else "rate"
         if meta is None:
             meta = dict(frame.attrs.get("meta", {}))
-        return cls(control=control, meta=meta, **columns)
+        problems = tuple(frame.attrs.get("problems", ()))
+        return cls(control=control, meta=meta, problems=problems, **columns)
 
     def select(self, mask):
         """A new Run with only the points where ``mask`` is true (same metadata)."""
@@ -152,8 +159,33 @@ class Run:
             force=self.force[mask],
             control=self.control,
             meta=dict(self.meta),
+            problems=self.problems,
         )
 
 
-def _rebuild(t, slip, velocity, force, control, meta):
-    return Run(t=t, slip=slip, velocity=velocity, force=force, control=control, meta=meta)
+def _problems(problems):
+    """``problems`` as a tuple of non-empty strings."""
+    if isinstance(problems, str):
+        problems = (problems,)
+    try:
+        items = tuple(problems)
+    except TypeError:
+        raise InvalidDataError(
+            f"Run problems must be a sequence of strings, got {type(problems).__name__}"
+        ) from None
+    for item in items:
+        if not isinstance(item, str) or not item.strip():
+            raise InvalidDataError(f"Run problems must be non-empty strings, got {item!r}")
+    return items
+
+
+def _rebuild(t, slip, velocity, force, control, meta, problems):
+    return Run(
+        t=t,
+        slip=slip,
+        velocity=velocity,
+        force=force,
+        control=control,
+        meta=meta,
+        problems=problems,
+    )
