@@ -22,15 +22,17 @@ HEAVY = ("scipy", "matplotlib", "pandas", "numba", "dask", "jinja2", "pint")
 
 #: Packages the core imports inside functions only.
 OPTIONAL = ("matplotlib", "jinja2", "dask", "distributed", "emcee")
-CORE = ("model", "simulation", "fitting", "io")
+CORE = ("model", "simulation", "fitting", "io", "forecast")
 
 #: What each layer may not import at module level (model at the bottom; simulation, fitting
-#: and io on it; analysis on those; cli on top; plotting a leaf only cli imports).
+#: and io on it; forecast on model, simulation and fitting; analysis on those; cli on top;
+#: plotting a leaf only cli imports).
 FORBIDDEN = {
-    "model": ("simulation", "fitting", "io", "analysis", "cli", "plotting"),
-    "simulation": ("analysis", "cli", "plotting"),
-    "fitting": ("analysis", "cli", "plotting"),
-    "io": ("analysis", "cli", "plotting"),
+    "model": ("simulation", "fitting", "io", "forecast", "analysis", "cli", "plotting"),
+    "simulation": ("forecast", "analysis", "cli", "plotting"),
+    "fitting": ("forecast", "analysis", "cli", "plotting"),
+    "io": ("forecast", "analysis", "cli", "plotting"),
+    "forecast": ("io", "analysis", "cli", "plotting"),
     "analysis": ("cli", "plotting"),
 }
 

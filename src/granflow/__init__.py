@@ -19,6 +19,14 @@ __getattr__, __dir__, _names = attach(
     {
         "granflow.analysis": ["AnalysisResult", "analyze"],
         "granflow.io": ["Campaign", "read", "read_runs"],
+        "granflow.forecast": [
+            "BaselineForecast",
+            "FailureForecast",
+            "PeakForecast",
+            "RunningForecast",
+            "forecast_failure",
+            "forecast_peak",
+        ],
         "granflow.errors": [
             "ConvergenceWarning",
             "FileFormatError",

@@ -15,6 +15,7 @@ import granflow
 from granflow.cli.campaign import add_analyze, add_demo
 from granflow.cli.curve import add_curve
 from granflow.cli.data import add_convert, add_fit, add_inspect
+from granflow.cli.forecast import add_forecast
 from granflow.cli.simulation import add_simulate, add_stability_map
 from granflow.errors import GranflowError
 
@@ -49,6 +50,7 @@ def build_parser():
         add_stability_map,
         add_analyze,
         add_demo,
+        add_forecast,
     ):
         add(subparsers)
     return parser

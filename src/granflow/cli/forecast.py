@@ -1,0 +1,42 @@
+"""``granflow forecast``: the peak of a rate-controlled start-up, or the failure of a
+force-controlled run, forecast from the record up to a cut time."""
+
+import granflow
+from granflow.cli._common import add_command, quantity
+
+__all__ = ["add_forecast"]
+
+_EPILOG = """examples:
+  granflow forecast ramp.txt --until 120s       (a stress ramp: when will it fail?)
+  granflow forecast startup.txt --until 15s     (a start-up: where is its peak?)
+Each interval of the file is forecast: rate control gives the peak forecast, force control
+the failure forecast."""
+
+
+def add_forecast(subparsers):
+    """Add the ``forecast`` command."""
+    parser = add_command(
+        subparsers,
+        "forecast",
+        _run_forecast,
+        help="forecast the peak (rate control) or the failure (force control) of a run",
+        description="Forecast, from the record up to --until, the static yield of a start-up or "
+        "the failure time and force of a force-controlled run, with 90 %% intervals.",
+        epilog=_EPILOG,
+    )
+    parser.add_argument("file", help="an instrument export or a CSV of t, slip, force")
+    parser.add_argument("--until", help="the cut time (default: the whole record), e.g. 120s [s]")
+    parser.add_argument("--format", choices=("rheocompass", "rheoplus", "trios", "csv"))
+
+
+def _run_forecast(args):
+    until = quantity(args.until, "t", "--until") if args.until else None
+    runs = granflow.read_runs(args.file, format=args.format)
+    for run in runs:
+        if run.control == "rate":
+            result = granflow.forecast_peak(run, until=until)
+        else:
+            result = granflow.forecast_failure(run.t, run.slip, run.force, until=until)
+        print(f"{run.name}:")
+        print(result.report())
+    return 0

@@ -1,0 +1,46 @@
+"""Checks at the door of every forecast: finite columns, increasing time, enough points."""
+
+import math
+
+import numpy as np
+
+from granflow import _validate as check
+from granflow.errors import InvalidDataError
+
+MIN_POINTS = 12
+
+
+def column(values, name, unit, length=None):
+    """A finite float copy of one column; names the first bad index."""
+    array = np.array(check.float_array(values, name, unit), dtype=float).ravel()
+    if length is not None and array.size != length:
+        raise InvalidDataError(f"{name} has {array.size} values, but t has {length}")
+    bad = np.flatnonzero(~np.isfinite(array))
+    if bad.size:
+        raise InvalidDataError(
+            f"{name} must be finite, got {array[bad[0]]} {unit} at index {bad[0]}"
+        )
+    return array
+
+
+def record(t, columns, until):
+    """(t, columns, until) cut at ``until``: t strictly increasing and at least MIN_POINTS
+    points up to the cut; ``columns`` maps name -> (values, unit)."""
+    time = column(t, "t", "s")
+    values = {name: column(v, name, unit, time.size) for name, (v, unit) in columns.items()}
+    steps = np.diff(time)
+    if np.any(steps <= 0):
+        where = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise InvalidDataError(
+            f"t must increase strictly: t[{where}] = {time[where]:g} s follows "
+            f"t[{where - 1}] = {time[where - 1]:g} s"
+        )
+    until = time[-1] if until is None else check.real_scalar(until, "until", "s")
+    keep = time <= until * (1 + 1e-12) + (0.0 if until else 1e-300)
+    if int(np.count_nonzero(keep)) < MIN_POINTS:
+        raise InvalidDataError(
+            f"too short: {int(np.count_nonzero(keep))} points up to until = {until:g} s, "
+            f"a forecast needs at least {MIN_POINTS}"
+        )
+    cut = {name: v[keep] for name, v in values.items()}
+    return time[keep], cut, float(min(until, time[-1]) if math.isfinite(until) else time[-1])

@@ -1,0 +1,96 @@
+"""The calibration study of the failure forecasts: simulated ramps and staircases from several
+parameter sets with slip noise, cut at lead times of 50 %, 25 % and 10 % of the time to
+failure; for each method the median absolute error of t_f and the coverage of its intervals.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow.forecast.baselines import inverse_velocity_forecast, voight_forecast
+from granflow.forecast.failure import forecast_failure
+from granflow.forecast.synthetic import ramp_record, staircase_record
+from granflow.model.friction import peak
+from granflow.model.params import Params
+
+__all__ = ["LEADS", "PARAMETER_SETS", "calibrate", "one_seed", "summarise"]
+
+LEADS = (0.5, 0.25, 0.1)
+#: (a [N], alpha [1/m], Fd [N], x0 [m]): the demo's tube at 55 mN, a heavier and a lighter one.
+PARAMETER_SETS = (
+    (3.3e-3, 5.0e4, 11.0e-3, 0.3e-6),
+    (6.0e-3, 7.0e4, 20.0e-3, 0.5e-6),
+    (1.5e-3, 3.5e4, 5.0e-3, 0.2e-6),
+)
+SLIP_NOISE = (2e-9, 10e-9)  # m
+FORCE_NOISE = 3e-5  # N
+METHODS = ("model", "inverse velocity", "voight")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One forecast of the study: protocol, lead, method, error [s] and whether the interval
+    covered the truth."""
+
+    protocol: str
+    lead: float
+    method: str
+    error: float
+    covered: bool
+
+
+def _record(seed, protocol):
+    rng = np.random.default_rng(seed)
+    params = Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])
+    noise = SLIP_NOISE[(seed // len(PARAMETER_SETS)) % len(SLIP_NOISE)]
+    strength = peak(params).force
+    failure_time = float(rng.uniform(150.0, 300.0))
+    if protocol == "ramp":
+        rate = strength / failure_time
+        return ramp_record(params, rate, noise=noise, force_noise=FORCE_NOISE, seed=seed)
+    steps = int(rng.integers(10, 16))
+    step = strength / (steps - 0.5)
+    duration = failure_time / steps
+    return staircase_record(params, step, duration, noise=noise, force_noise=FORCE_NOISE, seed=seed)
+
+
+def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
+    """The outcomes of every method at every lead on the records of one seed."""
+    out = []
+    for protocol in protocols:
+        t, slip, force, truth = _record(seed, protocol)
+        for lead in leads:
+            until = (1.0 - lead) * truth
+            forecasts = {
+                "model": forecast_failure(t, slip, force, until=until),
+                "inverse velocity": inverse_velocity_forecast(t, slip, until=until),
+                "voight": voight_forecast(t, slip, until=until),
+            }
+            for method, fc in forecasts.items():
+                time = math.inf if fc.time is None else fc.time
+                low, high = fc.time_interval
+                covered = bool(low <= truth <= high) if fc.time is not None else False
+                out.append(Outcome(protocol, lead, method, abs(time - truth), covered))
+    return out
+
+
+def calibrate(seeds, protocols=("ramp", "steps"), leads=LEADS, executor=None):
+    """Outcomes over ``seeds`` (a process pool's ``map`` when ``executor`` is given)."""
+    mapper = map if executor is None else executor.map
+    return [item for chunk in mapper(one_seed, seeds) for item in chunk]
+
+
+def summarise(outcomes):
+    """{(protocol, lead, method): (median absolute error [s], coverage [-], count)}."""
+    table = {}
+    keys = sorted({(o.protocol, o.lead, o.method) for o in outcomes}, key=str)
+    for key in keys:
+        chosen = [o for o in outcomes if (o.protocol, o.lead, o.method) == key]
+        errors = np.array([o.error for o in chosen])
+        table[key] = (
+            float(np.median(errors)),
+            float(np.mean([o.covered for o in chosen])),
+            len(chosen),
+        )
+    return table

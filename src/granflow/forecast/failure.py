@@ -1,0 +1,176 @@
+"""Forecast the failure of a force-controlled layer from its slow slip (quasi-static, slip
+clock): the slip record before the cut constrains a, alpha, x0 and F_peak on the rising
+branch, and the layer fails when the continued force history reaches F_peak."""
+
+import math
+
+import numpy as np
+
+from granflow import _validate as check
+from granflow.errors import InvalidDataError
+from granflow.forecast import _inputs
+from granflow.forecast.branch import branch_slip
+from granflow.forecast.likelihood import Likelihood, fit_and_profile
+from granflow.forecast.loading import fit_loading
+from granflow.forecast.prior import Prior
+from granflow.forecast.results import FailureForecast
+
+__all__ = ["forecast_failure"]
+
+_NAN_PAIR = (math.nan, math.nan)
+
+
+def _no_date(until, level, loading, n_points, message, prior):
+    return FailureForecast(
+        time=None,
+        time_interval=_NAN_PAIR,
+        force=None,
+        force_interval=_NAN_PAIR,
+        slip=None,
+        slip_interval=_NAN_PAIR,
+        until=until,
+        level=level,
+        loading=loading,
+        params={},
+        noise=math.nan,
+        n_points=n_points,
+        approaching=False,
+        prior=None if prior is None else prior.to_dict(),
+        message=message,
+    )
+
+
+def _starts(held, slip, floor):
+    """Starting values (a, alpha, x0, F_peak) over a small grid of x0, alpha and F_peak."""
+    total = max(float(np.max(slip)), 1e-12)
+    moving = slip > 0.02 * total
+    starts = []
+    for x0 in (0.05 * total, 0.2 * total, total):
+        x = x0 + slip[moving]
+        a = float(np.polyfit(np.log(x), held[moving], 1)[0]) if moving.sum() > 2 else floor
+        a = min(max(a, 1e-3 * floor), 10.0 * floor)
+        for alpha in (0.3 / total, 1.0 / total, 3.0 / total):
+            for factor in (1.05, 1.3, 2.0):
+                starts.append((a, alpha, x0, floor * factor))
+    return tuple(starts), total
+
+
+def _check_prior(prior):
+    if prior is None or isinstance(prior, Prior):
+        return prior
+    if isinstance(prior, dict):
+        return Prior(**prior)
+    raise InvalidDataError(f"prior must be a granflow.forecast.Prior or a mapping, got {prior!r}")
+
+
+def forecast_failure(t, slip, force, until=None, *, prior=None, level=0.9, noise=None):
+    """Forecast when a layer under a rising imposed force fails, from its slip before ``until``.
+
+    Quasi-static with the slip clock (SPEC §2): the layer creeps up the rising branch of F(x),
+    ``x0 + slip(t) = F^-1(sigma(t))``, and fails when the imposed force sigma reaches F_peak.
+    The force history is read from ``force`` (a ramp's line, or a staircase's levels) and
+    continued beyond the cut. The interval is the profile likelihood's for F_peak (the other
+    parameters re-fitted at each F_peak), mapped to the failure time through the history.
+
+    Parameters
+    ----------
+    t : array_like
+        Record time [s], 0 when loading starts, strictly increasing.
+    slip : array_like
+        Record slip (displacement) [m], 0 at the start (the model's x = x0 + slip).
+    force : array_like
+        Imposed force at ``t`` [N].
+    until : float, optional
+        The cut [s]: only points with ``t <= until`` are used; default the whole record.
+    prior : Prior or mapping, optional
+        Gaussian priors on a, alpha, Fd from other runs (:class:`~granflow.forecast.Prior`).
+    level : float
+        Level of the predictive intervals [-]; default 0.9.
+    noise : float, optional
+        Slip noise standard deviation [m]; default estimated from the fit's residuals.
+
+    Returns
+    -------
+    FailureForecast
+        ``time``, ``time_interval`` [s], ``force``, ``force_interval`` [N], ``slip`` [m] ...;
+        ``time`` is None with a ``message`` when the record shows no approaching failure.
+
+    Raises
+    ------
+    granflow.InvalidDataError
+        Non-finite values, time not increasing, or fewer than 12 points up to the cut.
+
+    Examples
+    --------
+    >>> import numpy as np, granflow as gf
+    >>> from granflow.forecast.synthetic import ramp_record
+    >>> p = gf.Params(a=3.3e-3, alpha=5e4, Fd=11e-3, x0=0.3e-6)
+    >>> t, slip, force, truth = ramp_record(p, rate=0.065e-3, noise=2e-9, seed=1)
+    >>> ff = gf.forecast_failure(t, slip, force, until=0.9 * truth)
+    >>> bool(ff.time_interval[0] <= truth <= ff.time_interval[1])
+    True
+    """
+    level = check.real_scalar(level, "level")
+    if not 0 < level < 1:
+        raise InvalidDataError(f"level must lie between 0 and 1, got {level:g}")
+    prior = _check_prior(prior)
+    time, cut, until = _inputs.record(t, {"slip": (slip, "m"), "force": (force, "N")}, until)
+    if noise is not None:
+        noise = check.positive(noise, "noise", "m")
+    loading = fit_loading(time, cut["force"])
+    if loading.rate <= 0:
+        message = "the imposed force does not rise, so it never reaches the peak"
+        return _no_date(until, level, loading, time.size, message, prior)
+    held = np.maximum.accumulate(loading.force(time))
+    slip_cut = cut["slip"]
+    spread = 1.4826 * float(np.median(np.abs(np.diff(slip_cut)))) + 1e-300
+    if float(np.ptp(slip_cut)) < 10.0 * spread:
+        message = "the layer has not slipped beyond the noise: no sign of approaching failure"
+        return _no_date(until, level, loading, time.size, message, prior)
+    floor = float(held[-1])
+    starts, total = _starts(held, np.maximum(slip_cut, 0.0), floor)
+
+    def residuals(params, s_peak):
+        return slip_cut - (branch_slip(held, params, s_peak) - params.x0)
+
+    likelihood = Likelihood(
+        residuals=residuals,
+        floor=floor,
+        starts=starts,
+        bounds=((1e-4 * floor, 1e-3 / total, 1e-6 * total), (100 * floor, 1e3 / total, 10 * total)),
+        size=time.size,
+        prior=None if prior is None else prior.residuals,
+        prior_size=0 if prior is None else len(prior.names),
+        noise=noise,
+    )
+    fit = fit_and_profile(likelihood, level)
+    low, high = fit.interval
+    message = ""
+    if math.isinf(high):
+        message = "the record does not yet bound the failure from above"
+    if fit.peak_force > 0.99 * 20.0 * floor:
+        message = "the fitted peak lies beyond any plausible load: no sign of approaching failure"
+        return _no_date(until, level, loading, time.size, message, prior)
+    params = fit.params
+    from granflow.model.friction import peak
+
+    def rise(p):
+        return peak(p).slip - p.x0
+
+    return FailureForecast(
+        time=loading.time_at(fit.peak_force),
+        time_interval=(loading.time_at(low), loading.time_at(high)),
+        force=fit.peak_force,
+        force_interval=fit.interval,
+        slip=rise(params),
+        slip_interval=fit.along(rise),
+        until=until,
+        level=level,
+        loading=loading,
+        params={"a": params.a, "alpha": params.alpha, "Fd": params.Fd, "x0": params.x0},
+        noise=fit.noise,
+        n_points=time.size,
+        approaching=True,
+        prior=None if prior is None else prior.to_dict(),
+        message=message,
+    )

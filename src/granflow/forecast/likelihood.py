@@ -1,0 +1,324 @@
+"""The likelihood of a forecast and its profile over the peak force F_peak.
+
+A forecast fits Eq. 3's four parameters to the record before the cut, written as
+``(ln a, ln alpha, ln x0, ln(F_peak - floor))``: the peak force is a parameter, and Fd follows
+from it in closed form along the peak condition. With s = alpha x, s0 = alpha x0 and
+G(s) = exp(-s) [Ei(s) - Ei(s0)], the paper's curve is ``F = Fd (1 - exp(-s)) + a G(s)``; its
+peak s_p solves ``Fd = a exp(s_p) (G(s_p) - 1/s_p)`` and ``F_peak = Fd + a / s_p``, and
+``dF_peak/ds_p = a (exp(s_p) - 1) / s_p^2 > 0``, so one bracketed root gives s_p (and Fd)
+from F_peak. ``floor`` is the largest force the layer is known to have held (0 for a
+start-up), so every parameter vector respects it.
+
+The interval of F_peak is the profile likelihood's: the set of F_peak whose best fit over the
+other three parameters is within ``chi2_1(level)`` of the best fit, in units of the noise
+variance. Derived quantities (the peak slip, the time of failure) are carried along the
+profile path, not linearised at the best fit.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq, least_squares
+from scipy.stats import chi2
+
+from granflow.errors import FitError
+from granflow.model.params import Params
+from granflow.model.special import scaled_ei_diff_scalar, scaled_ei_scalar
+
+__all__ = ["Fit", "Likelihood", "fit_and_profile", "params_from_peak"]
+
+_LARGEST_S = 600.0  # exp(s) stays finite
+_PROFILE_STEPS = 14  # per side
+_BISECTIONS = 3
+
+
+def _excess(s, s0, scaled_ei_s0):
+    """G(s) - 1/s, with G(s) = exp(-s) (Ei(s) - Ei(s0))."""
+    return scaled_ei_diff_scalar(s, s0, scaled_ei_s0, math.exp(s0 - s)) - 1.0 / s
+
+
+def params_from_peak(a, alpha, x0, peak_force):
+    """The parameters whose curve peaks at ``peak_force``, and the peak's dimensionless slip.
+
+    Parameters
+    ----------
+    a : float
+        Aging amplitude [N].
+    alpha : float
+        Rejuvenation constant [1/m].
+    x0 : float
+        Initial state [m].
+    peak_force : float
+        The peak force F_peak [N].
+
+    Returns
+    -------
+    tuple of (Params, float) or None
+        ``(params, alpha x_peak)``, or None when no Fd >= 0 gives that peak (F_peak below the
+        peak of the Fd = 0 curve, or absurdly far above a).
+    """
+    s0 = alpha * x0
+    scaled_ei_s0 = scaled_ei_scalar(s0)
+
+    def gap(s):
+        return a * math.exp(s) * _excess(s, s0, scaled_ei_s0) + a / s - peak_force
+
+    low = s0 * (1.0 + 1e-9)
+    if gap(low) >= 0 or gap(_LARGEST_S) <= 0:
+        return None
+    s_peak = brentq(gap, low, _LARGEST_S, xtol=1e-13, rtol=1e-13)
+    fd = a * math.exp(s_peak) * _excess(s_peak, s0, scaled_ei_s0)
+    if not fd >= 0:
+        return None
+    return Params(a=a, alpha=alpha, Fd=fd, x0=x0), s_peak
+
+
+@dataclass(frozen=True)
+class Likelihood:
+    """What a forecast fits: residuals of a record against the model, and an optional prior.
+
+    Parameters
+    ----------
+    residuals : callable
+        ``residuals(params, s_peak) -> ndarray``: data minus model in the data's unit.
+    floor : float
+        F_peak is above it [N]: the largest force held (failure), or 0 (start-up).
+    starts : sequence of tuple
+        Starting values ``(a, alpha, x0, peak_force)`` in SI units.
+    bounds : tuple of (tuple, tuple)
+        Lower and upper bounds of ``(a, alpha, x0)`` [N, 1/m, m].
+    size : int
+        Number of data residuals.
+    prior : callable, optional
+        ``prior(params) -> ndarray`` of ``prior_size`` standardised prior residuals
+        (value - mean) / stderr.
+    prior_size : int
+        Number of prior residuals.
+    noise : float, optional
+        Noise standard deviation in the data's unit; default estimated from the best fit.
+    """
+
+    residuals: object
+    floor: float
+    starts: tuple
+    bounds: tuple
+    size: int
+    prior: object = None
+    prior_size: int = 0
+    noise: float | None = None
+
+    def curve(self, u):
+        """(Params, s_peak) at internal vector u, or None where infeasible."""
+        a, alpha, x0 = np.exp(u[:3])
+        return params_from_peak(float(a), float(alpha), float(x0), self.floor + math.exp(u[3]))
+
+    def vector(self, u, noise, with_prior):
+        """The standardised residual vector at u (large and flat where u is infeasible)."""
+        curve = self.curve(u)
+        size = self.size + (self.prior_size if with_prior else 0)
+        if curve is None:
+            return np.full(size, 1e6)
+        out = self.residuals(*curve) / noise
+        if with_prior:
+            out = np.concatenate([out, self.prior(curve[0])])
+        return np.where(np.isfinite(out), out, 1e6)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A best fit and its profile over F_peak.
+
+    Attributes
+    ----------
+    params : Params
+        Best-fit parameters.
+    peak_force : float
+        Best-fit F_peak [N].
+    chisqr : float
+        Best standardised sum of squares [-].
+    noise : float
+        Noise standard deviation used [data unit].
+    path : tuple of (float, float, Params)
+        Profile points ``(F_peak, delta chi-square, params)``, sorted by F_peak.
+    interval : tuple of float
+        F_peak interval (low, high) [N]; high is inf where the record does not bound it.
+    threshold : float
+        The delta chi-square of the interval's level [-].
+    """
+
+    params: Params
+    peak_force: float
+    chisqr: float
+    noise: float
+    path: tuple
+    interval: tuple
+    threshold: float
+
+    def along(self, quantity):
+        """(low, high) of ``quantity(params)`` over the profile path inside the interval."""
+        inside = [quantity(p) for q, d, p in self.path if d <= self.threshold]
+        inside.append(quantity(self.params))
+        low, high = min(inside), max(inside)
+        if math.isinf(self.interval[1]):
+            high = math.inf
+        return (float(low), float(high))
+
+
+def _bounds(likelihood):
+    lower, upper = likelihood.bounds
+    return np.log(lower), np.log(upper)
+
+
+def _solve(likelihood, u, noise, with_prior, fixed=None):
+    """Least squares from u; with ``fixed`` the last coordinate is held at that value."""
+    low, high = _bounds(likelihood)
+    if fixed is None:
+        low, high = np.append(low, -60.0), np.append(high, 20.0)
+        start = np.clip(u, low + 1e-9, high - 1e-9)
+        result = least_squares(
+            lambda v: likelihood.vector(v, noise, with_prior),
+            start,
+            bounds=(low, high),
+            x_scale=1.0,
+            max_nfev=300,
+        )
+        return result.x, 2 * result.cost
+
+    def fun(v):
+        return likelihood.vector(np.append(v, fixed), noise, with_prior)
+
+    start = np.clip(u[:3], low + 1e-9, high - 1e-9)
+    result = least_squares(fun, start, bounds=(low, high), max_nfev=200)
+    return np.append(result.x, fixed), 2 * result.cost
+
+
+def _internal(likelihood, start):
+    a, alpha, x0, peak_force = start
+    gap = max(peak_force - likelihood.floor, 1e-12 * max(abs(peak_force), 1e-12))
+    return np.log([a, alpha, x0, gap])
+
+
+def _best(likelihood, noise, with_prior):
+    scored = []
+    for start in likelihood.starts:
+        u = _internal(likelihood, start)
+        value = likelihood.vector(u, noise, with_prior)
+        scored.append((float(value @ value), tuple(u)))
+    scored.sort()
+    fits = [_solve(likelihood, np.array(u), noise, with_prior) for _, u in scored[:3]]
+    return min(fits, key=lambda item: item[1])
+
+
+def _stderr_last(likelihood, u, noise, with_prior):
+    """Standard error of the last internal coordinate from the Gauss-Newton Hessian (a step
+    size for the profile search only)."""
+    step = 1e-4
+    base = likelihood.vector(u, noise, with_prior)
+    jac = np.empty((base.size, u.size))
+    for k in range(u.size):
+        shifted = u.copy()
+        shifted[k] += step
+        jac[:, k] = (likelihood.vector(shifted, noise, with_prior) - base) / step
+    try:
+        cov = np.linalg.pinv(jac.T @ jac)
+        return float(min(max(math.sqrt(max(cov[-1, -1], 0.0)), 0.02), 0.5))
+    except np.linalg.LinAlgError:
+        return 0.5
+
+
+def _side(likelihood, u_best, chisqr, noise, with_prior, direction, step, threshold, limit):
+    """Profile points one side of the best fit: (list of (u4, delta, u), bounded)."""
+    points, u = [], u_best
+    last = u_best[3]
+    for _ in range(_PROFILE_STEPS):
+        target = last + direction * step
+        if direction * (target - limit) > 0:
+            return points, False
+        u, value = _solve(likelihood, u, noise, with_prior, fixed=target)
+        delta = max(value - chisqr, 0.0)
+        points.append((target, delta, u))
+        if delta > threshold:
+            return points, True
+        last, step = target, step * 1.6
+    return points, False
+
+
+def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
+    """The internal coordinate where the profile crosses the threshold: bisection between the
+    last point inside and the first outside (warm-started), then linear interpolation."""
+    inside = (best[3], 0.0, best)
+    for point in points:
+        if point[1] > threshold:
+            outside = point
+            break
+        inside = point
+    for _ in range(_BISECTIONS):
+        middle = 0.5 * (inside[0] + outside[0])
+        u, value = _solve(likelihood, inside[2], noise, with_prior, fixed=middle)
+        point = (middle, max(value - chisqr, 0.0), u)
+        points.append(point)
+        if point[1] > threshold:
+            outside = point
+        else:
+            inside = point
+    (u_a, d_a, _), (u_b, d_b, _) = inside, outside
+    return u_a + (threshold - d_a) * (u_b - u_a) / (d_b - d_a)
+
+
+def fit_and_profile(likelihood, level=0.9):
+    """The best fit of ``likelihood`` and the profile-likelihood interval of F_peak.
+
+    Parameters
+    ----------
+    likelihood : Likelihood
+        The record's residuals, the floor of F_peak, starts, bounds and prior.
+    level : float
+        Confidence level of the interval (0.9: 90 %).
+
+    Returns
+    -------
+    Fit
+    """
+    threshold = float(chi2.ppf(level, 1))
+    noise = likelihood.noise
+    if noise is None:
+        u, value = _best(likelihood, 1.0, False)
+        dof = max(likelihood.size - 4, 1)
+        noise = max(math.sqrt(value / dof), 1e-300)
+    with_prior = likelihood.prior is not None
+    u_best, chisqr = _best(likelihood, noise, with_prior)
+    curve = likelihood.curve(u_best)
+    if curve is None:
+        raise FitError("the forecast fit found no curve with a peak above the largest force")
+    step = _stderr_last(likelihood, u_best, noise, with_prior)
+    scale = max(likelihood.floor, 1e-30)
+    upper_limit = math.log(20.0 * scale) if likelihood.floor > 0 else u_best[3] + 3.0
+    up, bounded_up = _side(
+        likelihood, u_best, chisqr, noise, with_prior, 1.0, step, threshold, upper_limit
+    )
+    down, bounded_down = _side(
+        likelihood, u_best, chisqr, noise, with_prior, -1.0, step, threshold, u_best[3] - 12.0
+    )
+    high = math.inf
+    crossing = (likelihood, u_best, chisqr, noise, with_prior, threshold)
+    if bounded_up:
+        high = likelihood.floor + math.exp(_crossing(likelihood, up, *crossing[1:]))
+    low = likelihood.floor
+    if bounded_down:
+        low = likelihood.floor + math.exp(_crossing(likelihood, down, *crossing[1:]))
+    path = []
+    for u4, delta, u in down + up:
+        found = likelihood.curve(u)
+        if found is not None:
+            path.append((likelihood.floor + math.exp(u4), delta, found[0]))
+    path.sort(key=lambda item: item[0])
+    return Fit(
+        params=curve[0],
+        peak_force=likelihood.floor + math.exp(u_best[3]),
+        chisqr=float(chisqr),
+        noise=float(noise),
+        path=tuple(path),
+        interval=(float(low), float(high)),
+        threshold=threshold,
+    )

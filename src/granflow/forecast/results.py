@@ -1,0 +1,355 @@
+"""The frozen results of a forecast: each with ``to_dict``/``from_dict`` and ``report()``.
+
+Clocks (the one-clock rule): a peak forecast's ``time`` is the start-up's record time (the
+model's t, 0 when shearing starts) and its ``slip`` the slip since the start of shear, which
+is the model's x = v t. A failure forecast's ``time`` is the force-controlled record's time
+(0 when loading starts) and its ``slip`` the record's slip (0 at the start; the model's
+coordinate is x = x0 + slip).
+"""
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow.fitting.results import decode, encode
+from granflow.forecast.loading import Loading
+
+__all__ = ["BaselineForecast", "FailureForecast", "PeakForecast", "RunningForecast"]
+
+PEAK_CLOCK = "start-up: record time = model t; slip since the start of shear = model x = v t"
+FAILURE_CLOCK = "force control from rest: record time from 0; record slip = x - x0 (slip clock)"
+
+
+def _interval(pair):
+    return tuple(math.nan if v is None else float(v) for v in pair)
+
+
+def _optional(value):
+    return None if value is None else float(value)
+
+
+def _fmt(value, scale, unit, digits=4):
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "n/a"
+    return f"{value * scale:.{digits}g} {unit}"
+
+
+def _fmt_interval(pair, scale, unit):
+    return f"[{_fmt(pair[0], scale, '')}, {_fmt(pair[1], scale, '')}] {unit}"
+
+
+class _Codec:
+    """to_dict/from_dict of a flat frozen dataclass of floats, pairs, strings and dicts."""
+
+    def to_dict(self):
+        """JSON-safe mapping (SI units; infinities kept, see granflow.fitting.results)."""
+        out = {}
+        for item in dataclasses.fields(self):
+            value = getattr(self, item.name)
+            if hasattr(value, "to_dict"):
+                value = value.to_dict()
+            elif isinstance(value, tuple):
+                value = list(value)
+            out[item.name] = value
+        return encode(out)
+
+    @classmethod
+    def from_dict(cls, d):
+        """Inverse of :meth:`to_dict`."""
+        d = decode(d, cls)
+        values = {}
+        for item in dataclasses.fields(cls):
+            value = d.get(item.name)
+            if item.name.endswith("_interval"):
+                value = _interval(value)
+            elif item.name == "loading" and value is not None:
+                value = Loading.from_dict(value)
+            elif item.name == "params":
+                value = dict(value or {})
+            elif isinstance(value, float | int) and not isinstance(value, bool):
+                value = float(value) if item.type != "int" else int(value)
+            values[item.name] = value
+        return cls(**values)
+
+
+@dataclass(frozen=True)
+class PeakForecast(_Codec):
+    """The static yield of a rate-controlled start-up, forecast from its beginning.
+
+    Attributes
+    ----------
+    force, force_interval : float, tuple
+        Peak force F_peak and its predictive interval [N].
+    slip, slip_interval : float, tuple
+        Slip at the peak since the start of shear (the model's x_peak) and interval [m].
+    time, time_interval : float, tuple
+        Time of the peak on the record's clock and interval [s].
+    velocity : float
+        The start-up's velocity [m/s].
+    until : float
+        The cut: the last record time used [s].
+    level : float
+        Level of the intervals [-] (0.9: 90 %).
+    params : dict
+        Best-fit a [N], alpha [1/m], Fd [N], x0 [m].
+    noise : float
+        Force noise standard deviation used [N].
+    n_points : int
+        Points fitted.
+    prior : dict or None
+        The prior used (:meth:`Prior.to_dict`), if any.
+    message : str
+        What limits the forecast, or "".
+    """
+
+    force: float
+    force_interval: tuple
+    slip: float
+    slip_interval: tuple
+    time: float
+    time_interval: tuple
+    velocity: float
+    until: float
+    level: float
+    params: dict
+    noise: float
+    n_points: int
+    prior: dict | None = None
+    message: str = ""
+    clock: str = PEAK_CLOCK
+
+    def __repr__(self):
+        return (
+            f"PeakForecast(force={self.force:.5g} N {self.force_interval}, "
+            f"time={self.time:.4g} s, until={self.until:.4g} s)"
+        )
+
+    def report(self):
+        """A short text report in display units (mN, um, s)."""
+        pct = f"{self.level:.0%}"
+        lines = [
+            f"[[Peak forecast]] from the start-up up to t = {self.until:.4g} s "
+            f"({self.n_points} points, v = {self.velocity * 1e6:.4g} um/s)",
+            f"    F_peak = {_fmt(self.force, 1e3, 'mN')}  {pct}: "
+            f"{_fmt_interval(self.force_interval, 1e3, 'mN')}",
+            f"    x_peak = {_fmt(self.slip, 1e6, 'um')}  {pct}: "
+            f"{_fmt_interval(self.slip_interval, 1e6, 'um')}",
+            f"    t_peak = {_fmt(self.time, 1, 's')}  {pct}: "
+            f"{_fmt_interval(self.time_interval, 1, 's')}",
+            f"    prior: {self.prior or 'none'}; clock: {self.clock}",
+        ]
+        if self.message:
+            lines.append(f"    note: {self.message}")
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class FailureForecast(_Codec):
+    """The failure of a force-controlled layer, forecast from its slow slip.
+
+    Attributes
+    ----------
+    time, time_interval : float or None, tuple
+        Failure time on the record's clock and its predictive interval [s]; None (and an
+        interval of NaN) when the record shows no sign of approaching failure.
+    force, force_interval : float or None, tuple
+        Failure strength F_peak and its interval [N] (under a staircase the step that breaks
+        the layer is at or above it).
+    slip, slip_interval : float or None, tuple
+        Record slip at failure (x_peak - x0) and its interval [m].
+    until : float
+        The cut: the last record time used [s].
+    level : float
+        Level of the intervals [-].
+    loading : Loading
+        The imposed force history read from the record and its continuation.
+    params : dict
+        Best-fit a [N], alpha [1/m], Fd [N], x0 [m] (empty without a fit).
+    noise : float
+        Slip noise standard deviation used [m] (NaN without a fit).
+    n_points : int
+        Points fitted.
+    approaching : bool
+        Whether the record shows failure approaching (False: ``time`` is None).
+    prior : dict or None
+        The prior used, if any.
+    message : str
+        Why there is no date, or what limits the forecast; "" otherwise.
+    """
+
+    time: float | None
+    time_interval: tuple
+    force: float | None
+    force_interval: tuple
+    slip: float | None
+    slip_interval: tuple
+    until: float
+    level: float
+    loading: Loading
+    params: dict
+    noise: float
+    n_points: int
+    approaching: bool
+    prior: dict | None = None
+    message: str = ""
+    method: str = "model"
+    clock: str = FAILURE_CLOCK
+
+    def __repr__(self):
+        when = "no failure in sight" if self.time is None else f"time={self.time:.5g} s"
+        return f"FailureForecast({when}, interval={self.time_interval}, until={self.until:.4g} s)"
+
+    def report(self):
+        """A short text report in display units (mN, um, s)."""
+        pct = f"{self.level:.0%}"
+        lines = [
+            f"[[Failure forecast]] ({self.method}) from the record up to t = {self.until:.4g} s "
+            f"({self.n_points} points, loading: {self.loading.kind})",
+        ]
+        if self.time is None:
+            lines.append(f"    no failure forecast: {self.message}")
+            return "\n".join(lines)
+        lines += [
+            f"    t_f = {_fmt(self.time, 1, 's')}  {pct}: "
+            f"{_fmt_interval(self.time_interval, 1, 's')}",
+            f"    F_f = {_fmt(self.force, 1e3, 'mN')}  {pct}: "
+            f"{_fmt_interval(self.force_interval, 1e3, 'mN')}",
+            f"    slip at failure = {_fmt(self.slip, 1e6, 'um')}  {pct}: "
+            f"{_fmt_interval(self.slip_interval, 1e6, 'um')}",
+            f"    prior: {self.prior or 'none'}; clock: {self.clock}",
+        ]
+        if self.message:
+            lines.append(f"    note: {self.message}")
+        return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class BaselineForecast(_Codec):
+    """A failure time from the slip rate alone (inverse velocity or Voight's law).
+
+    Attributes
+    ----------
+    method : str
+        "inverse velocity" (Fukuzono: 1/v linear in time) or "voight" (dv/dt = A v^alpha).
+    time, time_interval : float or None, tuple
+        Failure time [s] on the record's clock and its interval (from the regression's
+        uncertainty); None when 1/v does not fall.
+    until : float
+        The cut [s].
+    level : float
+        Level of the interval [-].
+    exponent : float
+        Voight's alpha [-] (2 for the inverse-velocity method's straight line).
+    n_points : int
+        Velocity points used.
+    approaching : bool
+        Whether 1/v falls towards zero.
+    message : str
+        Why there is no date; "" otherwise.
+    """
+
+    method: str
+    time: float | None
+    time_interval: tuple
+    until: float
+    level: float
+    exponent: float
+    n_points: int
+    approaching: bool
+    message: str = ""
+
+    def report(self):
+        """One line."""
+        if self.time is None:
+            return f"[[{self.method}]] no failure forecast: {self.message}"
+        return (
+            f"[[{self.method}]] t_f = {self.time:.4g} s, {self.level:.0%}: "
+            f"{_fmt_interval(self.time_interval, 1, 's')} (alpha = {self.exponent:.3g})"
+        )
+
+
+@dataclass(frozen=True)
+class RunningForecast:
+    """What an observer would have said at each cut time: each method's t_f and interval.
+
+    Attributes
+    ----------
+    cuts : numpy.ndarray
+        Cut times [s].
+    methods : dict
+        Method name -> {"time", "low", "high"}: arrays [s] over the cuts (NaN: no date).
+    observed : float or None
+        The observed failure time [s], when known.
+    level : float
+        Level of the intervals [-].
+    """
+
+    cuts: np.ndarray
+    methods: dict
+    observed: float | None
+    level: float
+
+    def rows(self):
+        """The table: one dict per cut and method (SI units)."""
+        rows = []
+        for k, cut in enumerate(self.cuts):
+            for name, values in self.methods.items():
+                rows.append(
+                    {
+                        "cut": float(cut),
+                        "method": name,
+                        "time": float(values["time"][k]),
+                        "low": float(values["low"][k]),
+                        "high": float(values["high"][k]),
+                    }
+                )
+        return rows
+
+    def report(self):
+        """The table as text, times in s."""
+        observed = "unknown" if self.observed is None else f"{self.observed:.4g} s"
+        lines = [f"[[Running forecast]] observed failure: {observed}"]
+        lines.append(
+            f"    {'cut [s]':>9} {'method':<17} {'t_f [s]':>9}   {self.level:.0%} interval"
+        )
+        for row in self.rows():
+            lines.append(
+                f"    {row['cut']:9.4g} {row['method']:<17} {row['time']:9.4g}   "
+                f"[{row['low']:.4g}, {row['high']:.4g}]"
+            )
+        return "\n".join(lines)
+
+    def to_dict(self):
+        """JSON-safe mapping (SI units)."""
+        methods = {
+            name: {key: np.asarray(v, dtype=float).tolist() for key, v in values.items()}
+            for name, values in self.methods.items()
+        }
+        return encode(
+            {
+                "cuts": np.asarray(self.cuts, dtype=float).tolist(),
+                "methods": methods,
+                "observed": self.observed,
+                "level": self.level,
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, d):
+        """Inverse of :meth:`to_dict`."""
+        d = decode(d, cls)
+
+        def array(values):
+            return np.array([math.nan if v is None else v for v in values], dtype=float)
+
+        return cls(
+            cuts=array(d["cuts"]),
+            methods={
+                name: {key: array(v) for key, v in values.items()}
+                for name, values in d["methods"].items()
+            },
+            observed=_optional(d.get("observed")),
+            level=float(d["level"]),
+        )

@@ -1,0 +1,149 @@
+"""forecast_failure against ramps generated directly from the model: the quasi-static slip
+x(t) = F^-1(sigma(t)) found by brentq on friction_slip (not the forecast's own inversion),
+slip = x - x0, failure when sigma reaches F_peak."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import granflow as gf
+from granflow.errors import InvalidDataError
+from granflow.forecast import Prior
+
+PARAMS = gf.Params(a=3.3e-3, alpha=5.0e4, Fd=11.0e-3, x0=0.3e-6)
+RATE = 0.065e-3  # N/s
+
+
+def ramp(params=PARAMS, rate=RATE, noise=5e-9, seed=0):
+    """(t, slip, force, failure time) of a ramp from zero, sampled once a second."""
+    pk = gf.peak(params)
+    start = gf.friction_slip(params.x0, params)
+    failure = pk.force / rate
+    t = np.arange(0.0, failure, 1.0)
+    sigma = rate * t
+    x = np.array(
+        [
+            params.x0
+            if s <= start
+            else brentq(lambda z, s=s: gf.friction_slip(z, params) - s, params.x0, pk.slip)
+            for s in sigma
+        ]
+    )
+    rng = np.random.default_rng(seed)
+    return t, x - params.x0 + noise * rng.standard_normal(t.size), sigma, failure
+
+
+@pytest.fixture(scope="module")
+def record():
+    return ramp()
+
+
+def test_a_late_cut_dates_the_failure_within_its_interval(record):
+    t, slip, force, failure = record
+    ff = gf.forecast_failure(t, slip, force, until=0.9 * failure)
+    low, high = ff.time_interval
+    assert low <= failure <= high
+    assert math.isfinite(high)
+    assert abs(ff.time - failure) < 0.05 * failure
+    assert ff.force_interval[0] <= gf.peak(PARAMS).force <= ff.force_interval[1]
+    assert ff.time_interval[0] >= ff.until  # it has not failed yet at the cut
+    assert ff.loading.kind == "ramp"
+
+
+def test_the_forecast_tightens_as_the_cut_nears_the_failure(record):
+    t, slip, force, failure = record
+    early = gf.forecast_failure(t, slip, force, until=0.75 * failure)
+    late = gf.forecast_failure(t, slip, force, until=0.9 * failure)
+    width = late.time_interval[1] - late.time_interval[0]
+    assert width < early.time_interval[1] - early.time_interval[0]
+
+
+def test_a_prior_from_the_campaign_narrows_the_interval(record):
+    t, slip, force, failure = record
+    alone = gf.forecast_failure(t, slip, force, until=0.75 * failure)
+    prior = Prior(a=(3.3e-3, 0.1e-3), alpha=(5.0e4, 2e3), Fd=(11e-3, 0.2e-3))
+    helped = gf.forecast_failure(t, slip, force, until=0.75 * failure, prior=prior)
+    assert helped.time_interval[0] <= failure <= helped.time_interval[1]
+    assert math.isfinite(helped.time_interval[1])
+    assert helped.time_interval[1] - helped.time_interval[0] < (
+        alone.time_interval[1] - alone.time_interval[0]
+    )
+
+
+def test_small_calibration_at_a_quarter_lead():
+    """Twelve seeds over three parameter sets, cut at 75 % of the time to failure: the 90 %
+    intervals cover the truth in at least 10 of 12 (binomial: P(<= 9 | 0.9) = 11 %)."""
+    sets = [PARAMS, gf.Params(a=6e-3, alpha=7e4, Fd=20e-3, x0=0.5e-6)]
+    covered = 0
+    for seed in range(12):
+        params = sets[seed % 2]
+        t, slip, force, failure = ramp(params, rate=gf.peak(params).force / 200.0, seed=seed)
+        ff = gf.forecast_failure(t, slip, force, until=0.75 * failure)
+        covered += ff.time_interval[0] <= failure <= ff.time_interval[1]
+    assert covered >= 10
+
+
+def test_a_staircase_fails_at_the_first_step_above_the_peak():
+    strength = gf.peak(PARAMS).force
+    step, duration = strength / 11.5, 15.0
+    failure = 11 * duration  # the 12th step, the first above F_peak, starts here
+    t = np.arange(0.0, failure, 1.0)
+    sigma = step * (1 + np.floor(t / duration))
+    x = np.array(
+        [
+            brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, gf.peak(PARAMS).slip)
+            for s in sigma
+        ]
+    )
+    slip = x - PARAMS.x0 + 5e-9 * np.random.default_rng(3).standard_normal(t.size)
+    ff = gf.forecast_failure(t, slip, sigma, until=0.9 * failure)
+    assert ff.loading.kind == "steps"
+    assert ff.time_interval[0] <= failure <= ff.time_interval[1]
+
+
+def test_a_record_without_approaching_failure_says_so():
+    t = np.arange(0.0, 100.0)
+    constant = np.full(t.size, 5e-3)
+    creep = 1e-7 * np.log1p(t) + 1e-9 * np.random.default_rng(0).standard_normal(t.size)
+    ff = gf.forecast_failure(t, creep, constant)
+    assert ff.time is None and not ff.approaching
+    assert "does not rise" in ff.message
+    still = gf.forecast_failure(
+        t, 1e-9 * np.random.default_rng(1).standard_normal(t.size), t * 1e-5
+    )
+    assert still.time is None and "not slipped" in still.message
+    assert "no failure forecast" in still.report()
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        (lambda t, s, f: (t, np.where(t == 5, np.nan, s), f), "slip must be finite"),
+        (lambda t, s, f: (t[::-1], s, f), "t must increase"),
+        (lambda t, s, f: (t[:8], s[:8], f[:8]), "too short"),
+        (lambda t, s, f: (t, s[:-1], f), "slip has"),
+    ],
+)
+def test_bad_input_gets_a_clear_error(record, change, words):
+    t, slip, force, _ = record
+    with pytest.raises(InvalidDataError, match=words):
+        gf.forecast_failure(*change(t, slip, force))
+
+
+def test_the_input_is_not_modified(record):
+    t, slip, force, failure = record
+    copies = [a.copy() for a in (t, slip, force)]
+    gf.forecast_failure(t, slip, force, until=0.9 * failure)
+    for before, after in zip(copies, (t, slip, force), strict=True):
+        np.testing.assert_array_equal(before, after)
+
+
+def test_the_result_round_trips_through_a_dict(record):
+    t, slip, force, failure = record
+    ff = gf.forecast_failure(t, slip, force, until=0.6 * failure)
+    back = gf.FailureForecast.from_dict(ff.to_dict())
+    assert back.time == ff.time and back.time_interval == ff.time_interval
+    assert back.loading == ff.loading and back.params == ff.params
+    assert "Failure forecast" in back.report()
