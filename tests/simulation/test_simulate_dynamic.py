@@ -158,7 +158,6 @@ def test_direct_effect_creeps_dynamically(blue):
     ("limit", "words"),
     [
         ({"max_evaluations": 50}, "max_evaluations"),
-        ({"max_wall": 1e-6}, "max_wall"),
         ({"max_transitions": 1}, "max_transitions"),
     ],
 )
@@ -169,3 +168,13 @@ def test_bounded_work_returns_an_unsuccessful_result(blue, limit, words):
     assert words in result.message
     assert result.segments[-1].outcome == "aborted"
     assert len(result.t) == len(result.force)
+
+
+def test_wall_time_does_not_bound_the_dynamic_method(blue):
+    """Work is bounded by evaluations and transitions only: max_wall changes nothing."""
+    protocol = gf.Protocol([gf.ForceSteps([2e-3, 4e-3, 6e-3], 1.0)])
+    bounded = gf.simulate(blue, protocol, method="dynamic", max_wall=1e-6)
+    free = gf.simulate(blue, protocol, method="dynamic")
+    assert bounded.success
+    for name in ("t", "slip", "velocity", "force", "state"):
+        np.testing.assert_array_equal(getattr(bounded, name), getattr(free, name))
