@@ -11,7 +11,8 @@ linear piece of the drive, sliding (``m dv/dt = drive - friction - c v``) or stu
 Its events: failure (v rises through v_fail), stop (v falls through v_stop) and unstick (the
 drive's force exceeds the strength ``F + c v_stop``).
 
-``RATE_STATE``: the rate-and-state spring-slider, ``y = (mu, theta_1 .. theta_n, slip)``, over
+``RATE_STATE``: the rate-and-state spring-slider, ``y = (mu - mu0, theta_1 .. theta_n, slip)``
+(the friction measured from mu0, so that its tolerance is on the scale of a), over
 one linear piece of the load-point velocity; its event: a friction peak (v falls through the
 load-point velocity).
 """
@@ -172,7 +173,7 @@ def rsf_velocity(t, y, p):
     if p[RSF_K] == 0.0:
         return _load_point_velocity(t, p), 0.0
     a, v_ref, eta = p[RSF_A], p[RSF_V_REF], p[ETA]
-    rest = y[0] - p[MU0]
+    rest = y[0]
     for i in range(int(p[N_STATES])):
         rest -= p[STATE_BASE + 4 * i] * math.log(v_ref * y[1 + i] / _state_scale(p, i))
     log_v = math.log(v_ref) + rest / a

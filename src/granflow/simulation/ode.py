@@ -82,6 +82,7 @@ _RK_ORDER = 8.0
 _SAFETY, _SHRINK, _GROW = 0.9, 0.2, 6.0
 
 
+@compiled
 def new_counters():
     """A fresh ``counters`` array (stride of the step record 1)."""
     counters = np.zeros(_COUNTERS, dtype=np.int64)
