@@ -317,6 +317,7 @@ def solve(
     terminal,
     out_t,
     out_y,
+    land,
     rec_t,
     rec_y,
     ev_t,
@@ -356,6 +357,9 @@ def solve(
         Increasing output times; the interpolant fills ``out_y`` from
         ``counters[COUNT_OUT]`` on, as far as the integration gets.
     out_y : ndarray, shape (len(out_t), len(y))
+    land : bool
+        Whether to end steps on the output times (outputs then carry the accuracy of the
+        steps, not that of the interpolant, at the cost of more steps).
     rec_t, rec_y : ndarray
         Record of the accepted steps (thinned to fit; capacity 0 for none).
     ev_t, ev_y, ev_k : ndarray
@@ -406,8 +410,14 @@ def solve(
         if counters[COUNT_EVALUATIONS] > max_evaluations:
             return WORK_EXCEEDED, t, h
         last = t + 1.01 * h >= t_end
+        landing = False
         if last:
             h = t_end - t
+        elif land and counters[COUNT_OUT] < out_t.size:
+            target = out_t[counters[COUNT_OUT]]
+            if t < target < t_end and t + 1.01 * h >= target:
+                h = target - t
+                landing = True
         if method == RODAS4:
             jacobian(kind, t, y, p, jac, dfdt)
         while True:
@@ -444,11 +454,12 @@ def solve(
                 factor = max(_SHRINK, _SAFETY * error ** (-1.0 / order))
             h *= factor
             last = False
+            landing = False
             if h <= 1e-14 * max(abs(t), 1e-300):
                 return STEP_TOO_SMALL, t, h
             if counters[COUNT_EVALUATIONS] > max_evaluations:
                 return WORK_EXCEEDED, t, h
-        t_new = t_end if last else t + h
+        t_new = t_end if last else (out_t[counters[COUNT_OUT]] if landing else t + h)
         if method == DOP853:
             f1[:] = stages[_RK_STAGES]
         else:

@@ -89,6 +89,7 @@ def run(p, pieces, y0, t_eval, rtol, atol, max_evaluations, peaks, capacity):
             terminal,
             t_eval,
             out_y,
+            True,
             no_t,
             no_y,
             ev_t,
