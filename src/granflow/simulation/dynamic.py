@@ -199,7 +199,6 @@ class DynamicStepper(Stepper):
             left,
             out_t,
             out_y,
-            False,
             rec_t,
             rec_y,
             ev_t,

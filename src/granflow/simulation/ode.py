@@ -79,6 +79,13 @@ _RK_C = np.ascontiguousarray(_dop853.C[:_RK_STAGES])
 _RK_E3 = np.ascontiguousarray(_dop853.E3)
 _RK_E5 = np.ascontiguousarray(_dop853.E5)
 _RK_ORDER = 8.0
+_RK_EXTENDED = _dop853.N_STAGES_EXTENDED
+_RK_A_EXTRA = np.ascontiguousarray(_dop853.A[_RK_STAGES + 1 :])
+_RK_C_EXTRA = np.ascontiguousarray(_dop853.C[_RK_STAGES + 1 :])
+_RK_D = np.ascontiguousarray(_dop853.D)
+#: Rows of the dense-output polynomial (order 7 for DOP853; the first 3 make the cubic
+#: Hermite interpolant, all Rodas4 uses).
+_DENSE = _dop853.INTERPOLATOR_POWER
 _SAFETY, _SHRINK, _GROW = 0.9, 0.2, 6.0
 
 
@@ -135,15 +142,49 @@ def _back_substitute(a, pivot, b):
 
 
 @compiled
-def _hermite(t0, h, y0, f0, y1, f1, t, out):
-    """The cubic Hermite interpolant of (y0, f0) at t0 and (y1, f1) at t0 + h, at t."""
-    s = (t - t0) / h
-    h00 = (1.0 + 2.0 * s) * (1.0 - s) ** 2
-    h10 = s * (1.0 - s) ** 2 * h
-    h01 = s * s * (3.0 - 2.0 * s)
-    h11 = s * s * (s - 1.0) * h
+def _prepare_dense(method, kind, p, t0, h, y0, y1, f0, f1, stages, stage_y, dense, counters):
+    """The coefficients of the dense output over the step (t0, t0 + h] into ``dense``.
+
+    The cubic Hermite interpolant of the two ends (values and slopes); for DOP853 the
+    order-7 polynomial of Dormand and Prince, at the cost of three more evaluations.
+    """
+    n = y0.size
+    for i in range(n):
+        delta = y1[i] - y0[i]
+        dense[0, i] = delta
+        dense[1, i] = h * f0[i] - delta
+        dense[2, i] = 2.0 * delta - h * (f1[i] + f0[i])
+        for row in range(3, _DENSE):
+            dense[row, i] = 0.0
+    if method != DOP853:
+        return
+    for extra in range(_RK_EXTENDED - _RK_STAGES - 1):
+        s = _RK_STAGES + 1 + extra
+        for i in range(n):
+            total = 0.0
+            for j in range(s):
+                total += _RK_A_EXTRA[extra, j] * stages[j, i]
+            stage_y[i] = y0[i] + h * total
+        rhs(kind, t0 + _RK_C_EXTRA[extra] * h, stage_y, p, stages[s])
+    counters[COUNT_EVALUATIONS] += _RK_EXTENDED - _RK_STAGES - 1
+    for row in range(_DENSE - 3):
+        for i in range(n):
+            total = 0.0
+            for j in range(_RK_EXTENDED):
+                total += _RK_D[row, j] * stages[j, i]
+            dense[3 + row, i] = h * total
+
+
+@compiled
+def _interpolate(t0, h, y0, dense, t, out):
+    """The dense output of the step from t0 (:func:`_prepare_dense`) at t."""
+    x = (t - t0) / h
     for i in range(out.size):
-        out[i] = h00 * y0[i] + h10 * f0[i] + h01 * y1[i] + h11 * f1[i]
+        value = 0.0
+        for k in range(_DENSE):
+            value += dense[_DENSE - 1 - k, i]
+            value *= x if k % 2 == 0 else 1.0 - x
+        out[i] = y0[i] + value
 
 
 @compiled
@@ -156,8 +197,8 @@ def _crosses(direction, before, after):
 
 
 @compiled
-def _locate(kind, p, k, t0, h, y0, f0, y1, f1, g_before, g_after, work, g):
-    """Time where event k crosses in (t0, t0 + h]: Illinois on the Hermite interpolant.
+def _locate(kind, p, k, t0, h, y0, dense, g_before, g_after, work, g):
+    """Time where event k crosses in (t0, t0 + h]: Illinois on the dense output.
 
     Returns the end of the final bracket past the crossing, so that the event function has
     crossed there.
@@ -171,7 +212,7 @@ def _locate(kind, p, k, t0, h, y0, f0, y1, f1, g_before, g_after, work, g):
         middle = (low * g_high - high * g_low) / (g_high - g_low)
         if not (low < middle < high):
             middle = 0.5 * (low + high)
-        _hermite(t0, h, y0, f0, y1, f1, middle, work)
+        _interpolate(t0, h, y0, dense, middle, work)
         events(kind, middle, work, p, g)
         value = g[k]
         if value == 0.0 or (value > 0.0) == (g_high > 0.0):
@@ -387,7 +428,8 @@ def solve(
     jac = np.empty((n, n))
     matrix = np.empty((n, n))
     pivot = np.empty(n, dtype=np.int64)
-    stages = np.empty((max(6, _RK_STAGES + 1), n))
+    stages = np.empty((max(6, _RK_EXTENDED), n))
+    dense = np.empty((_DENSE, n))
     g0 = np.empty(EVENTS)
     g1 = np.empty(EVENTS)
     g_work = np.empty(EVENTS)
@@ -467,27 +509,36 @@ def solve(
             counters[COUNT_EVALUATIONS] += 1
         counters[COUNT_STEPS] += 1
         events(kind, t_new, y1, p, g1)
+        crossing = False
+        for k in range(EVENTS):
+            crossing = crossing or _crosses(directions[k], g0[k], g1[k])
+        wanted = counters[COUNT_OUT] < out_t.size and out_t[counters[COUNT_OUT]] <= t_new
+        if crossing or wanted:
+            _prepare_dense(method, kind, p, t, h, y, y1, f0, f1, stages, stage_y, dense, counters)
         fired = -1
         t_fire = t_new
         for k in range(EVENTS):
             if terminal[k] and _crosses(directions[k], g0[k], g1[k]):
-                when = _locate(kind, p, k, t, h, y, f0, y1, f1, g0[k], g1[k], stage_y, g_work)
+                when = _locate(kind, p, k, t, h, y, dense, g0[k], g1[k], stage_y, g_work)
                 if fired < 0 or when < t_fire:
                     fired, t_fire = k, when
         for k in range(EVENTS):
             if not terminal[k] and _crosses(directions[k], g0[k], g1[k]):
-                when = _locate(kind, p, k, t, h, y, f0, y1, f1, g0[k], g1[k], stage_y, g_work)
+                when = _locate(kind, p, k, t, h, y, dense, g0[k], g1[k], stage_y, g_work)
                 found = counters[COUNT_EVENTS]
                 if when <= t_fire and found < ev_t.size:
                     ev_t[found] = when
                     ev_k[found] = k
-                    _hermite(t, h, y, f0, y1, f1, when, ev_y[found])
+                    _interpolate(t, h, y, dense, when, ev_y[found])
                     counters[COUNT_EVENTS] += 1
         while counters[COUNT_OUT] < out_t.size and out_t[counters[COUNT_OUT]] <= t_fire:
-            _hermite(t, h, y, f0, y1, f1, out_t[counters[COUNT_OUT]], out_y[counters[COUNT_OUT]])
+            if out_t[counters[COUNT_OUT]] == t_new:
+                out_y[counters[COUNT_OUT]] = y1
+            else:
+                _interpolate(t, h, y, dense, out_t[counters[COUNT_OUT]], out_y[counters[COUNT_OUT]])
             counters[COUNT_OUT] += 1
         if fired >= 0:
-            _hermite(t, h, y, f0, y1, f1, t_fire, stage_y)
+            _interpolate(t, h, y, dense, t_fire, stage_y)
             y[:] = stage_y
             _record_step(t_fire, y, rec_t, rec_y, counters)
             counters[COUNT_FIRED] = fired
