@@ -165,14 +165,18 @@ def naive_rsf(step_duration, rtol):
 def bench_rsf(repeats):
     step_duration, rtol = 20.0, 1e-10
     protocol = gf.Protocol([gf.VelocitySteps(RSF_VELOCITIES, step_duration)])
-    fast, result = best_time(lambda: rsf.simulate(RSF_MODEL, protocol, rtol=rtol), repeats)
     slow, friction = best_time(lambda: naive_rsf(step_duration, rtol), 3)
     print("rate-and-state, 20 velocity steps 1 <-> 10 um/s, aging law, rtol 1e-10")
     print(f"  naive solve_ivp LSODA     {slow * 1e3:10.2f} ms   final mu = {friction[-1]:.10f}")
-    print(
-        f"  granflow rsf.simulate     {fast * 1e3:10.2f} ms   final mu = "
-        f"{result.friction[-1]:.10f}   ({slow / fast:,.0f}x faster)"
-    )
+    for method in ("rodas4", "dop853"):
+        fast, result = best_time(
+            lambda method=method: rsf.simulate(RSF_MODEL, protocol, rtol=rtol, method=method),
+            repeats,
+        )
+        print(
+            f"  granflow rsf, {method:<11} {fast * 1e3:10.2f} ms   final mu = "
+            f"{result.friction[-1]:.10f}   ({slow / fast:,.0f}x faster)"
+        )
 
 
 def main():
@@ -181,7 +185,8 @@ def main():
     bench_ramp(repeats=20)
     bench_switch(80.0, repeats=20)
     bench_switch(10.0, repeats=20)
-    rsf.simulate(RSF_MODEL, [gf.Velocity(1e-6, 1.0)])  # warm up
+    for method in ("rodas4", "dop853"):  # warm up
+        rsf.simulate(RSF_MODEL, [gf.Velocity(1e-6, 1.0)], method=method)
     bench_rsf(repeats=20)
     bench_map(jobs=2)
     bench_map(jobs=2, method="dynamic")

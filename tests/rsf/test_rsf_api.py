@@ -75,6 +75,8 @@ def test_bad_simulations_name_the_argument():
         rsf.simulate(model, [gf.Velocity(1.0, 1.0)], initial_states=[1.0, 2.0])
     with pytest.raises(gf.InvalidParameterError, match="model"):
         rsf.simulate("aging", [gf.Velocity(1.0, 1.0)])
+    with pytest.raises(gf.InvalidParameterError, match="method"):
+        rsf.simulate(model, [gf.Velocity(1.0, 1.0)], method="lsoda")
     spring = rsf.RateState(0.6, 0.005, 1.0, 1e-3, [rsf.State(0.01, 10.0)])
     with pytest.raises(gf.InvalidParameterError, match="initial_velocity"):
         rsf.simulate(spring, [gf.Hold(1.0), gf.Velocity(1.0, 1.0)])

@@ -14,6 +14,7 @@ from granflow import _validate as check
 from granflow.errors import InvalidParameterError, InvalidProtocolError
 from granflow.simulation import equations as eq
 from granflow.simulation import ode
+from granflow.simulation.options import check_choice
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.results import Event
 from granflow.simulation.rsf.model import RateState
@@ -21,6 +22,7 @@ from granflow.simulation.rsf.result import RateStateResult
 
 __all__ = ["run", "simulate"]
 
+_METHODS = {"rodas4": ode.RODAS4, "dop853": ode.DOP853}
 _MESSAGES = {
     ode.STEP_TOO_SMALL: "the step size fell below the resolution of the time",
     ode.WORK_EXCEEDED: "gave up after max_evaluations right-hand-side evaluations",
@@ -28,11 +30,13 @@ _MESSAGES = {
 
 
 @eq.compiled
-def run(p, pieces, y0, t_eval, rtol, atol, max_evaluations, peaks, capacity):
+def run(method, p, pieces, y0, t_eval, rtol, atol, max_evaluations, peaks, capacity):
     """Integrate the rate-and-state equations through every piece.
 
     Parameters
     ----------
+    method : int
+        :data:`granflow.simulation.ode.RODAS4` or :data:`~granflow.simulation.ode.DOP853`.
     p : ndarray
         Parameter vector (:meth:`RateState.parameters`); not modified.
     pieces : ndarray, shape (m, 4)
@@ -75,7 +79,7 @@ def run(p, pieces, y0, t_eval, rtol, atol, max_evaluations, peaks, capacity):
         p[eq.RSF_START] = pieces[index, 2]
         p[eq.RSF_SLOPE] = pieces[index, 3]
         status, _, _ = ode.solve(
-            ode.RODAS4,
+            method,
             eq.RATE_STATE,
             p,
             pieces[index, 0],
@@ -164,6 +168,7 @@ def simulate(
     points=200,
     rtol=1e-10,
     max_evaluations=10_000_000,
+    method="rodas4",
 ):
     """Slide a rate-and-state spring-slider through a load-point velocity history.
 
@@ -186,6 +191,10 @@ def simulate(
         Relative tolerance of the integration.
     max_evaluations : int
         Bound on the work (right-hand-side evaluations); past it the result is unsuccessful.
+    method : {"rodas4", "dop853"}
+        The integrator: Rodas4 (default; stiff systems, analytic Jacobian) or DOP853
+        (explicit, order 8: fewer steps where the system is not stiff, such as slow loading
+        on a soft spring).
 
     Returns
     -------
@@ -206,6 +215,7 @@ def simulate(
         raise InvalidParameterError(f"model must be an rsf.RateState, got {type(model).__name__}")
     if not isinstance(protocol, Protocol):
         protocol = Protocol(protocol)
+    check_choice(method, "method", tuple(_METHODS))
     rtol = check.positive(rtol, "rtol")
     points = int(check.positive(points, "points"))
     max_evaluations = int(check.positive(max_evaluations, "max_evaluations"))
@@ -245,7 +255,16 @@ def simulate(
     p = model.parameters()
     capacity = 4 * len(pieces) + 64
     status, last, out, peak_t, peak_y, found, counters = run(
-        p, pieces, y0, times, rtol, atol, max_evaluations, model.stiffness is not None, capacity
+        _METHODS[method],
+        p,
+        pieces,
+        y0,
+        times,
+        rtol,
+        atol,
+        max_evaluations,
+        model.stiffness is not None,
+        capacity,
     )
     done = ~np.isnan(out[:, 0])
     times, out = times[done], out[done]
@@ -289,5 +308,6 @@ def simulate(
             "max_evaluations": max_evaluations,
             "evaluations": int(counters[ode.COUNT_EVALUATIONS]),
             "initial_velocity": v0,
+            "method": method,
         },
     )
