@@ -2,8 +2,12 @@
 against the quasi-static answers where the two must agree and against the physics where
 they must differ."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
 import granflow as gf
 from granflow.simulation.driver import DEFAULT_DAMPING, DEFAULT_MASS
@@ -158,7 +162,6 @@ def test_direct_effect_creeps_dynamically(blue):
     ("limit", "words"),
     [
         ({"max_evaluations": 50}, "max_evaluations"),
-        ({"max_wall": 1e-6}, "max_wall"),
         ({"max_transitions": 1}, "max_transitions"),
     ],
 )
@@ -169,3 +172,81 @@ def test_bounded_work_returns_an_unsuccessful_result(blue, limit, words):
     assert words in result.message
     assert result.segments[-1].outcome == "aborted"
     assert len(result.t) == len(result.force)
+
+
+def test_wall_time_does_not_bound_the_dynamic_method(blue):
+    """Work is bounded by evaluations and transitions only: max_wall changes nothing."""
+    protocol = gf.Protocol([gf.ForceSteps([2e-3, 4e-3, 6e-3], 1.0)])
+    bounded = gf.simulate(blue, protocol, method="dynamic", max_wall=1e-6)
+    free = gf.simulate(blue, protocol, method="dynamic")
+    assert bounded.success
+    for name in ("t", "slip", "velocity", "force", "state"):
+        np.testing.assert_array_equal(getattr(bounded, name), getattr(free, name))
+
+
+@pytest.mark.parametrize("damping", [None, 0.0])
+def test_failure_time_matches_a_tight_radau_reference(blue, damping):
+    """A start-up to 20 s, then a 0.05 mN/s ramp from there to failure, against solve_ivp
+    (Radau, rtol 1e-12) on the same equations written here."""
+    switch = 20.0
+    protocol = gf.Protocol([gf.Velocity(V, switch), gf.ForceRamp(rate=RAMP_RATE, duration=60.0)])
+    result = gf.simulate(blue, protocol, method="dynamic", damping=damping)
+    assert [event.kind for event in result.events] == ["failure"]  # no stick on the way
+    c, m, v_fail = result.options["damping"], result.options["mass"], result.options["v_fail"]
+    x_s = blue.x0 + V * switch
+    F_s = gf.friction_slip(x_s, blue)
+
+    def rhs(t, y):
+        x, v, F = y
+        sigma = F_s + RAMP_RATE * (t - switch)
+        return [v, (sigma - F - c * v) / m, v * (blue.a / x - blue.alpha * (F - blue.Fd))]
+
+    def failure(t, y):
+        return y[1] - v_fail
+
+    failure.terminal, failure.direction = True, 1
+    reference = solve_ivp(
+        rhs,
+        (switch, switch + 60.0),
+        [x_s, V, F_s],
+        method="Radau",
+        rtol=1e-12,
+        atol=[1e-20, 1e-22, 1e-18],
+        events=failure,
+    )
+    assert result.failure.time == pytest.approx(reference.t_events[0][0], rel=1e-6)
+    assert result.failure.slip == pytest.approx(reference.y_events[0][0][0], rel=1e-6)
+
+
+def _busy_cores(count):
+    """Processes that keep ``count`` cores busy until they are ended."""
+    return [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
+
+
+def test_runs_are_bit_identical_on_a_quiet_and_a_loaded_machine(blue):
+    protocols = [
+        gf.Protocol([gf.ForceRamp(rate=RAMP_RATE, duration=400.0)]),
+        gf.Protocol([gf.Velocity(V, 10.0), gf.SwitchToForce(60.0, factor=1.01)]),
+    ]
+    runs = [{"damping": 0.0}, {}, {"clock": "time"}, {"direct_effect": 0.05e-3}]
+
+    def all_runs():
+        return [
+            gf.simulate(blue, protocol, method="dynamic", **options)
+            for protocol in protocols
+            for options in runs
+        ]
+
+    quiet = all_runs()
+    workers = _busy_cores(2)
+    try:
+        loaded = all_runs()
+    finally:
+        for worker in workers:
+            worker.kill()
+            worker.wait()
+    for first, second in zip(quiet, loaded, strict=True):
+        assert first.success == second.success and first.message == second.message
+        assert first.events == second.events
+        for name in ("t", "slip", "velocity", "force", "state", "age", "displacement"):
+            np.testing.assert_array_equal(getattr(first, name), getattr(second, name))

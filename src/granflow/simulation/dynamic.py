@@ -1,113 +1,146 @@
 """The dynamic stepper: the drive's inertia integrated with stick, slide and failure events.
 
 While sliding under an imposed force, ``m dv/dt = sigma - F_friction - c v``, ``dx/dt = v``
-and Eq. 2 for F, integrated with ``scipy.integrate.solve_ivp`` and events: *failure* when v
-rises through ``v_fail`` (terminal), *stop* when v falls through ``v_stop``, after which the
-layer sticks while ``sigma <= F + c v_stop``, and *slide* when the force exceeds that again.
-With a machine stiffness K a spring sits between a rate-controlled drive and the layer
-(spring-block slider): ``m dv/dt = K s - F_friction - c v``, ``ds/dt = v_drive - v``. Under an
-imposed velocity without a spring the drive is rigid and the quasi-static answer is exact.
+and Eq. 2 for F; *failure* when v rises through ``v_fail`` (terminal), *stop* when v falls
+through ``v_stop``, after which the layer sticks while ``sigma <= F + c v_stop``, and *slide*
+when the force exceeds that again. With a machine stiffness K a spring sits between a
+rate-controlled drive and the layer (spring-block slider): ``m dv/dt = K s - F_friction - c v``,
+``ds/dt = v_drive - v``. Under an imposed velocity without a spring the drive is rigid and the
+quasi-static answer is exact (:func:`~granflow.simulation.stepper.rigid_rate`).
+
+The equations are those of :mod:`granflow.simulation.equations`, integrated by the one
+compiled integrator (:func:`granflow.simulation.ode.solve`); the whole piece, its phases and
+its events run in compiled code (:func:`run_piece`), so a stick-slip piece with thousands of
+transitions costs no Python call per phase. The work is bounded by right-hand-side
+evaluations and transitions, never by wall time: a run gives the same answer on a quiet and
+on a busy machine.
 """
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
-from granflow.simulation.direct import direct_derivatives, direct_scalar
-from granflow.simulation.state import IntegrationError
+from granflow.simulation import equations as eq
+from granflow.simulation import ode
+from granflow.simulation.state import IntegrationError, WorkExceededError
 from granflow.simulation.stepper import Stepper, rigid_rate
 
-__all__ = ["DynamicStepper"]
+__all__ = ["DynamicStepper", "run_piece", "slider_parameters"]
 
 _TIME_TOLERANCE = 1e-12  # relative, for "the piece has ended"
+#: Outcomes of :func:`run_piece` beyond those of :func:`granflow.simulation.ode.solve`.
+FAILED, TOO_MANY_TRANSITIONS = 2, -3
+#: Event codes of :func:`run_piece`: the slider's event functions.
+_FAILURE, _STOP, _SLIDE = 0, 1, 2
+_KINDS = {_STOP: "stop", _SLIDE: "slide"}
 
 
-class _Equations:
-    """The slider's equations over one piece, y = (x, v, F, s), as closures for solve_ivp.
+@eq.compiled
+def run_piece(
+    p,
+    y,
+    t,
+    t_b,
+    sliding,
+    stops,
+    rtol,
+    atol,
+    max_evaluations,
+    transitions,
+    out_t,
+    out_y,
+    rec_t,
+    rec_y,
+    ev_t,
+    ev_y,
+    ev_k,
+    counters,
+):
+    """Integrate one piece of the drive from (t, y) to t_b through slide and stick phases.
 
-    ``rate``: the drive imposes a velocity through the spring (s its extension), else it
-    imposes the piece's force directly.
+    ``y`` is overwritten with the state at the end; the output grid ``out_t``, the step
+    record and the events (time, state before any reset, code) are filled as in
+    :func:`granflow.simulation.ode.solve`. ``transitions`` bounds the phases.
+
+    Returns
+    -------
+    status, t, sliding, transitions left, events found
     """
-
-    def __init__(self, state, drive, effect, piece, *, rate):
-        p = state.params
-        a, alpha, Fd = p.a, p.alpha, p.Fd
-        m, c, K = drive.mass, drive.damping, drive.stiffness
-        v_fail, v_stop = drive.v_fail, drive.v_stop
-        time_clock = state.time_clock
-        t_a = state.t
-        slope = (piece.end - piece.start) / piece.duration
-        start = piece.start
-        tau_shift = state.tau - t_a
-        amplitude = None if effect is None else effect.amplitude
-        v_ref = None if effect is None else effect.velocity
-        count = state.count
-
-        def drive_velocity(t):
-            return start + slope * (t - t_a) if rate else 0.0
-
-        def drive_force(t, y):
-            return K * y[3] if rate else start + slope * (t - t_a)
-
-        def slide_rhs(t, y):
-            count()
-            x, v, F, s = y
-            if time_clock:
-                dF = a / (t + tau_shift) - alpha * v * (F - Fd)
-            else:
-                dF = v * (a / x - alpha * (F - Fd))
-            friction = F if amplitude is None else direct_scalar(amplitude, v_ref, v, F)
-            drive = K * s if rate else start + slope * (t - t_a)
-            return [v, (drive - friction - c * v) / m, dF, (drive_velocity(t) - v) if rate else 0.0]
-
-        def slide_jacobian(t, y):
-            x, v, F, _ = y
-            if amplitude is None:
-                d_friction_dv, d_friction_dF = 0.0, 1.0
-            else:
-                d_friction_dv, d_friction_dF = direct_derivatives(amplitude, v_ref, v, F)
-            if time_clock:
-                dF_dx, dF_dv = 0.0, -alpha * (F - Fd)
-            else:
-                dF_dx, dF_dv = -v * a / x**2, a / x - alpha * (F - Fd)
-            return [
-                [0.0, 1.0, 0.0, 0.0],
-                [0.0, -(d_friction_dv + c) / m, -d_friction_dF / m, K / m if rate else 0.0],
-                [dF_dx, dF_dv, -alpha * v, 0.0],
-                [0.0, -1.0 if rate else 0.0, 0.0, 0.0],
-            ]
-
-        def stuck_rhs(t, y):
-            count()
-            return [0.0, 0.0, a / (t + tau_shift) if time_clock else 0.0, drive_velocity(t)]
-
-        def failure(t, y):
-            return y[1] - v_fail
-
-        def stop(t, y):
-            return y[1] - v_stop
-
-        def unstick(t, y):
-            return drive_force(t, y) - y[2] - c * v_stop
-
-        failure.terminal, failure.direction = True, 1
-        stop.terminal, stop.direction = True, -1
-        unstick.terminal, unstick.direction = True, 1
-
-        self.drive_force = drive_force
-        self.slide_rhs, self.slide_jacobian, self.stuck_rhs = slide_rhs, slide_jacobian, stuck_rhs
-        self.failure, self.stop, self.unstick = failure, stop, unstick
-        self.slide_events = [failure] if effect is not None else [failure, stop]
-        self.tau_shift = tau_shift
-        self.x_shift = state.displacement - state.x  # displacement = x + x_shift in the piece
-        self.y0 = np.array([state.x, state.v, state.F, state.applied / K if K else 0.0])
-        self.atol = np.array(
-            [
-                p.x0 * 1e-9,
-                v_stop * 1e-3,
-                1e-13 * max(a, Fd),
-                (1e-13 * max(a, Fd) / K) if K else 1.0,
-            ]
+    end = t_b - 1e-12 * max(abs(t_b), 1.0)
+    slide_directions = np.array([1, -1 if stops else 0, 0], dtype=np.int64)
+    stuck_directions = np.array([0, 0, 1], dtype=np.int64)
+    terminal = np.ones(eq.EVENTS, dtype=np.bool_)
+    no_t = np.empty(0)
+    no_y = np.empty((0, y.size))
+    no_k = np.empty(0, dtype=np.int64)
+    # the direct effect makes slow creep stiff; without it the slider is an oscillator
+    method = ode.DOP853 if stops else ode.RODAS4
+    found = 0
+    h = 0.0
+    status = ode.DONE
+    while t < end:
+        if transitions <= 0:
+            return TOO_MANY_TRANSITIONS, t, sliding, transitions, found
+        transitions -= 1
+        kind = eq.SLIDE if sliding else eq.STUCK
+        directions = slide_directions if sliding else stuck_directions
+        status, t, h = ode.solve(
+            method,
+            kind,
+            p,
+            t,
+            y,
+            t_b,
+            rtol,
+            atol,
+            h,
+            max_evaluations,
+            directions,
+            terminal,
+            out_t,
+            out_y,
+            False,
+            rec_t,
+            rec_y,
+            no_t,
+            no_y,
+            no_k,
+            counters,
         )
+        if status != ode.EVENT:
+            break
+        fired = counters[ode.COUNT_FIRED]
+        if found < ev_t.size:
+            ev_t[found] = t
+            ev_y[found, :] = y
+            ev_k[found] = fired
+            found += 1
+        if fired == _FAILURE:
+            return FAILED, t, sliding, transitions, found
+        if fired == _STOP:
+            y[1] = 0.0
+            sliding = False
+        else:
+            sliding = True
+        status = ode.DONE
+    return status, t, sliding, transitions, found
+
+
+def slider_parameters(state, drive, effect, piece, *, rate):
+    """The parameter vector of the slider's equations over ``piece`` from ``state``."""
+    p = np.zeros(eq.SLIDER_PARAMETERS)
+    params = state.params
+    p[eq.A], p[eq.ALPHA], p[eq.FD] = params.a, params.alpha, params.Fd
+    p[eq.MASS], p[eq.DAMPING] = drive.mass, drive.damping
+    p[eq.STIFFNESS] = drive.stiffness or 0.0
+    p[eq.RATE] = 1.0 if rate else 0.0
+    p[eq.TIME_CLOCK] = 1.0 if state.time_clock else 0.0
+    p[eq.TAU_SHIFT] = state.tau - state.t
+    p[eq.T_START] = state.t
+    p[eq.START] = piece.start
+    p[eq.SLOPE] = (piece.end - piece.start) / piece.duration
+    if effect is not None:
+        p[eq.AMPLITUDE], p[eq.V_REF] = effect.amplitude, effect.velocity
+    p[eq.V_FAIL], p[eq.V_STOP] = drive.v_fail, drive.v_stop
+    return p
 
 
 class DynamicStepper(Stepper):
@@ -126,98 +159,93 @@ class DynamicStepper(Stepper):
 
     def _integrate(self, piece, *, rate):
         """Integrate m dv/dt = drive - friction - c v with stick, slide and failure events."""
-        state, effect, v_stop = self.state, self.effect, self.drive.v_stop
-        equations = _Equations(state, self.drive, effect, piece, rate=rate)
+        state, effect, drive = self.state, self.effect, self.drive
+        numerics = state.numerics
+        p = slider_parameters(state, drive, effect, piece, rate=rate)
+        params = state.params
+        K = drive.stiffness
         t = state.t
         t_b = t + piece.duration
-        end = t_b - _TIME_TOLERANCE * max(abs(t_b), 1.0)
-        y = equations.y0
-        sliding = effect is not None or y[1] > v_stop or equations.unstick(t, y) > 0
-        if sliding and effect is None and y[1] <= v_stop:
-            force = equations.drive_force(t, y)
-            state.event("slide", t, y[0], force, y[2], "the force exceeds the strength")
-        if not rate:
-            state.record(t, state.x, state.v, piece.start, state.F, state.tau, state.displacement)
-        while t < end:
-            state.transition()
-            sol = self._phase(equations, sliding, t, t_b, y)
-            t_end = float(sol.t[-1])
-            if t_end > t:
-                self._record(equations, sol, t, t_end, piece.duration)
-            y = np.array(sol.y[:, -1])
-            t = t_end
-            if sol.status != 1:
-                continue
-            force_now = equations.drive_force(t, y)
-            fired = [i for i, times in enumerate(sol.t_events) if times.size]
-            kind = (equations.slide_events if sliding else [equations.unstick])[fired[0]]
-            if kind is equations.failure:
-                self._finish(equations, t, y, force_now)
-                v_fail = self.drive.v_fail
-                state.fail(
-                    t, y[0], force_now, y[2], f"the velocity exceeded v_fail = {v_fail:.4g} m/s"
-                )
-                return
-            if kind is equations.stop:
-                y[1] = 0.0
-                sliding = False
-                state.event("stop", t, y[0], force_now, y[2], "the layer sticks")
-            else:
-                sliding = True
-                state.event("slide", t, y[0], force_now, y[2], "the force exceeds the strength")
-        force_end = equations.drive_force(t, y) if rate else piece.end
-        self._finish(equations, t_b if t >= end else t, y, force_end)
+        y = np.array([state.x, state.v, state.F, state.applied / K if K else 0.0])
+        tau_shift, x_shift = p[eq.TAU_SHIFT], state.displacement - state.x
+        scale = max(params.a, params.Fd)
+        atol = np.array(
+            [params.x0 * 1e-9, drive.v_stop * 1e-3, 1e-13 * scale, 1e-13 * scale / K if K else 1.0]
+        )
+        g = np.empty(eq.EVENTS)
+        eq.events(eq.SLIDE, t, y, p, g)
+        sliding = effect is not None or y[1] > drive.v_stop or g[_SLIDE] > 0
+        force_now = eq.slider_drive_force(t, y, p)
+        if sliding and effect is None and y[1] <= drive.v_stop:
+            state.event("slide", t, y[0], force_now, y[2], "the force exceeds the strength")
+        state.record(t, y[0], y[1], force_now, y[2], t + tau_shift, y[0] + x_shift)
+        out_t = np.linspace(t, t_b, state.points + 1)[1:]
+        out_y = np.empty((out_t.size, 4))
+        rec_t, rec_y = np.empty(4 * state.points), np.empty((4 * state.points, 4))
+        left = numerics.max_transitions - state.phases
+        ev_t, ev_y = np.empty(max(left, 0) + 1), np.empty((max(left, 0) + 1, 4))
+        ev_k = np.empty(max(left, 0) + 1, dtype=np.int64)
+        counters = ode.new_counters()
+        status, t, sliding, remaining, found = run_piece(
+            p,
+            y,
+            t,
+            t_b,
+            sliding,
+            effect is None,
+            numerics.rtol,
+            atol,
+            numerics.max_evaluations - state.evaluations,
+            left,
+            out_t,
+            out_y,
+            rec_t,
+            rec_y,
+            ev_t,
+            ev_y,
+            ev_k,
+            counters,
+        )
+        state.phases += left - remaining
+        state.evaluations += int(counters[ode.COUNT_EVALUATIONS])
+        filled, recorded = counters[ode.COUNT_OUT], counters[ode.COUNT_RECORDED]
+        times = np.concatenate([out_t[:filled], rec_t[:recorded], ev_t[:found]])
+        states = np.concatenate([out_y[:filled], rec_y[:recorded], ev_y[:found]])
+        times, first = np.unique(times, return_index=True)
+        states = states[first].T
+        force = K * states[3] if rate else piece.start + p[eq.SLOPE] * (times - p[eq.T_START])
+        state.record(
+            times, states[0], states[1], force, states[2], times + tau_shift, states[0] + x_shift
+        )
+        for index in range(found):
+            code, when, at = int(ev_k[index]), float(ev_t[index]), ev_y[index]
+            if code != _FAILURE:
+                message = "the layer sticks" if code == _STOP else "the force exceeds the strength"
+                force_at = eq.slider_drive_force(when, at, p)
+                state.event(_KINDS[code], when, at[0], force_at, at[2], message)
+        force_end = eq.slider_drive_force(t, y, p) if rate or t < t_b else piece.end
+        self._finish(t, y, force_end, tau_shift, x_shift)
+        if status == FAILED:
+            state.fail(
+                t, y[0], force_end, y[2], f"the velocity exceeded v_fail = {drive.v_fail:.4g} m/s"
+            )
+            return
+        if status == TOO_MANY_TRANSITIONS:
+            raise WorkExceededError(
+                f"gave up after {numerics.max_transitions} stick-slip transitions (max_transitions)"
+            )
+        if status == ode.WORK_EXCEEDED:
+            raise WorkExceededError(
+                f"gave up after {state.evaluations} right-hand-side evaluations (max_evaluations)"
+            )
+        if status == ode.STEP_TOO_SMALL:
+            raise IntegrationError(f"the step size fell below the resolution of t = {t:.6g} s")
         state.sliding = sliding and y[1] > 0
 
-    def _phase(self, equations, sliding, t, t_b, y):
-        """One sliding or stuck phase, from t until t_b or the first event."""
-        numerics = self.state.numerics
-        if sliding:
-            jacobian = {"jac": equations.slide_jacobian} if numerics.implicit else {}
-            rhs, method, events = equations.slide_rhs, numerics.solver, equations.slide_events
-        else:
-            jacobian = {}
-            rhs, method, events = equations.stuck_rhs, "LSODA", [equations.unstick]
-        sol = solve_ivp(
-            rhs,
-            (t, t_b),
-            y,
-            method=method,
-            rtol=numerics.rtol,
-            atol=equations.atol,
-            dense_output=True,
-            events=events,
-            **jacobian,
-        )
-        if sol.status == -1:
-            raise IntegrationError(sol.message)
-        return sol
-
-    def _record(self, equations, sol, t, t_end, duration):
-        """Record a phase: even output plus (some of) the solver's own steps."""
-        state = self.state
-        n = max(3, int(state.points * (t_end - t) / duration) + 2)
-        times = np.linspace(t, t_end, n)
-        # the solver's own steps crowd where the motion is fast: keep (some of) them
-        stride = max(1, sol.t.size // (4 * state.points))
-        times = np.union1d(times, sol.t[::stride])
-        ys = sol.sol(times)
-        ys[:, -1] = sol.y[:, -1]
-        force = equations.drive_force(times, ys)
-        state.record(
-            times,
-            ys[0],
-            ys[1],
-            force,
-            ys[2],
-            times + equations.tau_shift,
-            ys[0] + equations.x_shift,
-        )
-
-    def _finish(self, equations, t, y, force):
+    def _finish(self, t, y, force, tau_shift, x_shift):
         state = self.state
         state.t = t
-        state.tau = t + equations.tau_shift
+        state.tau = t + tau_shift
         state.x, state.v, state.F = float(y[0]), float(y[1]), float(y[2])
-        state.displacement = state.x + equations.x_shift
+        state.displacement = state.x + x_shift
         state.applied = float(force)

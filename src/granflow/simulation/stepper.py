@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 
 from granflow.simulation.curve import Curve, offset_of, offsets
 from granflow.simulation.direct import direct_friction
-from granflow.simulation.state import IntegrationError
+from granflow.simulation.state import IntegrationError, WorkExceededError
 
 __all__ = ["Stepper", "rigid_rate"]
 
@@ -121,10 +121,9 @@ def _time_clock_ode(state, piece, u):
     d = piece.duration
     v_a, accel = piece.start, (piece.end - piece.start) / piece.duration
     tau_s = state.tau
-    count = state.count
 
     def rhs(offset, y):
-        count()
+        _count(state)
         return [p.a / (tau_s + offset) - p.alpha * (v_a + accel * offset) * (y[0] - p.Fd)]
 
     def turning(offset, y):
@@ -147,3 +146,13 @@ def _time_clock_ode(state, piece, u):
     if peak_offset is not None:
         u = np.union1d(u, [peak_offset])
     return sol.sol(u)[0], peak_offset, u
+
+
+def _count(state):
+    """Count one evaluation against max_evaluations (never against wall time: a run must
+    give the same answer on a quiet and on a busy machine)."""
+    state.evaluations += 1
+    if state.evaluations > state.numerics.max_evaluations:
+        raise WorkExceededError(
+            f"gave up after {state.evaluations} right-hand-side evaluations (max_evaluations)"
+        )

@@ -1,0 +1,22 @@
+"""Rate-and-state friction models beside granflow's own: ``from granflow import rsf``.
+
+The code lives in :mod:`granflow.simulation.rsf`; this module gives it its public name.
+
+Examples
+--------
+>>> from granflow import rsf
+>>> model = rsf.RateState(0.6, 0.005, 1.0, 1e-3, [rsf.State(0.01, 10.0, "aging")])
+>>> round(model.steady_state_friction(10.0), 6)
+0.588487
+"""
+
+from granflow._lazy import attach
+
+__getattr__, __dir__, __all__ = attach(
+    __name__,
+    {
+        "granflow.simulation.rsf.model": ["LAWS", "RateState", "State"],
+        "granflow.simulation.rsf.simulate": ["simulate"],
+        "granflow.simulation.rsf.result": ["RateStateResult"],
+    },
+)
