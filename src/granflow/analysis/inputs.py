@@ -133,40 +133,25 @@ def _run_name(run, source):
     return f"{source}#{run.meta.get('interval', 1)}"
 
 
-def _items_from_manifest(manifest):
-    """Items in manifest order: each entry's runs, or the reason its file failed."""
-    from granflow.io.campaign import Campaign, read_manifest
+def _items_from_manifest(manifest, geometry):
+    """Items in manifest order: each entry's runs, or why the entry gave none (under the
+    entry's own label: ``file#interval`` as the manifest asks for it)."""
+    from granflow.io.campaign import manifest_runs
 
-    entries = read_manifest(manifest)
-    campaign = Campaign.from_manifest(manifest, errors="collect")
     folder = manifest.parent
-    runs, problems = list(campaign.runs), list(campaign.problems)
-    items, position, inputs = [], 0, []
-    for entry in entries:
-        file = str(folder / entry["file"])
-        relative = relative_path(file, folder)
-        if relative not in inputs:
+    items, inputs = [], []
+    for entry in manifest_runs(manifest, geometry):
+        relative = None if entry.file is None else relative_path(entry.file, folder)
+        if relative is not None and relative not in inputs:
             inputs.append(relative)
-        taken = []
-        while position < len(runs) and runs[position].meta.get("source") == file:
-            taken.append(runs[position])
-            position += 1
-            if "interval" in entry:
-                break
-        if taken:
-            items += [_run_item(run, folder) for run in taken]
+        if entry.runs:
+            items += [_run_item(run, folder) for run in entry.runs]
             continue
-        reason = next((p for p in problems if file in p), None)
-        if reason is not None:
-            problems.remove(reason)
+        if relative is None:
+            name = entry.label
         else:
-            reason = "the file holds no run"
-        name = relative if "interval" not in entry else f"{relative}#{entry['interval']}"
-        items.append(
-            Item(name=name, source=relative, interval=entry.get("interval"), reason=reason)
-        )
-    items += [_run_item(run, folder) for run in runs[position:]]
-    items += [Item(name="?", source=None, interval=None, reason=p) for p in problems]
+            name = relative if entry.interval is None else f"{relative}#{entry.interval}"
+        items.append(Item(name=name, source=relative, interval=entry.interval, reason=entry.reason))
     return items, inputs
 
 
@@ -177,17 +162,26 @@ def _run_item(run, folder):
     )
 
 
-def load_campaign(source):
-    """(items, manifest path or None, input files relative to the manifest folder)."""
+def load_campaign(source, geometry=None):
+    """(items, manifest path or None, input files relative to the manifest folder).
+
+    ``geometry`` (a spec for :meth:`granflow.Annulus.from_spec`) is the tube of the manifest
+    entries that declare none; a Campaign's runs are already converted, so it takes none.
+    """
     from granflow.io.campaign import Campaign
 
     if isinstance(source, Campaign):
+        if geometry is not None:
+            raise InvalidParameterError(
+                "geometry applies to a manifest; the runs of a Campaign are already converted "
+                "(give the geometry to Campaign.from_manifest)"
+            )
         items = [_run_item(run, None) for run in source.runs]
         items += [Item(name="?", source=None, interval=None, reason=p) for p in source.problems]
         inputs = list(dict.fromkeys(item.source for item in items if item.source))
         return items, None, inputs
     manifest = _find_manifest(source)
-    items, inputs = _items_from_manifest(manifest)
+    items, inputs = _items_from_manifest(manifest, geometry)
     return items, manifest, [manifest.name, *inputs]
 
 
