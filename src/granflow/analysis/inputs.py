@@ -19,7 +19,7 @@ from granflow.analysis.files import MANIFEST_NAMES, TRUTH_FILE, read_json
 from granflow.analysis.joint import rounded
 from granflow.analysis.joint_results import MATERIAL_CONSTANTS
 from granflow.analysis.result import RunEntry
-from granflow.analysis.run_results import FailedRun
+from granflow.analysis.run_results import FailedRun, StartupResult
 from granflow.analysis.runs import ANALYSES
 from granflow.errors import InvalidParameterError
 from granflow.model.run import Run
@@ -37,8 +37,9 @@ __all__ = [
     "run_key",
 ]
 
-#: Bumped whenever a per-run result changes meaning, so older saved results are not reused.
-ANALYSIS_VERSION = 2
+#: Bumped whenever a per-run result changes meaning, so older saved results are not reused
+#: (3: a start-up's window counts its non-finite rows, fits count the points they drop).
+ANALYSIS_VERSION = 3
 
 
 def _sha256_file(path):
@@ -71,6 +72,7 @@ def run_key(identity, run, kind, options):
         "control": run.control,
         "meta": {k: v for k, v in json_safe(dict(run.meta)).items() if k not in ("manifest",)},
         "options": options,
+        "problems": list(run.problems),
     }
     header["meta"]["source"] = identity["source"]
     digest.update(json.dumps(header, sort_keys=True).encode("utf-8"))
@@ -199,11 +201,49 @@ def imposed_velocity(item):
     return None if value is None else float(value)
 
 
-def run_entry(item, index):
-    """The :class:`~granflow.analysis.result.RunEntry` of an item whose work is done."""
+def _fits(result):
+    """The (window, Eq. 3 fit) pairs of a run's result (a start-up, a switch's start-up)."""
+    startup = getattr(result, "startup", result)
+    if isinstance(startup, StartupResult):
+        return [(startup.window, startup.fit)]
+    return []
+
+
+def run_problems(item):
+    """The data-quality problems of an item (see :class:`RunEntry`): the reader's, the
+    points its fit left out for a NaN or an infinity, or why the entry gave no run."""
+    if item.run is None:
+        return (item.reason,) if item.reason else ()
+    problems = list(item.run.problems)
+    for window, fit in _fits(item.result):
+        count = window.non_finite + fit.dropped.get("non_finite", 0)
+        if count:
+            problems.append(
+                f"{count} point{'s' if count != 1 else ''} with a NaN or infinite time, slip "
+                "or force left out of the fit"
+            )
+    return tuple(problems)
+
+
+def run_entry(item, index, strict=False):
+    """The :class:`~granflow.analysis.result.RunEntry` of an item whose work is done.
+
+    With ``strict``, a run with data-quality problems is a failed run (stage "quality").
+    """
     run = item.run
     result = item.result if run is not None else FailedRun(reason=item.reason)
-    common = {"index": index, **identity(item), "result": result, "key": item.key}
+    problems = run_problems(item)
+    stage = None if item.ok else "analysis"
+    if strict and problems and run is not None and item.ok:
+        result = FailedRun(reason="strict: data-quality problems: " + "; ".join(problems))
+        stage = "quality"
+    common = {
+        "index": index,
+        **identity(item),
+        "result": result,
+        "key": item.key,
+        "problems": problems,
+    }
     if run is None:
         return RunEntry(
             **common,
@@ -223,7 +263,8 @@ def run_entry(item, index):
         velocity=imposed_velocity(item),
         preparation=run.meta.get("preparation"),
         points=len(run),
-        stage=None if item.ok else "analysis",
+        stage=stage,
+        geometry=run.meta.get("geometry"),
         run=run,
     )
 
@@ -247,13 +288,24 @@ def _truth(manifest):
     return None, None
 
 
-def campaign_summary(items, manifest, material):
+def _geometry_summary(entries):
+    """The geometry of the campaign's runs: the one label they share, or a pointer to the
+    runs when they differ (None when no run records one)."""
+    labels = list(dict.fromkeys(e.geometry for e in entries if e.geometry is not None))
+    if not labels:
+        return None
+    return labels[0] if len(labels) == 1 else "differs between runs (see each run's geometry)"
+
+
+def campaign_summary(items, entries, manifest, material):
     """The ``campaign`` entry of ``results.json`` and whether the campaign is synthetic.
 
     Parameters
     ----------
     items : sequence of Item
         The campaign's items, their work done.
+    entries : sequence of RunEntry
+        Their entries (a run failed under ``strict`` counts as failed).
     manifest : pathlib.Path or None
     material : granflow.analysis.joint_results.Material
 
@@ -262,7 +314,7 @@ def campaign_summary(items, manifest, material):
     (dict, bool)
     """
     runs = [item for item in items if item.run is not None]
-    ok = [item for item in runs if item.ok]
+    analysed = sum(entry.ok for entry in entries)
     loads = sorted({rounded(i.run.normal_load) for i in runs if i.run.normal_load is not None})
     speeds = sorted({rounded(v) for v in map(imposed_velocity, runs) if v is not None})
     preparations = sorted(
@@ -270,11 +322,13 @@ def campaign_summary(items, manifest, material):
     )
     summary = {
         "manifest": None if manifest is None else str(manifest.resolve()),
-        "analysed": len(ok),
+        "analysed": analysed,
+        "geometry": _geometry_summary(entries),
         "counts": {
             "runs": len(items),
-            "analysed": len(ok),
-            "failed": len(items) - len(ok),
+            "analysed": analysed,
+            "failed": len(items) - analysed,
+            "with_problems": sum(bool(entry.problems) for entry in entries),
             "tests": {kind: sum(1 for i in runs if i.kind == kind) for kind in ANALYSES},
             "normal_loads": loads,
             "velocities": speeds,

@@ -140,8 +140,7 @@ def manifest_runs(path, geometry=None):
                 found = [run for run in found if run.meta["interval"] == interval]
                 if not found:
                     raise FileFormatError(
-                        f"{file}: no interval {interval} (the file has "
-                        f"{len(files[cache_key])})"
+                        f"{file}: no interval {interval} (the file has {len(files[cache_key])})"
                     )
         except GranflowError as exc:
             out.append(EntryRuns(label, file, interval, (), str(exc)))

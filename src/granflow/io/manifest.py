@@ -151,7 +151,7 @@ def _load_yaml(text, path):
     import yaml
 
     try:
-        return yaml.load(text, Loader=_strict_loader())  # noqa: S506 (a SafeLoader subclass)
+        return yaml.load(text, Loader=_strict_loader())
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f", line {mark.line + 1}" if mark is not None else ""
@@ -235,14 +235,13 @@ def _field(key, value):
 
 def _fields(raw, where, manifest):
     """The checked fields of a mapping (an entry or the defaults); raises on the first error."""
-    if not isinstance(raw, dict):
-        raise FileFormatError(f"{manifest}, {where}: expected a mapping, got {raw!r}")
     refused = _refused_in(raw)
     if refused is not None:
         raise FileFormatError(
-            f"{manifest}, {where}: YAML anchors and aliases are not allowed "
-            f"(found {refused.text})"
+            f"{manifest}, {where}: YAML anchors and aliases are not allowed (found {refused.text})"
         )
+    if not isinstance(raw, dict):
+        raise FileFormatError(f"{manifest}, {where}: expected a mapping, got {raw!r}")
     entry = {}
     for key, value in raw.items():
         key = str(key).strip()
@@ -360,4 +359,3 @@ def read_manifest(path, errors="raise"):
         if bad is not None:
             raise FileFormatError(bad.reason)
     return entries
-
