@@ -142,6 +142,8 @@ def manifest_runs(path, geometry=None):
                     raise FileFormatError(
                         f"{file}: no interval {interval} (the file has {len(files[cache_key])})"
                     )
+            if not found:
+                raise FileFormatError(f"{file}: the file holds no run")
         except GranflowError as exc:
             out.append(EntryRuns(label, file, interval, (), str(exc)))
             continue
