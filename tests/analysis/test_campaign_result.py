@@ -120,7 +120,7 @@ def test_saved_records_rebuild_the_same_objects(analysed):
     for entry in analysed.runs:
         saved = json.loads((analysed.output / RUNS_DIR / f"{entry.key}.json").read_text("utf-8"))
         assert (
-            saved.pop(RUN_RECORD_MARKER) == ANALYSIS_VERSION == 2 and saved.pop("key") == entry.key
+            saved.pop(RUN_RECORD_MARKER) == ANALYSIS_VERSION == 3 and saved.pop("key") == entry.key
         )
         rebuilt = run_result_from_dict(entry.test, saved)
         assert rebuilt == entry.result

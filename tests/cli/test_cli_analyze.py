@@ -82,14 +82,50 @@ def test_analyze_usage_errors_exit_2(campaign, tmp_path, capsys, args, message):
 
 def test_a_bad_manifest_is_one_line_and_debug_shows_the_traceback(tmp_path, capsys):
     manifest = tmp_path / "manifest.yaml"
-    manifest.write_text("runs:\n  - file: a.txt\n    colour: blue\n", encoding="utf-8")
+    manifest.write_text("colour: blue\nruns:\n  - file: a.txt\n", encoding="utf-8")
     assert main(["analyze", str(manifest), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
-    assert "unknown field 'colour'" in err
+    assert "unknown top-level key 'colour'" in err
     assert err.count("\n") == 1 and "Traceback" not in err
     assert main(["--debug", "analyze", str(manifest), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "Traceback (most recent call last)" in err and "FileFormatError" in err
+
+
+def test_a_bad_entry_fails_alone_and_exits_1(tmp_path, capsys):
+    manifest = tmp_path / "manifest.yaml"
+    manifest.write_text("runs:\n  - file: a.txt\n    colour: blue\n", encoding="utf-8")
+    assert main(["analyze", str(manifest), "-o", str(tmp_path / "out"), "--quiet"]) == 1
+    out = capsys.readouterr().out
+    assert "a.txt: " in out and "entry 1: unknown field 'colour'" in out
+    results = json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
+    [run] = results["runs"]
+    assert run["name"] == "a.txt" and run["stage"] == "read"
+    assert run["problems"] == [run["reason"]] and "\n" not in run["reason"]
+    assert (tmp_path / "out" / "report.html").is_file()
+
+
+def test_strict_and_geometry_reach_analyze(tmp_path, monkeypatch):
+    import granflow.analysis
+
+    seen = {}
+
+    class Result:
+        exit_code = 1
+
+        def summary(self):
+            return "summary"
+
+    def fake(campaign, output, **options):
+        seen.update(options)
+        return Result()
+
+    monkeypatch.setattr(granflow.analysis, "analyze", fake)
+    spec = "effective_radius=9mm,mean_radius=8.5mm"
+    assert main(["analyze", str(tmp_path), "--strict", "--geometry", spec, "--quiet"]) == 1
+    assert seen["strict"] is True and seen["geometry"] == spec
+    assert main(["analyze", str(tmp_path), "--quiet"]) == 1
+    assert seen["strict"] is False and seen["geometry"] is None
 
 
 def test_an_internal_error_is_one_line_unless_debug(campaign, tmp_path, capsys, monkeypatch):

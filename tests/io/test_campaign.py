@@ -34,14 +34,14 @@ def folder(tmp_path):
         "defaults:\n  notes: synthetic\n"
         "runs:\n"
         "  - {file: light.csv, interval: 1, normal_load: 50 mN, preparation: A}\n"
-        "  - {file: light.csv, interval: 2, normal_load: 0.05, preparation: A}\n"
+        "  - {file: light.csv, interval: 2, normal_load: 0.05 N, preparation: A}\n"
         "  - {file: heavy.txt, normal_load: 100mN, preparation: B}\n"
         "  - {file: missing.csv, normal_load: 1 N}\n",
         encoding="utf-8",
     )
     (tmp_path / "campaign.csv").write_text(
         "file,interval,normal_load,preparation,notes\n"
-        "light.csv,1,50 mN,A,first\nlight.csv,2,0.05,A,\nheavy.txt,,0.1,B,\n",
+        "light.csv,1,50 mN,A,first\nlight.csv,2,0.05 N,A,\nheavy.txt,,0.1 N,B,\n",
         encoding="utf-8",
     )
     return tmp_path
@@ -102,10 +102,12 @@ def test_manifest_errors_name_the_entry(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("- {file: a.csv, normal_load: 5 furlongs}\n", encoding="utf-8")
     with pytest.raises(granflow.FileFormatError, match="entry 1"):
-        granflow.Campaign.from_manifest(bad)
+        granflow.Campaign.from_manifest(bad, errors="raise")
     bad.write_text("- {file: a.csv, colour: red}\n", encoding="utf-8")
     with pytest.raises(granflow.FileFormatError, match="unknown field 'colour'"):
-        granflow.Campaign.from_manifest(bad)
+        granflow.Campaign.from_manifest(bad, errors="raise")
+    (problem,) = granflow.Campaign.from_manifest(bad).problems
+    assert "entry 1: unknown field 'colour'" in problem
 
 
 def test_manifest_test_kind_is_checked(tmp_path):

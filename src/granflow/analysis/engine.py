@@ -222,6 +222,8 @@ def analyze(
     mcmc=False,
     seed=0,
     progress=None,
+    geometry=None,
+    strict=False,
 ):
     """Analyse a whole campaign and write results, tables, figures and a report.
 
@@ -257,6 +259,14 @@ def analyze(
         Called as ``progress(done, total, name)`` after each run analysed in this call (in
         completion order); an exception it raises stops the analysis, and the finished runs
         stay saved for ``resume=True``.
+    geometry : granflow.Annulus, str or mapping, optional
+        The tube of the manifest entries that declare none (what
+        :meth:`granflow.Annulus.from_spec` reads: ``"paper"``, radii, or r_eff and r_m);
+        default the paper's, reported as ``"paper (default)"``. A manifest's ``geometry``
+        (in its defaults or an entry) wins. Not with a Campaign (already converted).
+    strict : bool
+        Make every data-quality problem an error: a run with problems (``runs[*].problems``)
+        is a failed run, named, and the rest is analysed.
 
     Returns
     -------
@@ -288,7 +298,7 @@ def analyze(
     output = Path(output)
     reporter = _Progress(quiet, progress)
     stages = {}
-    items, manifest, inputs = load_campaign(source)
+    items, manifest, inputs = load_campaign(source, geometry)
     stages["read_s"] = time.perf_counter() - clock
     executor = Executor(jobs, scheduler)
     try:
@@ -308,14 +318,15 @@ def analyze(
         stages["runs_s"] = time.perf_counter() - clock_stage
         reporter.line("joint analyses and predictions")
         clock_stage = time.perf_counter()
-        entries = tuple(run_entry(item, index) for index, item in enumerate(items))
+        entries = tuple(run_entry(item, index, strict) for index, item in enumerate(items))
         joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         stages["joint_s"] = time.perf_counter() - clock_stage
         description = executor.description
     finally:
         executor.close()
     clock_stage = time.perf_counter()
-    result = _assemble(items, entries, manifest, inputs, joint, mcmc, seed, reference)
+    options = {"mcmc": mcmc, "seed": seed, "strict": bool(strict), "reference": reference}
+    result = _assemble(items, entries, manifest, inputs, joint, options)
     notes = list(result.warnings)
     tables = write_tables(output, result.to_dict(), notes)
     reporter.line("figures")
@@ -434,7 +445,7 @@ def _finished(timing, clock):
     )
 
 
-def _assemble(items, entries, manifest, inputs, joint, mcmc, seed, reference):
+def _assemble(items, entries, manifest, inputs, joint, options):
     """The campaign's result without tables, figures and timing, in manifest order."""
     import platform
 
@@ -446,17 +457,18 @@ def _assemble(items, entries, manifest, inputs, joint, mcmc, seed, reference):
             warnings_list += item.result.warnings
         if not entry.ok:
             warnings_list.append(f"failed: {entry.name}: {entry.reason}")
-    campaign, synthetic = campaign_summary(items, manifest, joint.material)
+    campaign, synthetic = campaign_summary(items, entries, manifest, joint.material)
     provenance = {
         "granflow_version": granflow.__version__,
         "python": platform.python_version(),
         "inputs": input_hashes(manifest, inputs),
         "options": {
-            "mcmc": mcmc,
-            "seed": seed,
+            "mcmc": options["mcmc"],
+            "seed": options["seed"],
+            "strict": options["strict"],
             "analysis_version": ANALYSIS_VERSION,
             "runaway_factor": RUNAWAY_FACTOR,
-            "reference_velocity": reference,
+            "reference_velocity": options["reference"],
             "elastic_ramp_tolerance": ELASTIC_RAMP_TOLERANCE,
             "stability_map": {
                 "switch_points": MAP_POINTS,

@@ -19,7 +19,7 @@ from granflow.analysis.files import MANIFEST_NAMES, TRUTH_FILE, read_json
 from granflow.analysis.joint import rounded
 from granflow.analysis.joint_results import MATERIAL_CONSTANTS
 from granflow.analysis.result import RunEntry
-from granflow.analysis.run_results import FailedRun
+from granflow.analysis.run_results import FailedRun, StartupResult
 from granflow.analysis.runs import ANALYSES
 from granflow.errors import InvalidParameterError
 from granflow.model.run import Run
@@ -37,8 +37,9 @@ __all__ = [
     "run_key",
 ]
 
-#: Bumped whenever a per-run result changes meaning, so older saved results are not reused.
-ANALYSIS_VERSION = 2
+#: Bumped whenever a per-run result changes meaning, so older saved results are not reused
+#: (3: a start-up's window counts its non-finite rows, fits count the points they drop).
+ANALYSIS_VERSION = 3
 
 
 def _sha256_file(path):
@@ -71,6 +72,7 @@ def run_key(identity, run, kind, options):
         "control": run.control,
         "meta": {k: v for k, v in json_safe(dict(run.meta)).items() if k not in ("manifest",)},
         "options": options,
+        "problems": list(run.problems),
     }
     header["meta"]["source"] = identity["source"]
     digest.update(json.dumps(header, sort_keys=True).encode("utf-8"))
@@ -133,40 +135,25 @@ def _run_name(run, source):
     return f"{source}#{run.meta.get('interval', 1)}"
 
 
-def _items_from_manifest(manifest):
-    """Items in manifest order: each entry's runs, or the reason its file failed."""
-    from granflow.io.campaign import Campaign, read_manifest
+def _items_from_manifest(manifest, geometry):
+    """Items in manifest order: each entry's runs, or why the entry gave none (under the
+    entry's own label: ``file#interval`` as the manifest asks for it)."""
+    from granflow.io.campaign import manifest_runs
 
-    entries = read_manifest(manifest)
-    campaign = Campaign.from_manifest(manifest, errors="collect")
     folder = manifest.parent
-    runs, problems = list(campaign.runs), list(campaign.problems)
-    items, position, inputs = [], 0, []
-    for entry in entries:
-        file = str(folder / entry["file"])
-        relative = relative_path(file, folder)
-        if relative not in inputs:
+    items, inputs = [], []
+    for entry in manifest_runs(manifest, geometry):
+        relative = None if entry.file is None else relative_path(entry.file, folder)
+        if relative is not None and relative not in inputs:
             inputs.append(relative)
-        taken = []
-        while position < len(runs) and runs[position].meta.get("source") == file:
-            taken.append(runs[position])
-            position += 1
-            if "interval" in entry:
-                break
-        if taken:
-            items += [_run_item(run, folder) for run in taken]
+        if entry.runs:
+            items += [_run_item(run, folder) for run in entry.runs]
             continue
-        reason = next((p for p in problems if file in p), None)
-        if reason is not None:
-            problems.remove(reason)
+        if relative is None:
+            name = entry.label
         else:
-            reason = "the file holds no run"
-        name = relative if "interval" not in entry else f"{relative}#{entry['interval']}"
-        items.append(
-            Item(name=name, source=relative, interval=entry.get("interval"), reason=reason)
-        )
-    items += [_run_item(run, folder) for run in runs[position:]]
-    items += [Item(name="?", source=None, interval=None, reason=p) for p in problems]
+            name = relative if entry.interval is None else f"{relative}#{entry.interval}"
+        items.append(Item(name=name, source=relative, interval=entry.interval, reason=entry.reason))
     return items, inputs
 
 
@@ -177,17 +164,26 @@ def _run_item(run, folder):
     )
 
 
-def load_campaign(source):
-    """(items, manifest path or None, input files relative to the manifest folder)."""
+def load_campaign(source, geometry=None):
+    """(items, manifest path or None, input files relative to the manifest folder).
+
+    ``geometry`` (a spec for :meth:`granflow.Annulus.from_spec`) is the tube of the manifest
+    entries that declare none; a Campaign's runs are already converted, so it takes none.
+    """
     from granflow.io.campaign import Campaign
 
     if isinstance(source, Campaign):
+        if geometry is not None:
+            raise InvalidParameterError(
+                "geometry applies to a manifest; the runs of a Campaign are already converted "
+                "(give the geometry to Campaign.from_manifest)"
+            )
         items = [_run_item(run, None) for run in source.runs]
         items += [Item(name="?", source=None, interval=None, reason=p) for p in source.problems]
         inputs = list(dict.fromkeys(item.source for item in items if item.source))
         return items, None, inputs
     manifest = _find_manifest(source)
-    items, inputs = _items_from_manifest(manifest)
+    items, inputs = _items_from_manifest(manifest, geometry)
     return items, manifest, [manifest.name, *inputs]
 
 
@@ -205,11 +201,49 @@ def imposed_velocity(item):
     return None if value is None else float(value)
 
 
-def run_entry(item, index):
-    """The :class:`~granflow.analysis.result.RunEntry` of an item whose work is done."""
+def _fits(result):
+    """The (window, Eq. 3 fit) pairs of a run's result (a start-up, a switch's start-up)."""
+    startup = getattr(result, "startup", result)
+    if isinstance(startup, StartupResult):
+        return [(startup.window, startup.fit)]
+    return []
+
+
+def run_problems(item):
+    """The data-quality problems of an item (see :class:`RunEntry`): the reader's, the
+    points its fit left out for a NaN or an infinity, or why the entry gave no run."""
+    if item.run is None:
+        return (item.reason,) if item.reason else ()
+    problems = list(item.run.problems)
+    for window, fit in _fits(item.result):
+        count = window.non_finite + fit.dropped.get("non_finite", 0)
+        if count:
+            problems.append(
+                f"{count} point{'s' if count != 1 else ''} with a NaN or infinite time, slip "
+                "or force left out of the fit"
+            )
+    return tuple(problems)
+
+
+def run_entry(item, index, strict=False):
+    """The :class:`~granflow.analysis.result.RunEntry` of an item whose work is done.
+
+    With ``strict``, a run with data-quality problems is a failed run (stage "quality").
+    """
     run = item.run
     result = item.result if run is not None else FailedRun(reason=item.reason)
-    common = {"index": index, **identity(item), "result": result, "key": item.key}
+    problems = run_problems(item)
+    stage = None if item.ok else "analysis"
+    if strict and problems and run is not None and item.ok:
+        result = FailedRun(reason="strict: data-quality problems: " + "; ".join(problems))
+        stage = "quality"
+    common = {
+        "index": index,
+        **identity(item),
+        "result": result,
+        "key": item.key,
+        "problems": problems,
+    }
     if run is None:
         return RunEntry(
             **common,
@@ -229,7 +263,8 @@ def run_entry(item, index):
         velocity=imposed_velocity(item),
         preparation=run.meta.get("preparation"),
         points=len(run),
-        stage=None if item.ok else "analysis",
+        stage=stage,
+        geometry=run.meta.get("geometry"),
         run=run,
     )
 
@@ -253,13 +288,24 @@ def _truth(manifest):
     return None, None
 
 
-def campaign_summary(items, manifest, material):
+def _geometry_summary(entries):
+    """The geometry of the campaign's runs: the one label they share, or a pointer to the
+    runs when they differ (None when no run records one)."""
+    labels = list(dict.fromkeys(e.geometry for e in entries if e.geometry is not None))
+    if not labels:
+        return None
+    return labels[0] if len(labels) == 1 else "differs between runs (see each run's geometry)"
+
+
+def campaign_summary(items, entries, manifest, material):
     """The ``campaign`` entry of ``results.json`` and whether the campaign is synthetic.
 
     Parameters
     ----------
     items : sequence of Item
         The campaign's items, their work done.
+    entries : sequence of RunEntry
+        Their entries (a run failed under ``strict`` counts as failed).
     manifest : pathlib.Path or None
     material : granflow.analysis.joint_results.Material
 
@@ -268,7 +314,7 @@ def campaign_summary(items, manifest, material):
     (dict, bool)
     """
     runs = [item for item in items if item.run is not None]
-    ok = [item for item in runs if item.ok]
+    analysed = sum(entry.ok for entry in entries)
     loads = sorted({rounded(i.run.normal_load) for i in runs if i.run.normal_load is not None})
     speeds = sorted({rounded(v) for v in map(imposed_velocity, runs) if v is not None})
     preparations = sorted(
@@ -276,11 +322,13 @@ def campaign_summary(items, manifest, material):
     )
     summary = {
         "manifest": None if manifest is None else str(manifest.resolve()),
-        "analysed": len(ok),
+        "analysed": analysed,
+        "geometry": _geometry_summary(entries),
         "counts": {
             "runs": len(items),
-            "analysed": len(ok),
-            "failed": len(items) - len(ok),
+            "analysed": analysed,
+            "failed": len(items) - analysed,
+            "with_problems": sum(bool(entry.problems) for entry in entries),
             "tests": {kind: sum(1 for i in runs if i.kind == kind) for kind in ANALYSES},
             "normal_loads": loads,
             "velocities": speeds,

@@ -48,6 +48,8 @@ def _runs_table(entries):
             low, high = (fit.get("ci95") or {}).get(name) or (None, None)
             row[f"{name}_ci95_low"], row[f"{name}_ci95_high"] = low, high
         row["redchi"] = fit.get("redchi")
+        row["problems"] = "; ".join(entry.get("problems") or ())
+        row["geometry"] = entry.get("geometry")
         row["peak_force"] = (entry.get("peak") or {}).get("force")
         row["failure_force"] = (entry.get("failure") or {}).get("force")
         row["switch_outcome"] = (entry.get("switch") or {}).get("outcome")

@@ -26,6 +26,7 @@ __all__ = [
     "MAP_HOLD",
     "MAP_POINTS",
     "MAP_RATIOS",
+    "WALL_LIMIT_OFF",
     "compare_creep",
     "compare_ramps",
     "compare_switches",
@@ -39,6 +40,10 @@ __all__ = [
 MAP_POINTS, MAP_RATIOS = 8, 7
 #: Time under force control in each cell of the map [s].
 MAP_HOLD = 60.0
+#: The simulator's wall-clock bound, set out of reach (a year [s]): an analysis's answer must
+#: not depend on how busy the machine is, so its simulations are bounded by their work
+#: (evaluations and transitions) only.
+WALL_LIMIT_OFF = 3.15e7
 
 
 def _peak_force(mu_a, mu_d, alpha, x0, load):
@@ -221,7 +226,7 @@ def _predict_switch(params, switch):
             SwitchToForce(max(switch.hold_time, 1.0), factor=switch.factor),
         ]
     )
-    return simulate(params, protocol)
+    return simulate(params, protocol, max_wall=WALL_LIMIT_OFF)
 
 
 def compare_switches(entries, startups, basis):
@@ -300,7 +305,13 @@ def stability(entries, startups, chosen, basis, executor):
     result, notes = attempt(
         "stability_map",
         lambda: stability_map(
-            params, points, ratios, velocity=velocity, hold=MAP_HOLD, executor=executor
+            params,
+            points,
+            ratios,
+            velocity=velocity,
+            hold=MAP_HOLD,
+            executor=executor,
+            max_wall=WALL_LIMIT_OFF,
         ),
     )
     return (None if result is None else StabilityPrediction(load, result)), notes

@@ -23,6 +23,7 @@ __all__ = [
     "comparison_view",
     "labelled",
     "material_view",
+    "quality_view",
     "reason_of",
     "runs_view",
     "scalars",
@@ -142,6 +143,8 @@ def runs_view(results):
             "preparation": str(run.get("preparation") or DASH),
             "failed": failed,
             "reason": str(run.get("reason") or run.get("error") or ""),
+            "problems": [str(p) for p in as_list(run.get("problems"))],
+            "geometry": run.get("geometry"),
             "fit": None,
         }
         if fit and _is_creep_fit(fit):
@@ -179,9 +182,23 @@ def campaign_view(results, runs):
         "loads": distinct("normal_load"),
         "velocities": distinct("velocity"),
         "preparations": sorted({r["preparation"] for r in runs if r["preparation"] != DASH}),
-        "details": scalars(campaign, skip=("problems",)),
+        "details": scalars(campaign, skip=("problems", "geometry")),
+        "geometry": str(campaign.get("geometry") or "not recorded (runs given as data)"),
         "problems": [str(p) for p in as_list(campaign.get("problems"))],
     }
+
+
+def quality_view(runs):
+    """The data-quality section: each run with problems and its problems, and each run's
+    geometry where the runs' geometries differ."""
+    flagged = [{"name": r["name"], "problems": r["problems"]} for r in runs if r["problems"]]
+    geometries = {r["geometry"] for r in runs if r["geometry"] is not None}
+    per_run = (
+        [(r["name"], r["geometry"]) for r in runs if r["geometry"] is not None]
+        if len(geometries) > 1
+        else []
+    )
+    return {"flagged": flagged, "geometries": per_run}
 
 
 #: The rows of the material table: (constant, symbol, meaning, (scale, unit) or None for
@@ -297,11 +314,16 @@ def amontons_view(amontons):
         for row in map(as_mapping, as_list(amontons.get("per_load")))
     ]
     lines = as_mapping(amontons.get("lines"))
+    bounds = as_mapping(amontons.get("lines_ci95"))
     return {
         "reason": None,
         "rows": rows,
         "has_alpha_v": any(r["alpha_v"][0] is not None for r in rows),
-        "lines": [(key, pair(lines.get(key))) for key in ("a", "Fd") if key in lines],
+        "lines": [
+            (key, pair(lines.get(key)), pair(bounds.get(key)))
+            for key in ("a", "Fd")
+            if key in lines
+        ],
         "joint": {n: _estimate(jp, je, n) for n in ("mu_a", "mu_d", "alpha")},
         "status": _joint_status(joint),
     }

@@ -59,8 +59,15 @@ class RunEntry(Value):
     result : StartupResult, CreepResult, RampResult, SwitchResult or FailedRun
     key : str or None
         The name of its saved result in ``runs/`` (None when it was not saved).
-    stage : {"read", "analysis"} or None
-        Where a failed run failed.
+    stage : {"read", "analysis", "quality"} or None
+        Where a failed run failed ("quality": a data-quality problem, under ``strict``).
+    problems : tuple of str
+        Its data-quality problems, one sentence each, empty when clean: the reader's (a
+        truncated block, non-finite cells, ...), the points its fit left out and why, the
+        manifest entry's own error.
+    geometry : str or None
+        The tube its torque and angle were converted with (``"paper (default)"`` when the
+        manifest declares none; None for a run given as data).
     run : granflow.Run or None
         The data (not in ``to_dict``; None when rebuilt from JSON).
     """
@@ -78,6 +85,8 @@ class RunEntry(Value):
     result: object
     key: str | None = None
     stage: str | None = None
+    problems: tuple = ()
+    geometry: str | None = None
     run: object = field(default=None, repr=False)
 
     @property
@@ -98,6 +107,8 @@ class RunEntry(Value):
         out.update({k: v for k, v in self.result.to_dict().items() if k != "warnings"})
         if self.stage is not None:
             out["stage"] = self.stage
+        out["problems"] = list(self.problems)
+        out["geometry"] = self.geometry
         return json_safe(out)
 
     def failure(self):
@@ -112,15 +123,23 @@ class RunEntry(Value):
             "reason": self.reason,
         }
 
+    @property
+    def flagged(self):
+        """Whether the run has data-quality problems."""
+        return bool(self.problems)
+
     @classmethod
     def from_dict(cls, saved):
         """The entry of :meth:`to_dict`."""
-        rest = {k: v for k, v in saved.items() if k not in (*_DESCRIPTION, "key", "stage")}
+        own = (*_DESCRIPTION, "key", "stage", "problems", "geometry")
+        rest = {k: v for k, v in saved.items() if k not in own}
         return cls(
             **{name: saved[name] for name in _DESCRIPTION},
             result=run_result_from_dict(saved["test"], rest),
             key=saved.get("key"),
             stage=saved.get("stage"),
+            problems=tuple(saved.get("problems", ())),
+            geometry=saved.get("geometry"),
         )
 
 
@@ -252,8 +271,9 @@ class AnalysisResult(Value):
 
     @property
     def exit_code(self):
-        """0 when every run was analysed, 1 when some failed (the command's exit code)."""
-        return 1 if self.failed_runs else 0
+        """0 when every run and every joint analysis succeeded, 1 when some failed (the
+        command's exit code)."""
+        return 1 if self.failed_runs or self.analyses.errors else 0
 
     def summary(self):
         """A one-screen summary: counts, material constants with intervals, predictions,
@@ -273,6 +293,9 @@ class AnalysisResult(Value):
             )
             lines.append(f"  synthetic truth: {inside} the 95 % intervals")
         lines += _prediction_lines(self.predictions, self.analyses)
+        for name, reason in self.analyses.errors.items():
+            lines.append(f"joint analysis failed: {name.replace('_', ' ')}: {reason}")
+        lines += _quality_lines(self.runs, self.campaign)
         if self.warnings:
             lines.append(f"warnings: {len(self.warnings)} (see results.json or the report)")
         failed = self.failed_runs
@@ -286,6 +309,27 @@ class AnalysisResult(Value):
         return "\n".join(lines)
 
 
+def _number(value, spec):
+    """``value`` formatted with ``spec``, "n/a" for None or NaN (never a crash)."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "n/a"
+    return format(value, spec)
+
+
+def _quality_lines(runs, campaign):
+    """The runs with data-quality problems (at most ten named) and the geometry."""
+    lines = [f"geometry: {campaign.get('geometry') or 'as given by the caller'}"]
+    flagged = [entry for entry in runs if entry.problems]
+    if flagged:
+        plural = "s" if len(flagged) != 1 else ""
+        lines.append(f"data quality: {len(flagged)} run{plural} with problems:")
+        for entry in flagged[:10]:
+            lines.append(f"  {entry.name}: {'; '.join(entry.problems)}")
+        if len(flagged) > 10:
+            lines.append(f"  ... and {len(flagged) - 10} more in results.json")
+    return lines
+
+
 def _material_lines(material):
     if not material.determined:
         return [f"material constants: not determined ({material.reason})"]
@@ -295,14 +339,15 @@ def _material_lines(material):
         unit = f" {display_unit(name)}" if display_unit(name) else ""
         low, high = estimate.ci95
         lines.append(
-            f"  {name:<5} = {estimate.value:.5g} +/- {estimate.stderr:.2g}{unit}   "
-            f"95%: [{low:.5g}, {high:.5g}]"
+            f"  {name:<5} = {_number(estimate.value, '.5g')} +/- "
+            f"{_number(estimate.stderr, '.2g')}{unit}   "
+            f"95%: [{_number(low, '.5g')}, {_number(high, '.5g')}]"
         )
     return lines
 
 
 def _millinewton(value):
-    return to_display("force", value)
+    return None if value is None else to_display("force", value)
 
 
 def _prediction_lines(predictions, analyses):
@@ -310,18 +355,21 @@ def _prediction_lines(predictions, analyses):
     rows = predictions.static_yield
     if rows:
         text = "; ".join(
-            f"{_millinewton(row.normal_load):.4g} mN -> {_millinewton(row.F_peak):.4g} "
-            f"+/- {_millinewton(row.stderr):.2g} mN"
+            f"{_number(_millinewton(row.normal_load), '.4g')} mN -> "
+            f"{_number(_millinewton(row.F_peak), '.4g')} "
+            f"+/- {_number(_millinewton(row.stderr), '.2g')} mN"
             for row in rows[:6]
         )
         lines.append(f"static yield F_peak: {text}" + (" ..." if len(rows) > 6 else ""))
     for row in analyses.stress_ramp:
         if row.observed is not None and row.predicted_force is not None:
-            width = math.hypot(row.F_peak_stderr, row.F_peak_spread)
+            errors = (row.F_peak_stderr, row.F_peak_spread)
+            width = None if None in errors else math.hypot(*errors)
             lines.append(
                 f"stress ramp {row.run}: failed at "
-                f"{_millinewton(row.observed['failure_force']):.4g} mN, predicted F_peak "
-                f"{_millinewton(row.predicted_force):.4g} +/- {_millinewton(width):.2g} mN"
+                f"{_number(_millinewton(row.observed.get('failure_force')), '.4g')} mN, "
+                f"predicted F_peak {_number(_millinewton(row.predicted_force), '.4g')} +/- "
+                f"{_number(_millinewton(width), '.2g')} mN"
                 + (" (consistent)" if row.consistent else " (NOT consistent)")
             )
     for row in analyses.switch:

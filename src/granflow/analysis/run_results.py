@@ -61,6 +61,8 @@ class StartupWindow(Value):
         First and last abscissa of the window [m].
     points : int
         Points in the window.
+    non_finite : int
+        Rows of the run left out because their time, slip or force is NaN or infinite.
     """
 
     abscissa: str
@@ -68,6 +70,7 @@ class StartupWindow(Value):
     start: float
     stop: float
     points: int
+    non_finite: int = 0
 
     def to_dict(self, include_arrays=False):
         """JSON-safe mapping."""
@@ -78,6 +81,7 @@ class StartupWindow(Value):
                 "start": self.start,
                 "stop": self.stop,
                 "points": self.points,
+                "non_finite": self.non_finite,
             }
         )
 
@@ -90,6 +94,7 @@ class StartupWindow(Value):
             start=number(saved["start"]),
             stop=number(saved["stop"]),
             points=int(saved["points"]),
+            non_finite=int(saved.get("non_finite", 0)),
         )
 
 

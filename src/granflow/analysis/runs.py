@@ -105,6 +105,8 @@ class StartupData:
         Leading points left out as the elastic loading ramp (0 if none was found).
     velocity : float or None
         Nominal velocity of the run [m/s].
+    non_finite : int
+        Rows left out because their time, slip or force is NaN or infinite.
     """
 
     slip: np.ndarray
@@ -112,6 +114,7 @@ class StartupData:
     abscissa: str
     elastic_points: int
     velocity: float | None
+    non_finite: int = 0
 
     def describe(self):
         """The window as a :class:`~granflow.analysis.run_results.StartupWindow`."""
@@ -121,6 +124,7 @@ class StartupData:
             start=float(self.slip[0]),
             stop=float(self.slip[-1]),
             points=int(self.slip.size),
+            non_finite=self.non_finite,
         )
 
 
@@ -172,6 +176,7 @@ def startup_data(run):
     slip = run.slip[with_slip]
     if slip.size >= 2 and np.all(np.diff(slip) > 0):
         x, force, abscissa = slip, run.force[with_slip], "slip"
+        used = with_slip
     else:
         if velocity is None or not velocity > 0:
             raise InvalidDataError(
@@ -182,6 +187,7 @@ def startup_data(run):
         if t.size < 2 or np.any(np.diff(t) <= 0):
             raise InvalidDataError(f"{run.name}: the time is not strictly increasing")
         x, force, abscissa = velocity * (t - t[0]), run.force[keep], "velocity*time"
+        used = keep
     end = _elastic_ramp_end(x, force)
     start = 0 if end is None else end
     x, force = x[start:], force[start:]
@@ -191,6 +197,7 @@ def startup_data(run):
         abscissa=abscissa,
         elastic_points=start,
         velocity=velocity,
+        non_finite=int(used.size - np.count_nonzero(used)),
     )
 
 

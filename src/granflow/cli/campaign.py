@@ -14,10 +14,14 @@ _EPILOG_ANALYZE = """examples:
   granflow analyze campaign/ -o results --resume    (after an interruption: reuses finished runs)
   granflow analyze campaign/ --scheduler tcp://10.0.0.5:8786   (Dask: pip install granflow[dask])
   granflow analyze campaign/ --mcmc --seed 1        (emcee: pip install granflow[mcmc])
+  granflow analyze campaign/ --geometry "effective_radius=9mm,mean_radius=8.5mm" --strict
 The manifest lists the export files with normal_load, velocity, preparation, test, ...
 Writes report.html, results.json, tables/ (CSV and Parquet), figures/ (PNG and SVG) and runs/
-(one result per run, written as it finishes). Exit code 1 when some runs failed (named in the
-output, results.json and the report), 2 for a bad argument or an unreadable manifest."""
+(one result per run, written as it finishes). Data-quality problems (a truncated export, NaN
+cells, points a fit left out, a bad manifest entry) are listed per run in results.json and in
+the report's "Data quality" section; --strict makes them errors. Exit code 1 when some runs or
+joint analyses failed (named in the output, results.json and the report), 2 for a bad argument
+or an unreadable manifest."""
 
 _EPILOG_DEMO = """examples:
   granflow demo                                     (writes granflow-demo/)
@@ -57,6 +61,19 @@ def add_analyze(subparsers):
     )
     parser.add_argument(
         "--mcmc", action="store_true", help="sample the posterior of a representative fit"
+    )
+    parser.add_argument(
+        "--geometry",
+        metavar="SPEC",
+        help="the tube of the entries whose manifest declares none: 'paper' (default), "
+        "'outer_radius=14.85mm,inner_radius=12.55mm', 'outer_diameter=..,wall_thickness=..' "
+        "or 'effective_radius=..,mean_radius=..'",
+    )
+    parser.add_argument(
+        "--strict",
+        action="store_true",
+        help="make every data-quality problem (a truncated file, NaN cells, points a fit "
+        "left out) an error: those runs fail (exit 1), the rest is analysed",
     )
 
 
@@ -123,6 +140,8 @@ def _analyze_and_report(args, campaign):
                 quiet=args.quiet,
                 mcmc=getattr(args, "mcmc", False),
                 seed=args.seed,
+                geometry=getattr(args, "geometry", None),
+                strict=getattr(args, "strict", False),
             )
     except KeyboardInterrupt:
         print(

@@ -17,6 +17,7 @@ from granflow.model.run import Run
 from granflow.model.special import scaled_ei_diff
 
 __all__ = [
+    "DROP_REASONS",
     "CurveData",
     "check_mapping",
     "curve_features",
@@ -37,7 +38,8 @@ _START_PEAK_SLIPS = (0.9, 0.5, 1.6)  # trial alpha * x_peak for the starts
 @dataclass(frozen=True)
 class CurveData:
     """The points a fit uses: abscissa z [m or s], force y [N], weights w, and what came
-    with them."""
+    with them; ``dropped`` counts the points left out by reason (see :data:`DROP_REASONS`),
+    non-zero counts only."""
 
     z: np.ndarray
     y: np.ndarray
@@ -46,10 +48,18 @@ class CurveData:
     velocity: float | None
     window: tuple
     name: str | None
+    dropped: dict
+
+
+#: Why a fit leaves a point out: a NaN or infinite abscissa or force (a Run's rows only; arrays
+#: with one are refused), an abscissa not positive (Eq. 3 needs x > 0), outside the window,
+#: a weight of zero.
+DROP_REASONS = ("non_finite", "not_positive", "outside_window", "zero_weight")
 
 
 def _as_curve_arrays(data, domain):
-    """(z, y, velocity, name) from a Run or a pair of arrays; Run rows with NaN are dropped."""
+    """(z, y, velocity, name, non-finite rows dropped) from a Run or a pair of arrays; Run
+    rows with a NaN or an infinity are dropped (and counted)."""
     if isinstance(data, Run):
         z = data.slip if domain == "slip" else data.t
         keep = np.isfinite(z) & np.isfinite(data.force)
@@ -58,7 +68,14 @@ def _as_curve_arrays(data, domain):
                 f"{data.name}: no point has both a finite {'slip' if domain == 'slip' else 't'} "
                 "and a finite force"
             )
-        return np.array(z[keep]), np.array(data.force[keep]), data.nominal_velocity, data.name
+        dropped = int(keep.size - np.count_nonzero(keep))
+        return (
+            np.array(z[keep]),
+            np.array(data.force[keep]),
+            data.nominal_velocity,
+            data.name,
+            dropped,
+        )
     if not isinstance(data, tuple | list) or len(data) != 2:
         raise InvalidDataError(
             "data must be a granflow.Run or a pair (abscissa, force) of arrays, "
@@ -71,7 +88,7 @@ def _as_curve_arrays(data, domain):
             f"{abscissa} and force must have the same length, got {arrays[0].size} and "
             f"{arrays[1].size}"
         )
-    return arrays[0], arrays[1], None, None
+    return arrays[0], arrays[1], None, None, 0
 
 
 def real_column(values, name, unit=""):
@@ -98,7 +115,7 @@ def real_column(values, name, unit=""):
 
 def prepare(data, domain, velocity, window, weights, sigma):
     """The points of ``data`` inside the window, with their weights (see :func:`granflow.fit`)."""
-    z, y, run_velocity, name = _as_curve_arrays(data, domain)
+    z, y, run_velocity, name, non_finite = _as_curve_arrays(data, domain)
     abscissa, unit = ABSCISSA[domain]
     steps = np.diff(z)
     if np.any(steps <= 0):
@@ -120,9 +137,9 @@ def prepare(data, domain, velocity, window, weights, sigma):
         w = _per_point(weights, n_all, "weights", positive=False)
     else:
         w = np.ones(n_all)
+    positive = z > 0
     if window is None:
-        start, stop = 0.0, math.inf
-        keep = z > 0
+        inside = np.ones(z.shape, dtype=bool)
     else:
         if len(window) != 2:
             raise InvalidParameterError(f"window must be a pair (start, stop), got {window!r}")
@@ -130,8 +147,15 @@ def prepare(data, domain, velocity, window, weights, sigma):
         stop = math.inf if window[1] is None else check.real_scalar(window[1], "window stop", unit)
         if stop <= start:
             raise InvalidParameterError(f"window must have start < stop, got {window!r}")
-        keep = (z >= start) & (z <= stop) & (z > 0)
-    keep &= w > 0
+        inside = (z >= start) & (z <= stop)
+    weighted = w > 0
+    dropped = {
+        "non_finite": non_finite,
+        "not_positive": int(np.count_nonzero(~positive)),
+        "outside_window": int(np.count_nonzero(positive & ~inside)),
+        "zero_weight": int(np.count_nonzero(positive & inside & ~weighted)),
+    }
+    keep = positive & inside & weighted
     z, y, w = z[keep], y[keep], w[keep]
     if z.size < MIN_POINTS:
         raise InvalidDataError(
@@ -139,7 +163,8 @@ def prepare(data, domain, velocity, window, weights, sigma):
             f"weight inside the window, got {z.size}"
         )
     used = (float(z[0]), float(z[-1]))
-    return CurveData(z, y, w, sigma is not None, velocity, used, name)
+    dropped = {reason: count for reason, count in dropped.items() if count}
+    return CurveData(z, y, w, sigma is not None, velocity, used, name, dropped)
 
 
 def _per_point(values, n, name, positive):

@@ -14,11 +14,12 @@ Every run is fitted alone first (no initial guess needed); those fits start the 
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
+from scipy.stats import t as student
 
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import (
@@ -217,13 +218,24 @@ class AmontonsResult(ValueEquality):
         over the repeats' separate fits of ``a`` [N], ``alpha`` [1/m], ``alpha_v`` [1/s]
         (when velocities are known, else None) and ``Fd`` [N].
     lines : mapping
-        Lines through the origin of the per-load means against the load: ``"a"`` and
-        ``"Fd"`` map to (slope, standard error), i.e. mu_a and mu_d with uncertainties.
+        Lines through the origin of the separate fits' ``"a"`` and ``"Fd"`` against the load:
+        each maps to (slope, standard error), i.e. mu_a and mu_d [-] with uncertainties.
+    lines_ci95 : mapping
+        ``"a"`` and ``"Fd"`` to the 95 % interval of the slope: slope +/- t * stderr with
+        Student's t at the line's degrees of freedom (runs - 1), wider than +/- 1.96 stderr.
+
+    The lines are least squares through the origin over every run (each repeat a point, so a
+    load's mean weighs by its repeats), and their standard error comes from the scatter of
+    the runs about the line, s^2 = sum (y - slope F_N)^2 / (runs - 1): it holds both the
+    scatter of the repeats and any departure of the loads' means from a line, and it needs no
+    per-load weights, which from a few repeats are too uncertain to use (inverse variances
+    from 3 repeats make the intervals hold the truth in only about 3 of 4 campaigns).
     """
 
     joint: JointFitResult
     per_load: tuple
     lines: FrozenMap
+    lines_ci95: FrozenMap = field(default_factory=FrozenMap)
 
     def report(self):
         """The per-load table and the lines through the origin."""
@@ -236,7 +248,10 @@ class AmontonsResult(ValueEquality):
                 f"Fd = {row['Fd'][0] * 1e3:.4g} +/- {row['Fd'][1] * 1e3:.2g} mN"
             )
         for key, (slope, error) in self.lines.items():
-            lines.append(f"    {key} = ({slope:.5g} +/- {error:.2g}) F_N")
+            low, high = self.lines_ci95.get(key, (math.nan, math.nan))
+            lines.append(
+                f"    {key} = ({slope:.5g} +/- {error:.2g}) F_N  95%: [{low:.5g}, {high:.5g}]"
+            )
         return "\n".join(lines)
 
     def to_dict(self, include_arrays=True):
@@ -253,6 +268,7 @@ class AmontonsResult(ValueEquality):
                 "joint": self.joint.to_dict(include_arrays=include_arrays),
                 "per_load": [dict(row) for row in self.per_load],
                 "lines": {k: list(v) for k, v in self.lines.items()},
+                "lines_ci95": {k: list(v) for k, v in self.lines_ci95.items()},
             }
         )
 
@@ -267,6 +283,7 @@ class AmontonsResult(ValueEquality):
             joint=JointFitResult.from_dict(d["joint"]),
             per_load=tuple(per_load),
             lines=intervals(d["lines"]),
+            lines_ci95=intervals(d.get("lines_ci95", {})),
         )
 
 
@@ -286,22 +303,20 @@ def _mean_and_error(values):
     return (float(values.mean()), float(values.std(ddof=1) / math.sqrt(values.size)))
 
 
-def _line_through_origin(loads, means, errors):
-    """Weighted slope through the origin, its error scaled by the Birge ratio when > 1."""
-    loads, means, errors = (np.asarray(v, dtype=float) for v in (loads, means, errors))
-    if np.all(np.isfinite(errors)) and np.all(errors > 0):
-        weights = 1.0 / errors**2
-    else:
-        weights = np.ones_like(loads)
-    slope = float(np.sum(weights * loads * means) / np.sum(weights * loads**2))
-    error = math.sqrt(1.0 / np.sum(weights * loads**2))
-    if loads.size > 1:
-        birge = np.sum(weights * (means - slope * loads) ** 2) / (loads.size - 1)
-        if not np.all(weights == 1.0):
-            error *= math.sqrt(max(birge, 1.0))
-        else:
-            error *= math.sqrt(birge)
-    return slope, float(error)
+def _line_through_origin(loads, values):
+    """Least-squares slope through the origin of every run's value against its load, its
+    standard error from the runs' scatter about the line and its 95 % Student-t interval
+    (see :class:`AmontonsResult`): ``((slope, stderr), (low, high))``."""
+    loads, values = np.asarray(loads, dtype=float), np.asarray(values, dtype=float)
+    moment = float(np.sum(loads**2))
+    slope = float(np.sum(loads * values) / moment)
+    dof = loads.size - 1
+    if dof < 1:
+        return (slope, math.nan), (math.nan, math.nan)
+    variance = float(np.sum((values - slope * loads) ** 2)) / dof
+    error = math.sqrt(variance / moment)
+    half = float(student.ppf(0.975, dof)) * error
+    return (slope, error), (slope - half, slope + half)
 
 
 def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, window=None):
@@ -370,14 +385,15 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
         else:
             row["alpha_v"] = None
         per_load.append(FrozenMap(row))
-    lines = {}
+    lines, lines_ci95 = {}, {}
     for key in ("a", "Fd"):
-        lines[key] = _line_through_origin(
-            [row["normal_load"] for row in per_load],
-            [row[key][0] for row in per_load],
-            [row[key][1] for row in per_load],
-        )
-    return AmontonsResult(joint=joint, per_load=tuple(per_load), lines=FrozenMap(lines))
+        lines[key], lines_ci95[key] = _line_through_origin(loads, [fit.params[key] for fit in fits])
+    return AmontonsResult(
+        joint=joint,
+        per_load=tuple(per_load),
+        lines=FrozenMap(lines),
+        lines_ci95=FrozenMap(lines_ci95),
+    )
 
 
 # --------------------------------------------------------------------------- preparation

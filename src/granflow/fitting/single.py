@@ -21,7 +21,7 @@ alpha -> k = alpha v, x0 -> t0 = x0 / v; the parameters are called ``a, k, Fd, t
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -137,6 +137,12 @@ class FitResult(FitOutcome):
         First and last abscissa fitted.
     sigma_known : bool
         Whether the covariance uses a known noise (True) or the residual variance (False).
+    name : str or None
+        The run's name, when a Run was fitted.
+    dropped : mapping of str to int
+        Points of the data left out of the fit, counted by reason (only non-zero counts):
+        ``non_finite`` (a Run's rows with a NaN or infinite abscissa or force),
+        ``not_positive`` (abscissa <= 0), ``outside_window``, ``zero_weight``.
     """
 
     domain: str
@@ -155,6 +161,7 @@ class FitResult(FitOutcome):
     velocity: float | None
     window: tuple
     name: str | None = None
+    dropped: FrozenMap = field(default_factory=FrozenMap)
 
     #: The per-point arrays, which the compact ``to_dict(include_arrays=False)`` leaves out.
     ARRAYS = ("x", "data", "best_fit", "residuals", "weights")
@@ -204,7 +211,10 @@ class FitResult(FitOutcome):
             self,
             title="Fit Statistics",
             extra=(("domain", self.domain), ("# function evals", self.nfev)),
-            after=(("window", f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {unit}"),),
+            after=(
+                ("window", f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {unit}"),
+                *((("dropped", _dropped_text(self.dropped)),) if self.dropped else ()),
+            ),
         )
 
     def to_dict(self, include_arrays=True):
@@ -231,6 +241,7 @@ class FitResult(FitOutcome):
             "rsquared": self.rsquared,
             "velocity": self.velocity,
             "window": list(self.window),
+            "dropped": dict(self.dropped),
             **arrays(self, include_arrays),
         }
         return encode(out)
@@ -264,6 +275,7 @@ class FitResult(FitOutcome):
             velocity=None if d["velocity"] is None else float(d["velocity"]),
             window=tuple(number(v) for v in d["window"]),
             name=d.get("name"),
+            dropped=FrozenMap({k: int(v) for k, v in d.get("dropped", {}).items()}),
         )
 
     def plot(self, ax=None, *, residual_ax=None):
@@ -271,6 +283,11 @@ class FitResult(FitOutcome):
         from granflow.plotting.fits import plot_fit
 
         return plot_fit(self, ax=ax, residual_ax=residual_ax)
+
+
+def _dropped_text(dropped):
+    """``"3 non-finite, 1 not positive"``: the points left out, by reason."""
+    return ", ".join(f"{count} {reason.replace('_', ' ')}" for reason, count in dropped.items())
 
 
 # --------------------------------------------------------------------------- the fit
@@ -568,4 +585,5 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         window=prepared.window,
         sigma_known=prepared.sigma_known,
         name=prepared.name,
+        dropped=_frozen(prepared.dropped),
     )

@@ -8,109 +8,150 @@ that loads back identically.
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from granflow._json import json_safe
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
+from granflow.io.manifest import MANIFEST_FIELDS, TEST_KINDS, BadEntry, read_manifest
 from granflow.model.run import Run
 
-__all__ = ["MANIFEST_FIELDS", "TEST_KINDS", "Campaign", "read_manifest"]
+__all__ = [
+    "MANIFEST_FIELDS",
+    "TEST_KINDS",
+    "Campaign",
+    "EntryRuns",
+    "geometry_label",
+    "manifest_runs",
+    "read_manifest",
+]
 
-#: Manifest columns: file (required), interval (default: all), normal_load [N or with a
-#: unit, "50 mN"], velocity [m/s or "0.86 um/s"], rest_time [s or "5 min"], preparation,
-#: sample, notes, test (one of :data:`TEST_KINDS`; inferred from the data when absent),
-#: switch_time [s or with a unit; for a switch test: when the force was imposed].
-MANIFEST_FIELDS = (
-    "file",
-    "interval",
-    "normal_load",
-    "velocity",
-    "rest_time",
-    "preparation",
-    "sample",
-    "notes",
-    "test",
-    "switch_time",
-)
-#: What a run is: a rate-controlled start-up (Fig. 2), a stress ramp (Fig. 3a), creep under a
-#: constant stress (Fig. 3b), or a switch from rate to stress control (Fig. 3c).
-TEST_KINDS = ("startup", "ramp", "creep", "switch")
-_QUANTITIES = ("normal_load", "velocity", "rest_time", "switch_time")
 _HEADER = "# granflow campaign "
 
 
-def _entry(raw, where, manifest):
-    """One manifest entry, checked: values with units to SI, unknown keys refused."""
-    if not isinstance(raw, dict):
-        raise FileFormatError(f"{manifest}, {where}: an entry must be a mapping, got {raw!r}")
-    entry = {}
-    for key, value in raw.items():
-        key = str(key).strip()
-        if key not in MANIFEST_FIELDS:
-            raise FileFormatError(
-                f"{manifest}, {where}: unknown field {key!r}; known: {', '.join(MANIFEST_FIELDS)}"
-            )
-        if value is None or (isinstance(value, float) and math.isnan(value)) or value == "":
-            continue
-        if key in _QUANTITIES:
-            from granflow.model.units import parse_quantity, si_unit
+def geometry_label(geometry, declared=True):
+    """How a report names a geometry: ``"paper"`` (``"paper (default)"`` when nobody
+    declared it) or the tube's radii with r_eff and r_m [mm].
 
-            try:
-                value = parse_quantity(value, si_unit(key), key)
-            except InvalidParameterError as exc:
-                raise FileFormatError(f"{manifest}, {where}: {exc}") from None
-        elif key == "interval":
-            try:
-                value = int(value)
-            except (TypeError, ValueError):
-                raise FileFormatError(
-                    f"{manifest}, {where}: interval must be an integer, got {value!r}"
-                ) from None
-        elif key == "test":
-            value = str(value).strip().lower()
-            if value not in TEST_KINDS:
-                raise FileFormatError(
-                    f"{manifest}, {where}: test must be one of {', '.join(TEST_KINDS)}, "
-                    f"got {value!r}"
-                )
-        else:
-            value = str(value)
-        entry[key] = value
-    if "file" not in entry:
-        raise FileFormatError(f"{manifest}, {where}: the entry has no 'file'")
-    return entry
+    Examples
+    --------
+    >>> from granflow import Annulus
+    >>> geometry_label(Annulus.paper(), declared=False)
+    'paper (default)'
+    >>> geometry_label(Annulus.from_spec("outer_radius=10 mm, inner_radius=8 mm"))
+    'outer radius 10 mm, inner radius 8 mm (r_eff 9.037 mm, r_m 9 mm)'
+    """
+    from granflow.model.geometry import Annulus
+
+    if geometry == Annulus.paper():
+        return "paper" if declared else "paper (default)"
+    text = (
+        f"outer radius {geometry.outer_radius * 1e3:.6g} mm, inner radius "
+        f"{geometry.inner_radius * 1e3:.6g} mm (r_eff {geometry.effective_radius * 1e3:.4g} mm, "
+        f"r_m {geometry.mean_radius * 1e3:.4g} mm)"
+    )
+    return text + (", torque at the mean radius" if geometry.torque_radius == "mean" else "")
 
 
-def read_manifest(path):
-    """Read a manifest (YAML: a list of entries, or ``runs:`` with optional ``defaults:``;
-    or CSV with a header row of :data:`MANIFEST_FIELDS`) into a list of checked dicts."""
+@dataclass(frozen=True)
+class EntryRuns:
+    """What one manifest entry gave, in manifest order.
+
+    Attributes
+    ----------
+    label : str
+        ``file#interval`` (or ``file``; ``manifest entry N`` without a file), the file as the
+        manifest writes it.
+    file : pathlib.Path or None
+        The file (relative to the working folder), None when the entry names none.
+    interval : int or None
+        The interval the entry asked for.
+    runs : tuple of granflow.Run
+        Its runs with the manifest's metadata (empty when it failed).
+    reason : str or None
+        Why the entry gave no run: a bad entry, a file that cannot be read, a missing interval.
+    """
+
+    label: str
+    file: Path | None
+    interval: int | None
+    runs: tuple
+    reason: str | None = None
+
+
+def _entry_geometry(entry, geometry):
+    """(Annulus, label) for an entry: its own ``geometry``, else ``geometry``, else the
+    paper's (labelled as a default)."""
+    from granflow.model.geometry import Annulus
+
+    declared = entry.get("geometry", geometry)
+    annulus = Annulus.paper() if declared is None else Annulus.from_spec(declared)
+    return annulus, geometry_label(annulus, declared is not None)
+
+
+def manifest_runs(path, geometry=None):
+    """Every entry of a manifest with its runs, reading each file once per geometry.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The manifest (.yaml/.yml or .csv); file paths in it are relative to its folder.
+    geometry : granflow.Annulus, str or mapping, optional
+        The tube of entries that do not declare one (:meth:`granflow.Annulus.from_spec`);
+        default the paper's. An entry's (or the manifest's defaults') ``geometry`` wins.
+
+    Returns
+    -------
+    list of EntryRuns
+        One per entry, in manifest order; a bad entry or a file that fails keeps its place
+        and its label, with the reason.
+
+    Raises
+    ------
+    granflow.FileFormatError
+        A manifest that cannot be read as a whole (see :func:`read_manifest`).
+    """
+    from granflow.io import read_runs
+    from granflow.model.geometry import Annulus
+
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: cannot read the manifest ({exc})") from None
-    if path.suffix.lower() in (".yaml", ".yml"):
-        import yaml
-
+    if geometry is not None:
+        geometry = Annulus.from_spec(geometry)
+    files, out = {}, []
+    for entry in read_manifest(path, errors="collect"):
+        if isinstance(entry, BadEntry):
+            file = None if entry.file is None else path.parent / entry.file
+            out.append(EntryRuns(entry.label, file, entry.interval, (), entry.reason))
+            continue
+        file, interval = path.parent / entry["file"], entry.get("interval")
+        label = entry["file"] if interval is None else f"{entry['file']}#{interval}"
         try:
-            document = yaml.safe_load(text)
-        except yaml.YAMLError as exc:
-            raise FileFormatError(f"{path}: not valid YAML ({exc})") from None
-        defaults = {}
-        if isinstance(document, dict):
-            defaults = document.get("defaults") or {}
-            document = document.get("runs")
-        if not isinstance(document, list):
-            raise FileFormatError(f"{path}: expected a list of runs (or 'runs:' with a list)")
-        return [
-            _entry({**defaults, **raw} if isinstance(raw, dict) else raw, f"entry {i}", path)
-            for i, raw in enumerate(document, start=1)
-        ]
-    import csv
-
-    rows = list(csv.DictReader(text.splitlines()))
-    return [_entry(row, f"line {i}", path) for i, row in enumerate(rows, start=2)]
+            annulus, described = _entry_geometry(entry, geometry)
+            cache_key = (str(file), annulus)
+            if cache_key not in files:
+                try:
+                    files[cache_key] = read_runs(file, geometry=annulus)
+                except GranflowError as exc:
+                    files[cache_key] = exc
+            found = files[cache_key]
+            if isinstance(found, GranflowError):
+                raise found
+            if interval is not None:
+                found = [run for run in found if run.meta["interval"] == interval]
+                if not found:
+                    raise FileFormatError(
+                        f"{file}: no interval {interval} (the file has {len(files[cache_key])})"
+                    )
+            if not found:
+                raise FileFormatError(f"{file}: the file holds no run")
+        except GranflowError as exc:
+            out.append(EntryRuns(label, file, interval, (), str(exc)))
+            continue
+        extra = {k: v for k, v in entry.items() if k not in ("file", "interval", "geometry")}
+        extra.update(manifest=str(path), geometry=described)
+        runs = tuple(replace(run, meta={**run.meta, **extra}) for run in found)
+        out.append(EntryRuns(label, file, interval, runs))
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -168,40 +209,22 @@ class Campaign:
         ----------
         path : str or pathlib.Path
             The manifest (.yaml/.yml or .csv); file paths in it are relative to its folder.
-        geometry : granflow.Annulus, optional
-            Default ``Annulus.paper()``.
+        geometry : granflow.Annulus, str or mapping, optional
+            The tube of the entries that declare none (default the paper's); see
+            :func:`manifest_runs`. Each run's ``meta["geometry"]`` names the one used.
         errors : {"collect", "raise"}
             "collect" (default) records a file that fails in ``problems`` and reads the
             rest; "raise" stops at the first failure.
         """
-        from granflow.io import read_runs
-
         if errors not in ("collect", "raise"):
             raise InvalidParameterError(f"errors must be 'collect' or 'raise', got {errors!r}")
-        path = Path(path)
         runs, problems = [], []
-        for entry in read_manifest(path):
-            file = path.parent / entry["file"]
-            try:
-                found = read_runs(file, geometry=geometry)
-                if "interval" in entry:
-                    chosen = [run for run in found if run.meta["interval"] == entry["interval"]]
-                    if not chosen:
-                        raise FileFormatError(
-                            f"{file}: no interval {entry['interval']} (the file has {len(found)})"
-                        )
-                    found = chosen
-            except GranflowError as exc:
+        for entry in manifest_runs(path, geometry):
+            if entry.reason is not None:
                 if errors == "raise":
-                    raise
-                problems.append(str(exc))
-                continue
-            extra = {key: value for key, value in entry.items() if key not in ("file", "interval")}
-            for run in found:
-                meta = {**run.meta, **extra, "manifest": str(path)}
-                runs.append(
-                    Run(run.t, run.slip, run.velocity, run.force, control=run.control, meta=meta)
-                )
+                    raise FileFormatError(entry.reason)
+                problems.append(entry.reason)
+            runs += entry.runs
         return cls(runs, problems)
 
     def select(self, *, rtol=1e-6, **criteria):
@@ -248,7 +271,14 @@ class Campaign:
 
     def _header(self):
         return {
-            "runs": [{"control": run.control, "meta": json_safe(dict(run.meta))} for run in self],
+            "runs": [
+                {
+                    "control": run.control,
+                    "meta": json_safe(dict(run.meta)),
+                    "problems": list(run.problems),
+                }
+                for run in self
+            ],
             "problems": list(self.problems),
         }
 
@@ -310,6 +340,7 @@ class Campaign:
                     force=rows["force"].to_numpy(dtype=float),
                     control=description["control"],
                     meta=description["meta"],
+                    problems=description.get("problems", ()),
                 )
             )
         return cls(runs, header.get("problems", ()))
