@@ -3,9 +3,9 @@
 The readers never hold a file's bytes and its decoded text at once: :func:`load` reads the
 file in chunks into one buffer of UTF-8 or cp1252 bytes (UTF-16/32 files are transcoded to
 UTF-8 chunk by chunk; a file with ``\\r`` line ends gets ``\\n``), so a file of N bytes
-costs about N bytes while it is read (N/2 for UTF-16 text). Header lines are decoded one at a time by a
-:class:`Cursor`; data blocks are located with compiled regular expressions and handed as
-byte ranges to pandas' C parser (:func:`granflow.io._text.read_block`).
+costs about N bytes while it is read (N/2 for UTF-16 text). Header lines are decoded one
+at a time by a :class:`Cursor`; data blocks are located with compiled regular expressions
+and handed as byte ranges to pandas' C parser (:func:`granflow.io._text.read_block`).
 
 Files above a size limit are refused before they are read: ``max_bytes=`` on the readers,
 else the ``GRANFLOW_MAX_BYTES`` environment variable, else :data:`MAX_BYTES` (2 GiB).
