@@ -290,6 +290,14 @@ class Cursor:
             )
         return line
 
+    def lookahead(self, count):
+        """The next ``count`` lines from here (decoded, fewer at the end); the cursor stays."""
+        pos, number, since = self.pos, self.number, self._since_block
+        try:
+            return [self.next() for _ in range(count) if not self.done()]
+        finally:
+            self.pos, self.number, self._since_block = pos, number, since
+
     def advance(self):
         """Move to the next line."""
         if not self.done():

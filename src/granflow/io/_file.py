@@ -205,14 +205,23 @@ def make_columns(names, units, meanings, source, line, quantities=None):
 
     ``quantities[i]``, when given, is what column i measures: a quantity name, ``""`` for a
     column left uninterpreted, or None to recognise it by its label (the default for all).
+    When no label is known (a language or vendor outside the table), the columns' roles
+    come from their units (:func:`granflow.io._columns.quantity_from_unit`), one column
+    per quantity.
     """
+    units = [_unit(units[index] if index < len(units) else "") for index in range(len(names))]
+    chosen = [
+        _columns.match_quantity(name)[0] if given is None else given or None
+        for name, given in zip(names, quantities or [None] * len(names), strict=True)
+    ]
+    if quantities is None and not set(chosen) - {None, "point", "status"}:
+        for index, unit in enumerate(units):
+            role = _columns.quantity_from_unit(unit) if chosen[index] is None else None
+            if role is not None and role not in chosen:
+                chosen[index] = role
     columns = []
     for index, name in enumerate(names):
-        unit = units[index].strip() if index < len(units) else ""
-        if unit.startswith("[") and unit.endswith("]"):
-            unit = unit[1:-1].strip()
-        given = quantities[index] if quantities is not None else None
-        quantity = _columns.match_quantity(name)[0] if given is None else given or None
+        quantity, unit = chosen[index], units[index]
         factor = None
         if quantity is not None:
             try:
@@ -222,6 +231,11 @@ def make_columns(names, units, meanings, source, line, quantities=None):
         meaning = meanings[index].strip() if index < len(meanings) else ""
         columns.append(Column(name.strip(), unit, quantity, factor, meaning))
     return tuple(columns)
+
+
+def _unit(cell):
+    unit = cell.strip()
+    return unit[1:-1].strip() if unit.startswith("[") and unit.endswith("]") else unit
 
 
 def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):

@@ -65,7 +65,13 @@ def interval_to_run(interval, geometry, source, ordinal, file_problems=()):
         time = interval.si("time")
     if time is None:
         names = ", ".join(column.name for column in interval.columns)
-        raise fail(source, interval.line, f"interval {ordinal} has no time column (found: {names})")
+        raise fail(
+            source,
+            interval.line,
+            f"interval {ordinal} has no time column (found: {names}); expected a column "
+            "named like 'Time' or 'Interval Time' in a known language, or one with a unit "
+            "of time under a row of [units]",
+        )
     nothing = np.full(time.shape, np.nan)
     angle = interval.si("angle")
     if angle is None:

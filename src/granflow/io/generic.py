@@ -11,6 +11,12 @@ __all__ = ["parse_csv", "read_csv"]
 
 #: What a table holds, for the error when none of it is found.
 EXPECT = "a header row of column names followed by data rows"
+#: Every layout granflow reads, for the error when a file has none of them.
+KNOWN_LAYOUTS = (
+    "a RheoCompass export ('Interval data:' or a header row above a row of [units]), a "
+    "Rheoplus export ('Data Series Information'), a TRIOS export ('[step]') or a table "
+    "(a header row of column names, optionally a row of [units], then data rows)"
+)
 _ROWS_END = re.compile(rb"\n(?=[ \t\r\x0b\x0c]*(?:\n|\Z))")
 _CONTENT = re.compile(rb"\S")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
@@ -98,6 +104,8 @@ def parse_csv(
         for index, name in enumerate(names)
     ]
     region = cursor.block(_ROWS_END)
+    if not region[3]:
+        raise fail(source, first, f"no data rows below the header; expected {KNOWN_LAYOUTS}")
     problems = []
     rest = _CONTENT.search(buffer.data, cursor.pos)
     if rest:

@@ -32,11 +32,17 @@ EXPECT = (
 
 
 def looks_like_rheocompass(lines):
-    """True when a line starts with RheoCompass's "Interval data:" keyword (any language)."""
+    """True when a line starts with RheoCompass's "Interval data:" keyword (any language of
+    the table), or, failing that, when a line has the structure of an interval header (see
+    :func:`structure_header`)."""
     for line in lines[:2000]:
         head = line.split("\t", 1)[0].split(";", 1)[0].split(",", 1)[0]
         if _columns.match_keyword(head.strip('"')) == "interval_data":
             return True
+    for index in range(min(len(lines), 2000)):
+        for delimiter in ("\t", ";"):
+            if structure_header(lines[index : index + 3], delimiter):
+                return True
     return False
 
 
@@ -52,6 +58,27 @@ def rows_end(delimiter):
     with the delimiter, or holds nothing but delimiters and spaces."""
     mark = re.escape(delimiter.encode())
     return re.compile(rb"\n(?:(?!" + mark + rb")|(?=(?:" + mark + rb"|[ \t\r])*(?:\n|\Z)))")
+
+
+def is_unit_row(line, delimiter):
+    """True for a row of units in brackets ("[s]", "[mN·m]"), at least two of them."""
+    cells = [cell.strip() for cell in line.split(delimiter) if cell.strip()]
+    return len(cells) >= 2 and all(cell[:1] == "[" and cell[-1:] == "]" for cell in cells)
+
+
+def structure_header(lines, delimiter):
+    """True when ``lines`` (a line and the two after it) are, by their structure alone, a
+    RheoCompass interval header in any language: a row of names, an optional meaning row,
+    then a unit row whose first cell is empty like the data rows' (a table of unknown
+    keywords)."""
+    if len(lines) < 2 or lines[0].startswith(delimiter) or delimiter not in lines[0]:
+        return False
+    for below in lines[1:3]:
+        if is_unit_row(below, delimiter):
+            return below.startswith(delimiter)
+        if not below.startswith(delimiter):
+            return False
+    return False
 
 
 def _units_and_meanings(cursor, delimiter):
@@ -85,6 +112,8 @@ def _scan(cursor, delimiter, source, problems):
             continue
         cells = split(line, delimiter)
         keyword = _columns.match_keyword(cells[0]) if cells else None
+        if keyword is None and structure_header([line, *cursor.lookahead(2)], delimiter):
+            keyword = "interval_data"
         if keyword == "project":
             file_metadata["project"] = " ".join(cell.strip() for cell in cells[1:])
         elif keyword == "test":
