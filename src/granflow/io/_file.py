@@ -46,7 +46,8 @@ class Interval:
     ``values[i]`` holds the numbers of column i in the file's unit (NaN where missing or
     invalid), ``text[i]`` the cells of text columns (status); :meth:`si` converts a quantity.
     ``problems`` are data-quality sentences (without the file's name), and
-    ``problem_quantities[k]`` the quantity problem k is about (None: the whole block).
+    ``problem_quantities[k]`` the quantity problem k is about (None: the whole block; "": a
+    column granflow does not interpret).
     """
 
     test: str
@@ -263,7 +264,7 @@ def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):
                 f"column {column.name!r} should hold numbers ({column.quantity}) but holds text "
                 f"such as {block.text[index][0]!r}",
             )
-    problems = [(columns[index].quantity, sentence) for index, sentence in block.problems]
+    problems = [(columns[index].quantity or "", sentence) for index, sentence in block.problems]
     _, _, first_line, rows = spec.region
     declared = metadata.get("declared_points")
     if not rows:

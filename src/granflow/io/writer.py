@@ -4,7 +4,8 @@ For the demo (simulated campaigns written as the files a rheometer would give) a
 tests of the readers on formats the real example files lack: French, German, Spanish and
 Italian labels, decimal commas, other encodings and units, TRIOS. The files carry the run's
 metadata (sample, preparation, normal load, rest time, nominal velocity, control mode) in
-header lines that the readers map back, so a written run reads back with the same values and metadata.
+header lines that the readers map back, so a written run reads back with the same values
+and metadata.
 """
 
 import math
