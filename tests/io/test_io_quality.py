@@ -246,3 +246,16 @@ def test_the_french_spellings_of_real_rheocompass_exports_are_known():
     assert _columns.match_quantity("Intervalle Temps")[0] == "interval_time"
     assert _columns.match_quantity("Gradient de Cisaillement")[0] == "shear_rate"
     assert _columns.match_quantity("Etat")[0] == "status"
+
+
+def test_an_odd_cell_deep_in_a_long_block_is_found_with_its_line():
+    rows = [f"{index}\t{index * 0.5}" for index in range(300_000)]
+    rows[290_000] = "290000\tabc"  # past pandas' first low-memory chunk
+    parsed = granflow.io.parse_csv("Time [s]\tTorque [mN m]\n" + "\n".join(rows) + "\n")
+    (interval,) = parsed.intervals
+    torque = interval.si("torque")
+    assert np.isnan(torque[290_000]) and np.isnan(torque).sum() == 1
+    assert torque[289_999] == pytest.approx(289_999 * 0.5e-3, rel=1e-15)
+    assert interval.problems == (
+        "column 'Torque': 1 invalid value kept as NaN 'abc' at line 290002",
+    )

@@ -116,7 +116,7 @@ def load(path, max_bytes=None):
                 f"bytes ({_mib(limit)}); pass max_bytes= or set GRANFLOW_MAX_BYTES to read it"
             )
         with path.open("rb") as stream:
-            return read_stream(stream, source)
+            return read_stream(stream, source, size)
     except OSError as exc:
         raise FileFormatError(f"{source}: cannot read the file ({exc.strerror})") from None
 
@@ -131,14 +131,15 @@ def _encoding_of(head):
     return None
 
 
-def read_stream(stream, source):
+def read_stream(stream, source, size=None):
+    """A :class:`Buffer` from a binary stream (``size``: its length in bytes, if known)."""
     head = stream.read(_CHUNK)
     encoding = _encoding_of(head)
     if encoding in (None, "utf-8-sig"):
         data, encoding = _read_bytes(stream, head, encoding)
         codec = "cp1252" if encoding == "cp1252" else "utf-8"
     else:
-        data = _transcode(stream, head, encoding, source)
+        data = _transcode(stream, head, encoding, source, size)
         codec = "utf-8"
     problems = []
     nul = data.find(b"\x00")
@@ -203,10 +204,14 @@ def _read_bytes(stream, head, encoding):
     return data, encoding or "utf-8"
 
 
-def _transcode(stream, head, encoding, source):
-    """UTF-16/32 bytes to UTF-8, chunk by chunk; an invalid sequence names its line."""
+def _transcode(stream, head, encoding, source, size):
+    """UTF-16/32 bytes to UTF-8, chunk by chunk; an invalid sequence names its line.
+
+    The output is written into one buffer sized for ASCII text (half a UTF-16 file), grown
+    only where the text needs more, so no chunk is copied twice."""
     decoder = codecs.getincrementaldecoder(encoding)()
-    data, carry, mac = bytearray(), "", None
+    data = bytearray((size or 0) // (4 if encoding == "utf-32" else 2) + 16)
+    used, carry, mac = 0, "", None
     chunk = head
     while True:
         final = len(chunk) < _CHUNK
@@ -214,7 +219,7 @@ def _transcode(stream, head, encoding, source):
             text = decoder.decode(chunk, final)
         except UnicodeDecodeError as exc:
             prefix = exc.object[: exc.start].decode(encoding, errors="replace")
-            line = data.count(b"\n") + prefix.count("\n") + 1
+            line = data.count(b"\n", 0, used) + prefix.count("\n") + 1
             raise fail(
                 source,
                 line,
@@ -222,11 +227,17 @@ def _transcode(stream, head, encoding, source):
             ) from None
         mac = _cr_line_ends(text) if mac is None else mac
         piece, carry = _newlines(text, carry, mac)
-        data += piece.encode("utf-8", errors="surrogatepass")
+        encoded = piece.encode("utf-8", errors="surrogatepass") + (
+            b"\n" if final and carry else b""
+        )
+        if used + len(encoded) > len(data):
+            data.extend(bytes(used + len(encoded) - len(data)))
+        data[used : used + len(encoded)] = encoded
+        used += len(encoded)
         if final:
             break
         chunk = stream.read(_CHUNK)
-    data += b"\n" if carry else b""
+    del data[used:]
     return data
 
 

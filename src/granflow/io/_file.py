@@ -409,16 +409,16 @@ def header_number(text, numbers):
 def _sample(buffer, region, count):
     """(line number, line) of the first and last ``count`` rows of a block."""
     start, stop, first_line, rows = region
-    head = buffer.text(start, stop if rows <= 2 * count else _after_lines(buffer, start, count))
-    sample = list(enumerate(head.split("\n")[: min(rows, 2 * count)], start=first_line))
-    if rows > 2 * count:
-        tail_start = stop
-        for _ in range(count):
-            tail_start = buffer.data.rfind(b"\n", start, tail_start - 1) + 1 or start
-        tail = buffer.text(tail_start, stop).split("\n")
-        tail = tail[:-1] if not tail[-1] else tail
-        sample += list(enumerate(tail, start=first_line + rows - len(tail)))
-    return sample
+    if rows <= 2 * count:
+        return list(enumerate(buffer.text(start, stop).split("\n")[:rows], start=first_line))
+    head = buffer.text(start, _after_lines(buffer, start, count))
+    sample = list(enumerate(head.split("\n")[:count], start=first_line))
+    tail_start = stop
+    for _ in range(count):
+        tail_start = buffer.data.rfind(b"\n", start, tail_start - 1) + 1 or start
+    tail = buffer.text(tail_start, stop).split("\n")
+    tail = tail[:-1] if not tail[-1] else tail
+    return sample + list(enumerate(tail, start=first_line + rows - len(tail)))
 
 
 def _after_lines(buffer, start, count):

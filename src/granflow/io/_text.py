@@ -8,6 +8,7 @@ with exactly those options (the fast path for million-row exports).
 import csv
 import io
 import re
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -246,24 +247,28 @@ def read_block(
         )
     stream = io.BufferedReader(_Region(memoryview(buffer.data)[start:stop]), 1 << 20)
     try:
-        frame = pd.read_csv(
-            stream,
-            sep=delimiter,
-            header=None,
-            names=list(range(count + offset)),
-            usecols=list(range(offset, count + offset)),
-            dtype={offset + i: "category" for i in text_columns},
-            decimal=numbers.decimal,
-            thousands=numbers.thousands,
-            na_values=list(MISSING_MARKERS),
-            keep_default_na=False,
-            skip_blank_lines=False,
-            quoting=csv.QUOTE_MINIMAL,
-            encoding=buffer.codec,
-            encoding_errors="replace",
-            engine="c",
-            low_memory=False,
-        )
+        with warnings.catch_warnings():
+            # chunk by chunk (low_memory): a column with text in some chunks comes back as
+            # objects, which _numbers reads cell by cell; pandas' DtypeWarning says no more
+            warnings.simplefilter("ignore", pd.errors.DtypeWarning)
+            frame = pd.read_csv(
+                stream,
+                sep=delimiter,
+                header=None,
+                names=list(range(count + offset)),
+                usecols=list(range(offset, count + offset)),
+                dtype={offset + i: "category" for i in text_columns},
+                decimal=numbers.decimal,
+                thousands=numbers.thousands,
+                na_values=list(MISSING_MARKERS),
+                keep_default_na=False,
+                skip_blank_lines=False,
+                quoting=csv.QUOTE_MINIMAL,
+                encoding=buffer.codec,
+                encoding_errors="replace",
+                engine="c",
+                low_memory=True,
+            )
     except pd.errors.ParserError as exc:
         match = re.search(r"line (\d+)", str(exc))
         line = first_line + int(match.group(1)) - 1 if match else first_line

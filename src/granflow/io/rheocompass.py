@@ -53,11 +53,41 @@ def _integer(cells, index):
         return None
 
 
+class _RowsEnd:
+    """Finds the line end after the last data row: at the first line that does not start
+    with the delimiter (one C-speed search), less the blank lines (nothing but delimiters
+    and spaces) just before it. A blank line between data rows stays in the block: its
+    cells are missing values and the row has no time, which the problems report."""
+
+    def __init__(self, delimiter):
+        mark = re.escape(delimiter.encode())
+        self._other = re.compile(rb"\n(?!" + mark + rb")")
+        self._blank = re.compile(rb"\n(?:" + mark + rb"|[ \t\r])*(?:\n|\Z)")
+
+    def search(self, data, pos):
+        other = self._other.search(data, pos)
+        stop = len(data) if other is None else other.start()
+        while stop > pos:
+            previous = data.rfind(b"\n", pos, stop)
+            if previous < 0 or not self._blank.match(data, previous):
+                break
+            stop = previous
+        return _End(stop) if other is not None or stop < len(data) else None
+
+
+class _End:
+    """Where a block ends: the offset of the ``\\n`` before the first line after it."""
+
+    def __init__(self, offset):
+        self._offset = offset
+
+    def start(self):
+        return self._offset
+
+
 def rows_end(delimiter):
-    """The pattern of the line end after the last data row: the next line does not start
-    with the delimiter, or holds nothing but delimiters and spaces."""
-    mark = re.escape(delimiter.encode())
-    return re.compile(rb"\n(?:(?!" + mark + rb")|(?=(?:" + mark + rb"|[ \t\r])*(?:\n|\Z)))")
+    """The searcher of the line end after a block's last data row (see :class:`_RowsEnd`)."""
+    return _RowsEnd(delimiter)
 
 
 def is_unit_row(line, delimiter):
