@@ -136,19 +136,12 @@ def read_stream(stream, source, size=None):
     head = stream.read(_CHUNK)
     encoding = _encoding_of(head)
     if encoding in (None, "utf-8-sig"):
-        data, encoding = _read_bytes(stream, head, encoding)
+        data, encoding = _read_bytes(stream, head, encoding, source)
         codec = "cp1252" if encoding == "cp1252" else "utf-8"
     else:
         data = _transcode(stream, head, encoding, source, size)
         codec = "utf-8"
     problems = []
-    nul = data.find(b"\x00")
-    if nul >= 0:
-        raise fail(
-            source,
-            data.count(b"\n", 0, nul) + 1,
-            f"NUL character in {encoding} text: the file is binary or has the wrong encoding",
-        )
     if codec == "cp1252":
         undefined = _CP1252_UNDEFINED.search(data)
         if undefined:
@@ -180,7 +173,19 @@ def _cr_line_ends(head):
     return cr in head and lf not in head
 
 
-def _read_bytes(stream, head, encoding):
+def _refuse_nul(piece, data, used, source, encoding):
+    """A NUL in a chunk ends the reading at once (binary data, or the wrong encoding)."""
+    nul = piece.find(b"\x00")
+    if nul >= 0:
+        raise fail(
+            source,
+            data.count(b"\n", 0, used) + piece.count(b"\n", 0, nul) + 1,
+            f"NUL character in {encoding or 'utf-8'} text: the file is binary or has the "
+            "wrong encoding",
+        )
+
+
+def _read_bytes(stream, head, encoding, source):
     """UTF-8 (validated chunk by chunk) or, at the first invalid byte, cp1252: kept as bytes."""
     if encoding == "utf-8-sig":
         head = head[len(codecs.BOM_UTF8) :]
@@ -196,6 +201,7 @@ def _read_bytes(stream, head, encoding):
             except UnicodeDecodeError:
                 encoding = "cp1252"
         piece, carry = _newlines(chunk, carry, mac)
+        _refuse_nul(piece, data, len(data), source, encoding)
         data += piece
         if final:
             break
@@ -230,6 +236,7 @@ def _transcode(stream, head, encoding, source, size):
         encoded = piece.encode("utf-8", errors="surrogatepass") + (
             b"\n" if final and carry else b""
         )
+        _refuse_nul(encoded, data, used, source, encoding)
         if used + len(encoded) > len(data):
             data.extend(bytes(used + len(encoded) - len(data)))
         data[used : used + len(encoded)] = encoded
