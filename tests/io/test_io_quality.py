@@ -259,3 +259,14 @@ def test_an_odd_cell_deep_in_a_long_block_is_found_with_its_line():
     assert interval.problems == (
         "column 'Torque': 1 invalid value kept as NaN 'abc' at line 290002",
     )
+
+
+def test_a_logarithmic_time_grid_has_no_gaps_and_a_jump_in_it_is_one():
+    from granflow.io._file import time_problems
+
+    grid = np.geomspace(0.01, 1e4, 200)  # each step 7 % longer than the one before
+    assert time_problems(grid, 1) == []
+    jumped = grid.copy()
+    jumped[150:] += 1e4  # one step of 10^4 s where its neighbours are about 10^2 s
+    (gap,) = time_problems(jumped, 1)
+    assert "1 gap in time" in gap and "(before line 151)" in gap

@@ -299,8 +299,9 @@ GAP_FACTOR = 10.0
 
 def time_problems(time, first_line):
     """Sentences about a time column [s] whose first row is on file line ``first_line``:
-    rows without a time (dropped from the run), time that does not increase and gaps
-    (steps over :data:`GAP_FACTOR` times the median step and its neighbours; rows kept)."""
+    rows without a time (dropped from the run), time that does not increase, and gaps: steps
+    over :data:`GAP_FACTOR` times the median step and over half that factor times the smaller
+    step beside them (so a logarithmic grid, whose steps grow smoothly, has none); rows kept."""
     lines = np.arange(first_line, first_line + time.size)
     sentences = []
     finite = np.isfinite(time)
