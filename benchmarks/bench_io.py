@@ -1,9 +1,16 @@
-"""Reading a one-million-row RheoCompass export: granflow.read_runs against a naive reader.
+"""Reading a one-million-row RheoCompass export, side by side with pandas and a Python loop;
+and refusing a 1 GiB file of a valid header followed by junk.
 
 Run by hand: ``PYTHONPATH=src python benchmarks/bench_io.py [rows]``. Each reader runs in its
-own subprocess so that its peak resident memory (ru_maxrss) is its own. The export is
-UTF-16 with a BOM, tab-delimited, decimal comma, torque in µN·m, in 4 intervals.
+own subprocess so that its peak resident memory (ru_maxrss) is its own; every subprocess
+first imports what it needs and reads a tiny file (pandas, the unit registry), so the times
+are those of reading, and "peak - warm" is what reading added to the warmed interpreter.
+granflow and pandas alternate, one process each per round, and the minimum over rounds
+counts: the machine is shared, and a ratio of two runs taken minutes apart means little.
 
+The export is UTF-16 with a BOM, tab-delimited, decimal comma, French labels, torque in
+µN·m, in 4 intervals. The pandas baseline reads the same data rows (the same UTF-16 bytes
+without the header lines) with ``pandas.read_csv(encoding="utf-16", sep="\\t", decimal=",")``.
 The naive reader is what hand-written scripts do: decode, split every line, float() every
 cell after replacing the comma by a dot, in a Python loop.
 """
@@ -16,20 +23,56 @@ from pathlib import Path
 
 import numpy as np
 
-ROWS = int(sys.argv[1]) if len(sys.argv) > 1 and sys.argv[1] != "--write" else 1_000_000
+ROWS = int(sys.argv[1]) if len(sys.argv) > 1 and not sys.argv[1].startswith("--") else 1_000_000
+ROUNDS = 3  # granflow and pandas alternate, one process each per round
+REPEATS = 2  # reads per process (the minimum counts)
+JUNK_BYTES = 2**30
 
-GRANFLOW = """
+WARM = """
 import resource, sys, time
-import granflow
-start = time.perf_counter()
-runs = granflow.read_runs(sys.argv[1])
-elapsed = time.perf_counter() - start
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-print(elapsed, peak, sum(len(run) for run in runs))
+import pandas, granflow
+from granflow.io import write_rheocompass
+tiny = sys.argv[1] + ".tiny"
+write_rheocompass(tiny, granflow.Run(t=[0.0, 1.0], slip=[0, 1e-6], velocity=[1e-6] * 2,
+                                     force=[1e-3, 2e-3]))
+granflow.read_runs(tiny)
+warm = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 """
 
-NAIVE = """
-import resource, sys, time
+GRANFLOW = (
+    WARM
+    + """
+best = float("inf")
+for _ in range(int(sys.argv[2])):
+    start = time.perf_counter()
+    runs = granflow.read_runs(sys.argv[1])
+    best = min(best, time.perf_counter() - start)
+    rows = sum(len(run) for run in runs)
+    del runs
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(best, peak, warm, rows)
+"""
+)
+
+PANDAS = (
+    WARM
+    + """
+best = float("inf")
+for _ in range(int(sys.argv[2])):
+    start = time.perf_counter()
+    frame = pandas.read_csv(sys.argv[1] + ".rows", encoding="utf-16", sep="\\t", decimal=",",
+                            header=None)
+    best = min(best, time.perf_counter() - start)
+    rows = len(frame)
+    del frame
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(best, peak, warm, rows)
+"""
+)
+
+NAIVE = (
+    WARM
+    + """
 start = time.perf_counter()
 text = open(sys.argv[1], encoding="utf-16").read()
 columns, rows = [], 0
@@ -40,14 +83,25 @@ for line in text.splitlines():
         rows += 1
 elapsed = time.perf_counter() - start
 peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-print(elapsed, peak, rows)
+print(elapsed, peak, warm, rows)
 """
+)
 
-BASELINE = """
-import resource
-import granflow
-print(0.0, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 0)
+REFUSE = (
+    WARM
+    + """
+limit = int(sys.argv[2]) or None
+start = time.perf_counter()
+try:
+    granflow.read(sys.argv[1], max_bytes=limit)
+    message = "read (not refused)"
+except granflow.FileFormatError as exc:
+    message = str(exc).replace(sys.argv[1], "FILE")
+elapsed = time.perf_counter() - start
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+print(elapsed, peak, warm, message[:150])
 """
+)
 
 
 def _export(path, rows):
@@ -73,14 +127,38 @@ def _export(path, rows):
     write_rheocompass(
         path, runs, language="fr", encoding="utf-16", decimal=",", units={"torque": "µN·m"}
     )
+    text = path.read_bytes().decode("utf-16")
+    rows_only = [line for line in text.split("\r\n") if line[:1] == "\t" and line[1:2].isdigit()]
+    Path(f"{path}.rows").write_bytes(("\r\n".join(rows_only) + "\r\n").encode("utf-16"))
 
 
-def _measure(code, path):
+def _junk(path, kind):
+    """A valid RheoCompass header (UTF-8) followed by junk up to JUNK_BYTES."""
+    header = (
+        "Project:\tjunk\r\nTest:\tt\r\nInterval and data points:\t1\t1000\r\n"
+        "Interval data:\tPoint No.\tTime\tTorque\r\n\t\t[s]\t[mN·m]\r\n"
+    ).encode()
+    rng = np.random.default_rng(0)
+    line = b"this line is not data, nor a header line\r\n"
+    with path.open("wb") as stream:
+        stream.write(header)
+        written = len(header)
+        while written < JUNK_BYTES:
+            size = min(1 << 26, JUNK_BYTES - written)
+            if kind == "random bytes":
+                block = rng.integers(0, 256, size, dtype=np.uint8).tobytes()
+            else:
+                block = (line * (size // len(line) + 1))[:size]
+            stream.write(block)
+            written += size
+
+
+def _measure(code, *args):
     result = subprocess.run(
-        [sys.executable, "-c", code, str(path)], capture_output=True, text=True, check=True
+        [sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True, check=True
     )
-    elapsed, peak, rows = result.stdout.split()
-    return float(elapsed), float(peak), int(rows)
+    elapsed, peak, warm, rest = result.stdout.strip().split(maxsplit=3)
+    return float(elapsed), float(peak), float(warm), rest
 
 
 def main():
@@ -89,22 +167,46 @@ def main():
         start = time.perf_counter()
         # written in a subprocess, so this process stays small (children inherit nothing)
         subprocess.run([sys.executable, __file__, "--write", str(path), str(ROWS)], check=True)
-        print(
-            f"wrote {ROWS} rows, {path.stat().st_size / 2**20:.0f} MiB (UTF-16) in "
-            f"{time.perf_counter() - start:.1f} s"
-        )
-        _, base, _ = _measure(BASELINE, path)
-        print(f"python + granflow imported: {base:.0f} MiB peak RSS")
-        fast, fast_peak, fast_rows = _measure(GRANFLOW, path)
-        naive, naive_peak, naive_rows = _measure(NAIVE, path)
-        assert fast_rows == naive_rows == ROWS, (fast_rows, naive_rows)
-        print(f"granflow.read_runs: {fast:6.2f} s, peak RSS {fast_peak:6.0f} MiB")
-        print(f"naive Python loop:  {naive:6.2f} s, peak RSS {naive_peak:6.0f} MiB")
-        print(f"speed-up: {naive / fast:.1f}x")
+        size = path.stat().st_size / 2**20
+        print(f"wrote {ROWS} rows, {size:.0f} MiB (UTF-16) in {time.perf_counter() - start:.1f} s")
+        rounds = {"granflow.read_runs": [], "pandas.read_csv (rows only)": []}
+        for _ in range(ROUNDS):
+            rounds["granflow.read_runs"].append(_measure(GRANFLOW, path, REPEATS))
+            rounds["pandas.read_csv (rows only)"].append(_measure(PANDAS, path, REPEATS))
+        rounds["naive Python loop"] = [_measure(NAIVE, path)]
+        best = {}
+        for name, results in rounds.items():
+            assert all(int(rows) == ROWS for *_, rows in results), name
+            times = sorted(elapsed for elapsed, *_ in results)
+            peak = max(result[1] for result in results)
+            warm = min(result[2] for result in results)
+            best[name] = times[0]
+            print(
+                f"{name:28s} min {times[0]:6.2f} s, median {times[len(times) // 2]:6.2f} s   "
+                f"peak RSS {peak:5.0f} MiB   peak - warm {peak - warm:5.0f} MiB "
+                f"({(peak - warm) / size:.2f}x the file)"
+            )
+        fast = best["granflow.read_runs"]
+        print(f"granflow / pandas: {fast / best['pandas.read_csv (rows only)']:.2f}x the time")
+        print(f"naive / granflow:  {best['naive Python loop'] / fast:.1f}x")
+
+        for kind in ("random bytes", "text lines"):
+            junk = Path(folder) / "junk.txt"
+            subprocess.run([sys.executable, __file__, "--junk", str(junk), kind], check=True)
+            for limit in (0, 2**29):
+                elapsed, peak, warm, message = _measure(REFUSE, junk, limit)
+                guard = "default limit" if not limit else f"max_bytes={limit}"
+                print(
+                    f"1 GiB header + {kind}, {guard}: refused in {elapsed:.2f} s, "
+                    f"peak RSS {peak:.0f} MiB (warm {warm:.0f})\n    {message}"
+                )
+            junk.unlink()
 
 
 if __name__ == "__main__":
     if sys.argv[1:2] == ["--write"]:
         _export(Path(sys.argv[2]), int(sys.argv[3]))
+    elif sys.argv[1:2] == ["--junk"]:
+        _junk(Path(sys.argv[2]), sys.argv[3])
     else:
         main()

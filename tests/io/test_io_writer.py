@@ -136,7 +136,7 @@ def test_missing_values_written_and_read_as_nan(tmp_path):
 def test_writer_rejects_bad_choices(tmp_path):
     run = simulated_runs()[0]
     with pytest.raises(granflow.InvalidParameterError, match="language"):
-        write_rheocompass(tmp_path / "x", run, language="it")
+        write_rheocompass(tmp_path / "x", run, language="pt")
     with pytest.raises(granflow.InvalidParameterError, match="furlong"):
         write_rheocompass(tmp_path / "x", run, units={"torque": "furlong"})
     with pytest.raises(granflow.InvalidParameterError, match="runs"):

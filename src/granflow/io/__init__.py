@@ -7,9 +7,17 @@ interval into a :class:`granflow.Run` with an :class:`granflow.Annulus`.
 Formats: Anton Paar RheoCompass and Rheoplus text exports, TA Instruments TRIOS text exports,
 and generic CSV/TSV with a column map. Encodings UTF-16 (LE/BE), UTF-8 (with or without BOM)
 and cp1252; tab, semicolon or comma delimiters; decimal comma or dot and thousands separators
-decided per file from the numbers; column labels in English, French or German
-(:mod:`granflow.io._columns`). Missing values (empty, a single space, ``******``) become NaN
-and are listed in the problems; an unknown unit is a :class:`granflow.FileFormatError`.
+decided per file from the numbers; labels in English, French, German, Spanish or Italian
+(:mod:`granflow.io._columns`), and, where the labels are unknown, the interval header found by
+its structure (names above a row of [units]) and the columns' roles from their units.
+
+Data quality travels with the data: missing values (empty, a single space, ``******``),
+invalid and infinite cells become NaN (rows kept), rows without a time are dropped, and every
+such thing, a truncated block (fewer points than declared), time that does not increase and
+gaps in time are sentences on ``Interval.problems`` and, naming the file and the interval,
+on ``Run.problems``. Files over a size limit (``max_bytes=``, ``GRANFLOW_MAX_BYTES``, default
+2 GiB) are refused before they are read; reading costs about the file's size in memory.
+An unknown layout or unit is a :class:`granflow.FileFormatError` that says what was expected.
 
 Modules: ``reader`` (detection, :func:`read`, :func:`read_runs`), one module per format,
 ``writer`` (exports for tests and the demo), ``campaign`` (a manifest of runs).

@@ -1,7 +1,12 @@
-"""THE table of vendor labels (English, French, German) and the unit conversions to SI.
+"""THE table of vendor labels (English, French, German, Spanish, Italian) and the unit
+conversions to SI.
 
 Every reader maps column names and header keywords through this one module, so a new
-language or a new vendor spelling is one more string in a tuple below. Matching ignores
+language or a new vendor spelling is one more string in a tuple below. The French spellings
+include those of real RheoCompass exports ("Interval données:", "Intervalle Temps",
+"Gradient de Cisaillement", "Etat"); the Spanish and Italian ones are the software's terms
+as translated, not yet checked against a real export. Where a header's names are unknown,
+:func:`quantity_from_unit` finds the column's role from its unit. Matching ignores
 case, accents and surrounding spaces ("Angle de deflexion" finds "Angle de Déflexion").
 
 Units are converted in one place, :func:`si_factor`, with pint (via :mod:`granflow.model.units`):
@@ -29,10 +34,11 @@ __all__ = [
     "match_metadata",
     "match_quantity",
     "normalize",
+    "quantity_from_unit",
     "si_factor",
 ]
 
-LANGUAGES = ("en", "fr", "de")
+LANGUAGES = ("en", "fr", "de", "es", "it")
 
 #: Column labels per quantity and language, in order of preference (the first one of each
 #: language is what the writer prints). "vendor" holds spellings of other software (TRIOS).
@@ -41,61 +47,83 @@ QUANTITIES = {
         "en": ("Point No.", "Meas. Pts.", "Point"),
         "fr": ("N° de point", "Pts. de mes.", "Point"),
         "de": ("Punkt Nr.", "Messpkt.", "Messpunkt"),
+        "es": ("N.º de punto", "Punto"),
+        "it": ("N. punto", "Punto"),
     },
     "interval_time": {
         "en": ("Interval Time",),
-        "fr": ("Temps d'intervalle",),
+        "fr": ("Temps d'intervalle", "Intervalle Temps"),
         "de": ("Intervallzeit",),
+        "es": ("Tiempo de intervalo",),
+        "it": ("Tempo intervallo",),
         "vendor": ("Step time",),
     },
     "time": {
         "en": ("Time",),
         "fr": ("Temps",),
         "de": ("Zeit",),
+        "es": ("Tiempo",),
+        "it": ("Tempo",),
     },
     "torque": {
         "en": ("Torque",),
         "fr": ("Couple",),
         "de": ("Drehmoment",),
+        "es": ("Par", "Par de torsión"),
+        "it": ("Coppia",),
     },
     "speed": {
         "en": ("Rotational Speed", "Speed"),
         "fr": ("Vitesse de Rotation", "Vitesse"),
         "de": ("Drehzahl",),
+        "es": ("Velocidad de rotación", "Velocidad"),
+        "it": ("Velocità di rotazione", "Velocità"),
         "vendor": ("Velocity", "Angular velocity"),
     },
     "angle": {
         "en": ("Deflection Angle",),
         "fr": ("Angle de Déflexion",),
         "de": ("Auslenkwinkel",),
+        "es": ("Ángulo de deflexión",),
+        "it": ("Angolo di deflessione",),
         "vendor": ("Displacement", "Angular displacement"),
     },
     "normal_force": {
         "en": ("Normal Force",),
         "fr": ("Force Normale",),
         "de": ("Normalkraft",),
+        "es": ("Fuerza normal",),
+        "it": ("Forza normale",),
         "vendor": ("Axial force",),
     },
     "shear_stress": {
         "en": ("Shear Stress",),
         "fr": ("Contrainte de Cisaillement",),
         "de": ("Schubspannung",),
+        "es": ("Esfuerzo cortante",),
+        "it": ("Sollecitazione di taglio",),
         "vendor": ("Stress",),
     },
     "shear_rate": {
         "en": ("Shear Rate",),
-        "fr": ("Vitesse de Cisaillement",),
+        "fr": ("Vitesse de Cisaillement", "Gradient de Cisaillement"),
         "de": ("Scherrate",),
+        "es": ("Velocidad de cizallamiento",),
+        "it": ("Velocità di taglio",),
     },
     "strain": {
         "en": ("Shear Strain", "Strain"),
         "fr": ("Déformation de Cisaillement", "Déformation"),
         "de": ("Scherdeformation", "Deformation"),
+        "es": ("Deformación de cizallamiento", "Deformación"),
+        "it": ("Deformazione di taglio", "Deformazione"),
     },
     "status": {
         "en": ("Status",),
         "fr": ("Statut", "État"),
         "de": ("Status",),
+        "es": ("Estado",),
+        "it": ("Stato",),
     },
 }
 
@@ -113,49 +141,120 @@ SI_UNITS = {
 
 #: Structural keywords of the exports (the label cell that starts a header line).
 KEYWORDS = {
-    "project": {"en": ("Project:",), "fr": ("Projet:",), "de": ("Projekt:",)},
-    "test": {"en": ("Test:",), "fr": ("Test:", "Essai:"), "de": ("Test:", "Versuch:")},
-    "result": {"en": ("Result:",), "fr": ("Résultat:",), "de": ("Ergebnis:",)},
+    "project": {
+        "en": ("Project:",),
+        "fr": ("Projet:",),
+        "de": ("Projekt:",),
+        "es": ("Proyecto:",),
+        "it": ("Progetto:",),
+    },
+    "test": {
+        "en": ("Test:",),
+        "fr": ("Test:", "Essai:"),
+        "de": ("Test:", "Versuch:"),
+        "es": ("Ensayo:", "Prueba:", "Test:"),
+        "it": ("Test:", "Prova:"),
+    },
+    "result": {
+        "en": ("Result:",),
+        "fr": ("Résultat:",),
+        "de": ("Ergebnis:",),
+        "es": ("Resultado:",),
+        "it": ("Risultato:",),
+    },
     "interval_points": {
         "en": ("Interval and data points:",),
         "fr": ("Intervalle et points de données:",),
         "de": ("Intervall und Datenpunkte:",),
+        "es": ("Intervalo y puntos de datos:",),
+        "it": ("Intervallo e punti dati:",),
     },
     "interval_data": {
-        "en": ("Interval data:",),
-        "fr": ("Données d'intervalle:",),
+        "en": ("Interval data:", "Data interval:"),
+        "fr": ("Interval données:", "Données d'intervalle:"),
         "de": ("Intervalldaten:",),
+        "es": ("Datos de intervalo:",),
+        "it": ("Dati intervallo:",),
     },
     "series": {
         "en": ("Data Series Information",),
         "fr": ("Informations sur la série de données",),
         "de": ("Datenreihen-Information",),
+        "es": ("Información de la serie de datos",),
+        "it": ("Informazioni sulla serie di dati",),
     },
-    "interval": {"en": ("Interval:",), "fr": ("Intervalle:",), "de": ("Intervall:",)},
+    "interval": {
+        "en": ("Interval:",),
+        "fr": ("Intervalle:",),
+        "de": ("Intervall:",),
+        "es": ("Intervalo:",),
+        "it": ("Intervallo:",),
+    },
     "profile": {
         "en": ("Measuring Profile:",),
         "fr": ("Profil de mesure:",),
         "de": ("Messprofil:",),
+        "es": ("Perfil de medición:",),
+        "it": ("Profilo di misura:",),
     },
 }
 
 #: Metadata keys: label per language, and the SI unit of the value (None: text).
 METADATA = {
-    "sample": ({"en": "Sample", "fr": "Échantillon", "de": "Probe"}, None),
-    "preparation": ({"en": "Preparation", "fr": "Préparation", "de": "Präparation"}, None),
+    "sample": (
+        {"en": "Sample", "fr": "Échantillon", "de": "Probe", "es": "Muestra", "it": "Campione"},
+        None,
+    ),
+    "preparation": (
+        {
+            "en": "Preparation",
+            "fr": "Préparation",
+            "de": "Präparation",
+            "es": "Preparación",
+            "it": "Preparazione",
+        },
+        None,
+    ),
     "normal_load": (
-        {"en": "Normal Load", "fr": "Charge Normale", "de": "Normallast"},
+        {
+            "en": "Normal Load",
+            "fr": "Charge Normale",
+            "de": "Normallast",
+            "es": "Carga Normal",
+            "it": "Carico Normale",
+        },
         units.si_unit("normal_load"),
     ),
     "rest_time": (
-        {"en": "Rest Time", "fr": "Temps de Repos", "de": "Ruhezeit"},
+        {
+            "en": "Rest Time",
+            "fr": "Temps de Repos",
+            "de": "Ruhezeit",
+            "es": "Tiempo de Reposo",
+            "it": "Tempo di Riposo",
+        },
         units.si_unit("rest_time"),
     ),
     "velocity": (
-        {"en": "Nominal Velocity", "fr": "Vitesse Nominale", "de": "Nenngeschwindigkeit"},
+        {
+            "en": "Nominal Velocity",
+            "fr": "Vitesse Nominale",
+            "de": "Nenngeschwindigkeit",
+            "es": "Velocidad Nominal",
+            "it": "Velocità Nominale",
+        },
         units.si_unit("velocity"),
     ),
-    "control": ({"en": "Control Mode", "fr": "Mode de Contrôle", "de": "Regelungsart"}, None),
+    "control": (
+        {
+            "en": "Control Mode",
+            "fr": "Mode de Contrôle",
+            "de": "Regelungsart",
+            "es": "Modo de Control",
+            "it": "Modalità di Controllo",
+        },
+        None,
+    ),
 }
 
 #: Words that name the control mode, in any language (profile lines and "Control Mode").
@@ -172,6 +271,10 @@ _CONTROL_WORDS = {
         "geschwindigkeit",
         "drehzahl",
         "scherrate",
+        "velocidad",
+        "velocita",
+        "deformacion",
+        "deformazione",
     ),
     "stress": (
         "stress",
@@ -181,6 +284,10 @@ _CONTROL_WORDS = {
         "spannung",
         "schubspannung",
         "drehmoment",
+        "esfuerzo",
+        "par",
+        "sollecitazione",
+        "coppia",
     ),
 }
 
@@ -189,6 +296,8 @@ CONTROL_LABELS = {
     "en": {"rate": "Rate", "stress": "Stress"},
     "fr": {"rate": "Vitesse", "stress": "Contrainte"},
     "de": {"rate": "Geschwindigkeit", "stress": "Spannung"},
+    "es": {"rate": "Velocidad", "stress": "Esfuerzo"},
+    "it": {"rate": "Velocità", "stress": "Sollecitazione"},
 }
 
 
@@ -252,6 +361,24 @@ def control_from_text(text):
         if any(re.search(rf"\b{re.escape(name)}\b", words) for name in names)
     }
     return found.pop() if len(found) == 1 else None
+
+
+#: What a unit says a column measures when its name is unknown (structure, not keywords).
+_UNIT_ROLES = (
+    ("torque", re.compile(r"^[µμunmkc]?N\s*[·⋅.*\s]?\s*m$")),
+    ("angle", re.compile(r"^(?:[mµμu]?rad|°|deg)$")),
+    ("speed", re.compile(r"^(?:1/min|min⁻¹|rpm|rad/s)$")),
+    ("time", re.compile(r"^(?:s|min|h|ms)$")),
+    ("normal_force", re.compile(r"^[µμumk]?N$")),
+)
+
+
+def quantity_from_unit(unit):
+    """The quantity a column measures judged by its unit alone: torque from N·m, angle from
+    rad or °, speed from 1/min or rad/s, time from s or min, normal force from N; else None
+    (1/s is a shear rate as much as a speed: not decided)."""
+    text = unit.strip().strip("[]").strip()
+    return next((quantity for quantity, pattern in _UNIT_ROLES if pattern.match(text)), None)
 
 
 _TORQUE_PRODUCT = re.compile(r"N\s*[·⋅.*\s]?\s*m$")

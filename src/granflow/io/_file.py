@@ -4,12 +4,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 
+import numpy as np
+
 from granflow._json import json_safe
 from granflow.errors import InvalidParameterError
-from granflow.io import _columns
-from granflow.io._text import decode, fail, read_block
+from granflow.io import _buffer, _columns
+from granflow.io._text import fail, line_list, read_block
 
-__all__ = ["Column", "Interval", "ParsedFile", "parse_blocks", "read_with", "with_problems"]
+__all__ = ["Column", "Interval", "ParsedFile", "parse_blocks", "read_with"]
 
 
 @dataclass(frozen=True)
@@ -43,6 +45,9 @@ class Interval:
 
     ``values[i]`` holds the numbers of column i in the file's unit (NaN where missing or
     invalid), ``text[i]`` the cells of text columns (status); :meth:`si` converts a quantity.
+    ``problems`` are data-quality sentences (without the file's name), and
+    ``problem_quantities[k]`` the quantity problem k is about (None: the whole block; "": a
+    column granflow does not interpret).
     """
 
     test: str
@@ -54,9 +59,14 @@ class Interval:
     rows: int
     metadata: MappingProxyType = field(default_factory=dict)
     problems: tuple = ()
+    problem_quantities: tuple = ()
 
     def __post_init__(self):
         object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+        object.__setattr__(self, "problems", tuple(self.problems))
+        quantities = tuple(self.problem_quantities)
+        quantities += (None,) * (len(self.problems) - len(quantities))
+        object.__setattr__(self, "problem_quantities", quantities)
         for name in ("values", "text"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
 
@@ -196,14 +206,23 @@ def make_columns(names, units, meanings, source, line, quantities=None):
 
     ``quantities[i]``, when given, is what column i measures: a quantity name, ``""`` for a
     column left uninterpreted, or None to recognise it by its label (the default for all).
+    When no label is known (a language or vendor outside the table), the columns' roles
+    come from their units (:func:`granflow.io._columns.quantity_from_unit`), one column
+    per quantity.
     """
+    units = [_unit(units[index] if index < len(units) else "") for index in range(len(names))]
+    chosen = [
+        _columns.match_quantity(name)[0] if given is None else given or None
+        for name, given in zip(names, quantities or [None] * len(names), strict=True)
+    ]
+    if quantities is None and not set(chosen) - {None, "point", "status"}:
+        for index, unit in enumerate(units):
+            role = _columns.quantity_from_unit(unit) if chosen[index] is None else None
+            if role is not None and role not in chosen:
+                chosen[index] = role
     columns = []
     for index, name in enumerate(names):
-        unit = units[index].strip() if index < len(units) else ""
-        if unit.startswith("[") and unit.endswith("]"):
-            unit = unit[1:-1].strip()
-        given = quantities[index] if quantities is not None else None
-        quantity = _columns.match_quantity(name)[0] if given is None else given or None
+        quantity, unit = chosen[index], units[index]
         factor = None
         if quantity is not None:
             try:
@@ -215,63 +234,119 @@ def make_columns(names, units, meanings, source, line, quantities=None):
     return tuple(columns)
 
 
-def make_interval(
-    test,
-    number,
-    header_line,
-    columns,
-    rows,
-    first_line,
-    delimiter,
-    numbers,
-    source,
-    metadata,
-    skip_first=False,
-    strict=False,
-):
-    """Parse the data rows of one interval and wrap them with their columns and metadata;
-    ``strict``: a cell that is not a number is an error naming its line (not a NaN)."""
+def _unit(cell):
+    unit = cell.strip()
+    return unit[1:-1].strip() if unit.startswith("[") and unit.endswith("]") else unit
+
+
+def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):
+    """Parse the data rows of one block and wrap them with their columns, metadata and
+    data-quality problems (missing, invalid or infinite cells, a truncated block, rows
+    without a time, time that does not increase, gaps in time)."""
     text_columns = [i for i, column in enumerate(columns) if column.quantity == "status"]
     block = read_block(
-        rows,
-        first_line,
+        buffer,
+        spec.region,
         [column.name for column in columns],
         delimiter,
         numbers,
         source,
-        skip_first=skip_first,
+        skip_first=spec.skip_first,
         text_columns=text_columns,
-        strict=strict,
+        strict=spec.strict,
     )
-    problems = list(block.problems)
     for index in list(block.text):
         column = columns[index]
         if column.quantity not in (None, "status"):
             raise fail(
                 source,
-                first_line,
+                spec.region[2],
                 f"column {column.name!r} should hold numbers ({column.quantity}) but holds text "
                 f"such as {block.text[index][0]!r}",
             )
+    problems = [(columns[index].quantity or "", sentence) for index, sentence in block.problems]
+    _, _, first_line, rows = spec.region
     declared = metadata.get("declared_points")
-    if declared is not None and declared != block.rows:
-        problems.append(f"the header declares {declared} points, the file has {block.rows}")
-    return Interval(
-        test=test,
-        number=number,
-        line=header_line,
+    if not rows:
+        problems.append((None, f"no data rows after the header at line {spec.header_line}"))
+    elif declared is not None and declared != rows:
+        what = "truncated" if rows < declared else "more rows than declared"
+        lines = f"lines {first_line}-{first_line + rows - 1}"
+        problems.append(
+            (None, f"the header declares {declared} points, found {rows} ({what}, {lines})")
+        )
+    interval = Interval(
+        test=spec.test,
+        number=spec.number,
+        line=spec.header_line,
         columns=columns,
         values=block.values,
         text=block.text,
         rows=block.rows,
         metadata=metadata,
-        problems=tuple(problems),
     )
+    time = interval.si("interval_time")
+    time = interval.si("time") if time is None else time
+    if time is not None and rows:
+        problems += [(None, sentence) for sentence in time_problems(time, first_line)]
+    quantities, sentences = zip(*problems, strict=True) if problems else ((), ())
+    return replace(interval, problems=sentences, problem_quantities=quantities)
+
+
+#: A step this many times the median step (and the steps beside it) is a gap in time.
+GAP_FACTOR = 10.0
+
+
+def time_problems(time, first_line):
+    """Sentences about a time column [s] whose first row is on file line ``first_line``:
+    rows without a time (dropped from the run), time that does not increase, and gaps: steps
+    over :data:`GAP_FACTOR` times the median step and over half that factor times the smaller
+    step beside them (so a logarithmic grid, whose steps grow smoothly, has none); rows kept."""
+    lines = np.arange(first_line, first_line + time.size)
+    sentences = []
+    finite = np.isfinite(time)
+    if not finite.all():
+        count = int((~finite).sum())
+        sentences.append(
+            f"{count} row{'s' if count > 1 else ''} without a time dropped from the run "
+            f"({line_list(lines[~finite])})"
+        )
+    time, lines = time[finite], lines[finite]
+    if time.size < 3:
+        return sentences
+    step = np.diff(time)
+    backwards = step <= 0
+    if backwards.any():
+        count = int(backwards.sum())
+        sentences.append(
+            f"time does not increase at {count} row{'s' if count > 1 else ''} "
+            f"({line_list(lines[1:][backwards])}); rows kept"
+        )
+    forward = step[step > 0]
+    if forward.size < 3:
+        return sentences
+    median = float(np.median(forward))
+    before = np.r_[np.inf, step[:-1]]
+    after = np.r_[step[1:], np.inf]
+    neighbours = np.fmin(np.where(before > 0, before, np.inf), np.where(after > 0, after, np.inf))
+    gap = (step > GAP_FACTOR * median) & (
+        step > GAP_FACTOR / 2 * np.where(np.isinf(neighbours), median, neighbours)
+    )
+    if gap.any():
+        count = int(gap.sum())
+        largest = float(step[gap].max())
+        sentences.append(
+            f"{count} gap{'s' if count > 1 else ''} in time over {GAP_FACTOR:g}x the median "
+            f"step {median:.3g} s, largest {largest:.3g} s (before {line_list(lines[1:][gap])}); "
+            "rows kept"
+        )
+    return sentences
 
 
 @dataclass
 class BlockSpec:
-    """Where one interval sits in the lines of a file, found by a format's scanner."""
+    """Where one interval sits in a file, found by a format's scanner: ``region`` is
+    ``(start, stop, first_line, rows)`` from :meth:`granflow.io._buffer.Cursor.block`."""
 
     test: str
     number: int
@@ -279,8 +354,7 @@ class BlockSpec:
     names: list
     units: list
     meanings: list
-    start: int
-    stop: int
+    region: tuple
     metadata: dict
     skip_first: bool = False
     quantities: list | None = None
@@ -333,19 +407,43 @@ def header_number(text, numbers):
     return text if number is None else number
 
 
-def finish(source, form, encoding, delimiter, lines, specs, metadata, problems):
+def _sample(buffer, region, count):
+    """(line number, line) of the first and last ``count`` rows of a block."""
+    start, stop, first_line, rows = region
+    if rows <= 2 * count:
+        return list(enumerate(buffer.text(start, stop).split("\n")[:rows], start=first_line))
+    head = buffer.text(start, _after_lines(buffer, start, count))
+    sample = list(enumerate(head.split("\n")[:count], start=first_line))
+    tail_start = stop
+    for _ in range(count):
+        tail_start = buffer.data.rfind(b"\n", start, tail_start - 1) + 1 or start
+    tail = buffer.text(tail_start, stop).split("\n")
+    tail = tail[:-1] if not tail[-1] else tail
+    return sample + list(enumerate(tail, start=first_line + rows - len(tail)))
+
+
+def _after_lines(buffer, start, count):
+    position = start
+    for _ in range(count):
+        position = buffer.data.find(b"\n", position) + 1 or len(buffer.data)
+    return position
+
+
+def finish(source, form, buffer, delimiter, specs, metadata, problems):
     """Sniff the number format from the data rows of every block, then parse each block."""
     from granflow.io._text import sniff_numbers
 
     if not specs:
-        raise fail(source, max(len(lines), 1), f"no data block found in this {form} export")
+        raise fail(
+            source,
+            buffer.line_number(len(buffer.data)),
+            f"no data block found in this {form} export",
+        )
     samples = []
     for spec in specs:
-        picks = list(range(spec.start, min(spec.stop, spec.start + 100)))
-        picks += list(range(max(spec.start + 100, spec.stop - 100), spec.stop))
-        for index in picks:
-            cells = lines[index].split(delimiter)
-            samples.append((index + 1, cells[1:] if spec.skip_first else cells))
+        for line, row in _sample(buffer, spec.region, 100):
+            cells = row.split(delimiter)
+            samples.append((line, cells[1:] if spec.skip_first else cells))
     numbers = sniff_numbers(samples, delimiter, source)
     intervals = []
     for spec in specs:
@@ -357,25 +455,8 @@ def finish(source, form, encoding, delimiter, lines, specs, metadata, problems):
         columns = make_columns(
             spec.names, spec.units, spec.meanings, source, spec.header_line, spec.quantities
         )
-        if spec.stop <= spec.start:
-            problems.append(
-                f"line {spec.header_line}: interval {spec.number} of {spec.test!r} has no data rows"
-            )
         intervals.append(
-            make_interval(
-                spec.test,
-                spec.number,
-                spec.header_line,
-                columns,
-                lines[spec.start : spec.stop],
-                spec.start + 1,
-                delimiter,
-                numbers,
-                source,
-                spec_metadata,
-                skip_first=spec.skip_first,
-                strict=spec.strict,
-            )
+            make_interval(spec, columns, buffer, delimiter, numbers, source, spec_metadata)
         )
     file_metadata = {}
     for key, value in metadata.items():
@@ -385,22 +466,17 @@ def finish(source, form, encoding, delimiter, lines, specs, metadata, problems):
     return ParsedFile(
         source=source,
         format=form,
-        encoding=encoding,
+        encoding=buffer.encoding,
         delimiter=delimiter,
         decimal=numbers.decimal,
         thousands=numbers.thousands,
         metadata=file_metadata,
         intervals=tuple(intervals),
-        problems=tuple(problems),
+        problems=tuple(buffer.problems) + tuple(problems),
     )
 
 
-def with_problems(parsed, problems):
-    """``parsed`` with ``problems`` (found while decoding the file) before its own."""
-    return replace(parsed, problems=tuple(problems) + parsed.problems) if problems else parsed
-
-
-def read_with(parse, path, **options):
+def read_with(parse, path, max_bytes=None, **options):
     """Read an export with a format's parser: the ``read_<format>(path)`` of each reader.
 
     Parameters
@@ -409,21 +485,30 @@ def read_with(parse, path, **options):
         ``parse_<format>(text, source=..., encoding=..., **options)``.
     path : str or pathlib.Path
         The export file; never modified.
+    max_bytes : int, optional
+        Largest accepted file size [bytes] (see :func:`granflow.io._buffer.size_limit`).
     **options
         Passed on to ``parse``.
     """
-    path = Path(path)
-    text, encoding, problems = decode(path.read_bytes(), str(path))
-    return with_problems(parse(text, source=str(path), encoding=encoding, **options), problems)
+    buffer = _buffer.load(path, max_bytes)
+    return parse(buffer, source=str(Path(path)), encoding=buffer.encoding, **options)
 
 
-def parse_blocks(scan, form, text, source, encoding):
-    """Parse an export whose ``scan(lines, delimiter, source, problems)`` finds its blocks:
-    the ``parse_<format>(text)`` of each block-structured reader."""
+def head_lines(buffer, count=200, size=1 << 20):
+    """The first ``count`` lines of a buffer (at most ``size`` bytes), decoded."""
+    end = _after_lines(buffer, 0, count)
+    return [line.rstrip("\r") for line in buffer.text(0, min(end, size)).split("\n")[:count]]
+
+
+def parse_blocks(scan, form, text, source, encoding, expect):
+    """Parse an export whose ``scan(cursor, delimiter, source, problems)`` finds its blocks:
+    the ``parse_<format>(text)`` of each block-structured reader. ``expect`` says what the
+    format's header looks like, for the error when none is found."""
     from granflow.io._text import sniff_delimiter
 
-    lines = text.splitlines()
+    buffer = _buffer.from_text(text, encoding)
     problems = []
-    delimiter = sniff_delimiter([line for line in lines[:200] if line.strip()])
-    metadata, specs = scan(lines, delimiter, source, problems)
-    return finish(source, form, encoding, delimiter, lines, specs, metadata, problems)
+    delimiter = sniff_delimiter([line for line in head_lines(buffer) if line.strip()])
+    cursor = _buffer.Cursor(buffer, source, expect)
+    metadata, specs = scan(cursor, delimiter, source, problems)
+    return finish(source, form, buffer, delimiter, specs, metadata, problems)

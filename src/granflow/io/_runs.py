@@ -1,5 +1,7 @@
 """Parsed intervals to :class:`granflow.Run`: torque -> force, angle -> slip, speed -> velocity."""
 
+from pathlib import Path
+
 import numpy as np
 
 from granflow.io import _columns
@@ -10,6 +12,8 @@ __all__ = ["control_mode", "interval_to_run", "runs_from_file"]
 
 _RATE = ("speed", "shear_rate", "angle", "strain")
 _STRESS = ("torque", "shear_stress")
+#: Columns a Run is made of: their problems (and the block's) travel with the run.
+_USED = ("interval_time", "time", "torque", "angle", "speed", "normal_force")
 
 
 def _spread(values):
@@ -41,14 +45,33 @@ def control_mode(interval):
     return "stress" if _spread(interval.si(stress)) < _spread(interval.si(rate)) else "rate"
 
 
-def interval_to_run(interval, geometry, source, ordinal):
-    """One Run from one interval, with the geometry's radii (NaN where a column is absent)."""
+def run_problems(interval, source, ordinal, file_problems=()):
+    """The data-quality sentences of one interval's run, each naming the file and the
+    interval: the file's decoding problems and the interval's problems about the columns a
+    Run is made of (time, torque, angle, speed, normal force) or about the whole block."""
+    name = Path(str(source)).name
+    sentences = [f"{name}: {problem}" for problem in file_problems]
+    for problem, quantity in zip(interval.problems, interval.problem_quantities, strict=True):
+        if quantity is None or quantity in _USED:
+            sentences.append(f"{name}, interval {ordinal}: {problem}")
+    return tuple(sentences)
+
+
+def interval_to_run(interval, geometry, source, ordinal, file_problems=()):
+    """One Run from one interval, with the geometry's radii (NaN where a column is absent);
+    rows without a time are dropped, and every problem is in ``Run.problems``."""
     time = interval.si("interval_time")
     if time is None:
         time = interval.si("time")
     if time is None:
         names = ", ".join(column.name for column in interval.columns)
-        raise fail(source, interval.line, f"interval {ordinal} has no time column (found: {names})")
+        raise fail(
+            source,
+            interval.line,
+            f"interval {ordinal} has no time column (found: {names}); expected a column "
+            "named like 'Time' or 'Interval Time' in a known language, or one with a unit "
+            "of time under a row of [units]",
+        )
     nothing = np.full(time.shape, np.nan)
     angle = interval.si("angle")
     if angle is None:
@@ -76,19 +99,24 @@ def interval_to_run(interval, geometry, source, ordinal):
     normal = interval.si("normal_force")
     if normal is not None and np.isfinite(normal).any():
         meta["normal_force_median"] = float(np.nanmedian(normal))
-    return Run(
+    run = Run(
         t=time,
         slip=slip,
         velocity=velocity,
         force=force,
         control=control_mode(interval),
         meta=meta,
+        problems=run_problems(interval, source, ordinal, file_problems),
     )
+    timed = np.isfinite(run.t)
+    return run if timed.all() else run.select(timed)
 
 
 def runs_from_file(parsed, geometry):
     """A list of Run, one per interval of a parsed file, in file order."""
+    file_problems = [problem for problem in parsed.problems if not problem.startswith("skipped")]
+    file_problems = [problem for problem in file_problems if not problem.startswith("ignored")]
     return [
-        interval_to_run(interval, geometry, parsed.source, ordinal)
+        interval_to_run(interval, geometry, parsed.source, ordinal, file_problems)
         for ordinal, interval in enumerate(parsed.intervals, start=1)
     ]

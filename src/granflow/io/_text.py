@@ -5,15 +5,16 @@ inferred from the numbers in the file, and the numeric block is parsed by pandas
 with exactly those options (the fast path for million-row exports).
 """
 
-import codecs
 import csv
 import io
 import re
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from granflow.errors import FileFormatError
+from granflow.io import _buffer
+from granflow.io._buffer import fail
 
 __all__ = ["MISSING_MARKERS", "NumberFormat", "decode", "fail", "read_block", "sniff_delimiter"]
 
@@ -21,73 +22,17 @@ __all__ = ["MISSING_MARKERS", "NumberFormat", "decode", "fail", "read_block", "s
 MISSING_MARKERS = ("", " ", "******")
 _ASTERISKS = re.compile(r"^\*+$")
 
-_BOMS = (
-    (codecs.BOM_UTF32_LE, "utf-32"),
-    (codecs.BOM_UTF32_BE, "utf-32"),
-    (codecs.BOM_UTF8, "utf-8-sig"),
-    (codecs.BOM_UTF16_LE, "utf-16"),
-    (codecs.BOM_UTF16_BE, "utf-16"),
-)
-
 
 def _is_marker(cell):
     return isinstance(cell, str) and (not cell.strip() or bool(_ASTERISKS.match(cell.strip())))
 
 
-def fail(source, line, message):
-    """A FileFormatError that names the file and the line (1-based)."""
-    return FileFormatError(f"{source}, line {line}: {message}")
-
-
-def _line_of_offset(text, offset):
-    return text.count("\n", 0, offset) + 1
-
-
 def decode(raw, source):
-    """Decode an export: (text, encoding name, problems); readers split it with splitlines().
-
-    BOMs decide UTF-32/UTF-16/UTF-8-sig; without one, a file with many NUL bytes is UTF-16
-    (LE or BE from where the NULs sit), else strict UTF-8, else cp1252.
-    """
-    problems = []
-    encoding = None
-    for bom, name in _BOMS:
-        if raw.startswith(bom):
-            encoding = name
-            break
-    if encoding is None:
-        sample = raw[:4096]
-        if sample.count(0) > len(sample) // 4:
-            even_nuls = sample[0::2].count(0)
-            encoding = "utf-16-be" if even_nuls > sample[1::2].count(0) else "utf-16-le"
-        else:
-            try:
-                text = raw.decode("utf-8")
-                encoding = "utf-8"
-            except UnicodeDecodeError:
-                encoding = "cp1252"
-    try:
-        text = raw.decode(encoding)
-    except UnicodeDecodeError as exc:
-        if encoding != "cp1252":
-            prefix = raw[: exc.start].decode(encoding, errors="replace")
-            raise fail(
-                source,
-                _line_of_offset(prefix, len(prefix)),
-                f"the file is not valid {encoding} text (byte {exc.start}: {exc.reason})",
-            ) from None
-        # cp1252 leaves five bytes undefined; a spreadsheet-mangled file may hold them.
-        text = raw.decode(encoding, errors="replace")
-        line = _line_of_offset(text, text.index("\ufffd"))
-        problems.append(f"line {line}: bytes that are not cp1252 text were replaced by '\ufffd'")
-    if "\x00" in text:
-        offset = text.index("\x00")
-        raise fail(
-            source,
-            _line_of_offset(text, offset),
-            f"NUL character in {encoding} text: the file is binary or has the wrong encoding",
-        )
-    return text, encoding, problems
+    """Decode an export's bytes: (text, encoding name, problems), as :func:`_buffer.load`
+    reads a file (BOMs, UTF-16 by its NULs, strict UTF-8, else cp1252; line ends made LF)."""
+    buffer = _buffer.read_stream(io.BytesIO(raw), source)
+    text = buffer.text(0, len(buffer.data)).replace("\r\n", "\n")
+    return text, buffer.encoding, list(buffer.problems)
 
 
 def sniff_delimiter(lines):
@@ -199,7 +144,8 @@ def sniff_numbers(rows, delimiter, source):
 
 @dataclass
 class Block:
-    """One parsed numeric block: float columns (file units), text columns, and what was odd."""
+    """One parsed numeric block: float columns (file units), text columns, and what was odd
+    (``problems``: (column index or None, sentence) pairs)."""
 
     values: dict
     text: dict
@@ -207,9 +153,51 @@ class Block:
     problems: list
 
 
+class _Region(io.RawIOBase):
+    """A read-only stream over a memoryview: pandas reads a block without a copy of it."""
+
+    def __init__(self, view):
+        super().__init__()
+        self._view = view
+        self._pos = 0
+
+    def readable(self):
+        return True
+
+    def readinto(self, target):
+        count = min(len(target), len(self._view) - self._pos)
+        target[:count] = self._view[self._pos : self._pos + count]
+        self._pos += count
+        return count
+
+
+def line_list(lines, most=5):
+    """ "line 7" or "lines 2-4, 9 and 3 more" for sorted file line numbers."""
+    lines = np.asarray(lines, dtype=np.int64)
+    breaks = np.flatnonzero(np.diff(lines) != 1) + 1
+    firsts = lines[np.r_[0, breaks]]
+    lasts = lines[np.r_[breaks - 1, lines.size - 1]]
+    items = [
+        str(first) if first == last else f"{first}-{last}"
+        for first, last in zip(firsts[:most].tolist(), lasts[:most].tolist(), strict=True)
+    ]
+    more = f" and {firsts.size - most} more" if firsts.size > most else ""
+    return ("line " if lines.size == 1 else "lines ") + ", ".join(items) + more
+
+
+def _cells_problem(name, what, mask, line_numbers, example=""):
+    """ "column 'Torque': 3 missing values kept as NaN, first at line 2 (lines 2-4)"."""
+    lines = line_numbers[mask]
+    count = lines.size
+    plural = "s" if count > 1 else ""
+    first = f"{example} at line {lines[0]}" if example else f"at line {lines[0]}"
+    where = f", first {first} ({line_list(lines)})" if count > 1 else f" {first}"
+    return f"column {name!r}: {count} {what} value{plural} kept as NaN{where}"
+
+
 def read_block(
-    lines,
-    first_line,
+    buffer,
+    region,
     names,
     delimiter,
     numbers,
@@ -218,14 +206,16 @@ def read_block(
     text_columns=(),
     strict=False,
 ):
-    """Parse data rows into columns with pandas' C parser.
+    """Parse data rows into columns with pandas' C parser, in one pass over their bytes.
 
     Parameters
     ----------
-    lines : list of str
-        The data rows, consecutive lines of the file (no blank lines inside).
-    first_line : int
-        File line number (1-based) of ``lines[0]``, for messages.
+    buffer : granflow.io._buffer.Buffer
+        The file's content.
+    region : tuple
+        ``(start, stop, first_line, rows)`` from :meth:`Cursor.block`: the byte range of
+        the rows (consecutive lines, no blank line inside), the file line number of the
+        first row and the number of rows.
     names : list of str
         Column names (as in the file), one per cell after the skipped first cell.
     skip_first : bool
@@ -239,14 +229,15 @@ def read_block(
     Returns
     -------
     Block
-        ``values[i]`` float64 arrays (NaN where missing or invalid), ``text[i]`` object arrays
-        for text columns; problems name the column, the count and the first line.
+        ``values[i]`` float64 arrays (NaN where missing, invalid or infinite), ``text[i]``
+        object arrays for text columns; problems name the column, the count and the lines.
     """
     import pandas as pd
 
+    start, stop, first_line, rows = region
     offset = 1 if skip_first else 0
     count = len(names)
-    if not lines:
+    if not rows:
         empty = np.empty(0, dtype=np.float64)
         return Block(
             values={i: empty for i in range(count) if i not in text_columns},
@@ -254,23 +245,30 @@ def read_block(
             rows=0,
             problems=[],
         )
+    stream = io.BufferedReader(_Region(memoryview(buffer.data)[start:stop]), 1 << 20)
     try:
-        frame = pd.read_csv(
-            io.StringIO("\n".join(lines)),
-            sep=delimiter,
-            header=None,
-            names=list(range(count + offset)),
-            usecols=list(range(offset, count + offset)),
-            dtype={offset + i: str for i in text_columns},
-            decimal=numbers.decimal,
-            thousands=numbers.thousands,
-            na_values=list(MISSING_MARKERS),
-            keep_default_na=False,
-            skip_blank_lines=False,
-            quoting=csv.QUOTE_MINIMAL,
-            engine="c",
-            low_memory=False,
-        )
+        with warnings.catch_warnings():
+            # chunk by chunk (low_memory): a column with text in some chunks comes back as
+            # objects, which _numbers reads cell by cell; pandas' DtypeWarning says no more
+            warnings.simplefilter("ignore", pd.errors.DtypeWarning)
+            frame = pd.read_csv(
+                stream,
+                sep=delimiter,
+                header=None,
+                names=list(range(count + offset)),
+                usecols=list(range(offset, count + offset)),
+                dtype={offset + i: "category" for i in text_columns},
+                decimal=numbers.decimal,
+                thousands=numbers.thousands,
+                na_values=list(MISSING_MARKERS),
+                keep_default_na=False,
+                skip_blank_lines=False,
+                quoting=csv.QUOTE_MINIMAL,
+                encoding=buffer.codec,
+                encoding_errors="replace",
+                engine="c",
+                low_memory=True,
+            )
     except pd.errors.ParserError as exc:
         match = re.search(r"line (\d+)", str(exc))
         line = first_line + int(match.group(1)) - 1 if match else first_line
@@ -279,50 +277,85 @@ def read_block(
         raise fail(source, line, f"{detail} where the header has {count} columns") from None
     except (ValueError, IndexError, pd.errors.EmptyDataError) as exc:
         raise fail(source, first_line, f"cannot parse the data rows ({exc})") from None
-    if len(frame) != len(lines):
-        raise fail(source, first_line, f"{len(lines)} data lines gave {len(frame)} rows")
+    if len(frame) != rows:
+        raise fail(source, first_line, f"{rows} data lines gave {len(frame)} rows")
     problems = []
     values, text = {}, {}
-    line_numbers = None
+    line_numbers = np.arange(first_line, first_line + rows)
     for position in range(count):
         column = frame[offset + position]
-        name = names[position]
         if position in text_columns:
-            text[position] = column.fillna("").to_numpy(dtype=object)
+            text[position] = _text_cells(column)
             continue
-        if pd.api.types.is_numeric_dtype(column.dtype):
-            array = column.to_numpy(dtype=np.float64, na_value=np.nan)
-            missing = np.isnan(array)
-            invalid = np.zeros_like(missing)
-        else:
-            raw = column.astype(object).tolist()
-            missing = np.array(column.isna(), dtype=bool)
-            missing |= np.array([_is_marker(cell) for cell in raw], dtype=bool)
-            parsed = [numbers.parse(cell) if isinstance(cell, str) else None for cell in raw]
-            invalid = np.array([value is None for value in parsed], dtype=bool) & ~missing
-            array = np.array([np.nan if v is None else v for v in parsed], dtype=np.float64)
-            if invalid.sum() > invalid.size // 2:
-                text[position] = column.fillna("").to_numpy(dtype=object)
-                continue
-        if line_numbers is None:
-            line_numbers = np.arange(first_line, first_line + len(lines))
+        parsed = _numbers(column, numbers)
+        if parsed is None:
+            text[position] = _text_cells(column)
+            continue
+        array, missing, invalid = parsed
+        name = names[position]
+        infinite = ~np.isfinite(array) & ~missing & ~invalid
         if missing.any():
-            first = int(line_numbers[np.argmax(missing)])
-            problems.append(
-                f"column {name!r}: {int(missing.sum())} missing values (NaN), first at line {first}"
-            )
+            problems.append((position, _cells_problem(name, "missing", missing, line_numbers)))
         if invalid.any():
             index = int(np.argmax(invalid))
+            example = repr(column.iloc[index])
             if strict:
                 raise fail(
                     source,
                     int(line_numbers[index]),
-                    f"column {name!r} has a non-numeric value "
-                    f"{frame[offset + position].iloc[index]!r}",
+                    f"column {name!r} has a non-numeric value {example}",
                 )
             problems.append(
-                f"column {name!r}: {int(invalid.sum())} invalid values (NaN), first "
-                f"{frame[offset + position].iloc[index]!r} at line {int(line_numbers[index])}"
+                (position, _cells_problem(name, "invalid", invalid, line_numbers, example))
             )
+        if infinite.any():
+            example = repr(str(column.iloc[int(np.argmax(infinite))]).strip())
+            problems.append(
+                (position, _cells_problem(name, "non-finite", infinite, line_numbers, example))
+            )
+            array[infinite] = np.nan
         values[position] = array
     return Block(values=values, text=text, rows=len(frame), problems=problems)
+
+
+def _text_cells(column):
+    """The cells of a text column as an object array ("" where empty)."""
+    if hasattr(column, "cat"):
+        categories = np.asarray(column.cat.categories, dtype=object)
+        codes = column.cat.codes.to_numpy()
+        return np.append(categories, "")[codes]  # code -1 (empty) picks the last
+    cells = column.to_numpy(dtype=object)
+    cells[column.isna().to_numpy()] = ""
+    return cells
+
+
+def _numbers(column, numbers):
+    """(values, missing, invalid) of a column; None when most cells are text (a text column).
+
+    Columns pandas parsed as numbers are converted at once; others cell by cell (a few odd
+    cells in a numeric column, or cells pandas read as text such as ``nan``).
+    """
+    import pandas as pd
+
+    if pd.api.types.is_numeric_dtype(column.dtype):
+        array = column.to_numpy(dtype=np.float64, na_value=np.nan)
+        return array, np.isnan(array), np.zeros(array.shape, dtype=bool)
+    raw = column.astype(object).tolist()
+    missing = np.array([cell is None or _is_marker(cell) or _isnan(cell) for cell in raw])
+    parsed = [
+        float(cell)
+        if isinstance(cell, int | float)
+        else numbers.parse(cell)
+        if isinstance(cell, str)
+        else None
+        for cell in raw
+    ]
+    invalid = np.array([value is None for value in parsed], dtype=bool) & ~missing
+    if invalid.sum() > invalid.size // 2:
+        return None
+    array = np.array([np.nan if v is None else v for v in parsed], dtype=np.float64)
+    return array, missing, invalid
+
+
+def _isnan(cell):
+    return isinstance(cell, float) and cell != cell

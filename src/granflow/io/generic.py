@@ -3,12 +3,22 @@ unit row below), data rows after it; a column map names the columns granflow nee
 
 import re
 
-from granflow.io import _columns
-from granflow.io._file import BlockSpec, finish, read_with
+from granflow.io import _buffer, _columns
+from granflow.io._file import BlockSpec, finish, head_lines, read_with
 from granflow.io._text import fail, sniff_delimiter, split
 
 __all__ = ["parse_csv", "read_csv"]
 
+#: What a table holds, for the error when none of it is found.
+EXPECT = "a header row of column names followed by data rows"
+#: Every layout granflow reads, for the error when a file has none of them.
+KNOWN_LAYOUTS = (
+    "a RheoCompass export ('Interval data:' or a header row above a row of [units]), a "
+    "Rheoplus export ('Data Series Information'), a TRIOS export ('[step]') or a table "
+    "(a header row of column names, optionally a row of [units], then data rows)"
+)
+_ROWS_END = re.compile(rb"\n(?=[ \t\r\x0b\x0c]*(?:\n|\Z))")
+_CONTENT = re.compile(rb"\S")
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
 
 
@@ -59,50 +69,63 @@ def parse_csv(
     >>> table.intervals[0].si("force")
     array([0.002])
     """
-    lines = text.splitlines()
+    buffer = _buffer.from_text(text, encoding)
     column_map = dict(column_map or {})
     units = dict(units or {})
-    first = next((i for i, line in enumerate(lines) if line.strip()), None)
-    if first is None:
+    cursor = _buffer.Cursor(buffer, source, EXPECT)
+    while not cursor.done() and not cursor.peek().strip():
+        cursor.advance()
+    if cursor.done():
         raise fail(source, 1, "the file is empty")
-    delimiter = sniff_delimiter([line for line in lines[first : first + 50] if line.strip()])
-    cells = split(lines[first], delimiter)
+    first = cursor.number
+    header = cursor.next()
+    delimiter = sniff_delimiter(
+        [line for line in [header, *head_lines(buffer, 50)] if line.strip()]
+    )
+    cells = split(header, delimiter)
     names, file_units = zip(*(_name_and_unit(cell) for cell in cells), strict=True)
     names, file_units = list(names), list(file_units)
-    start = first + 1
-    if start < len(lines):
-        below = split(lines[start], delimiter)
-        if below and all(cell.strip().startswith("[") or not cell.strip() for cell in below):
-            file_units = [cell.strip().strip("[]") for cell in below] + [""] * len(names)
-            start += 1
+    below = split(cursor.peek(), delimiter)
+    if below and all(cell.strip().startswith("[") or not cell.strip() for cell in below):
+        file_units = [cell.strip().strip("[]") for cell in below] + [""] * len(names)
+        cursor.advance()
     mapped = {name: quantity for quantity, name in column_map.items()}
     known = (*_columns.QUANTITIES, *_columns.MAPPED_ONLY)
     for name in column_map.values():
         if name not in names:
-            raise fail(source, first + 1, f"column {name!r} of the column map is not in the header")
+            raise fail(source, first, f"column {name!r} of the column map is not in the header")
     for name in names:
         if name in mapped and mapped[name] not in known:
-            raise fail(source, first + 1, f"unknown quantity {mapped[name]!r} in the column map")
+            raise fail(source, first, f"unknown quantity {mapped[name]!r} in the column map")
     unmapped = "" if only_mapped else None
     quantities = [mapped.get(name, unmapped) for name in names]
     final_units = [
         units.get(name, file_units[index] if index < len(file_units) else "")
         for index, name in enumerate(names)
     ]
-    stop = start
-    while stop < len(lines) and lines[stop].strip():
-        stop += 1
+    region = cursor.block(_ROWS_END)
+    if not region[3]:
+        raise fail(source, first, f"no data rows below the header; expected {KNOWN_LAYOUTS}")
+    problems = []
+    rest = _CONTENT.search(buffer.data, cursor.pos)
+    if rest:
+        line = buffer.line_number(rest.start())
+        problems.append(
+            f"ignored the lines after the blank line that ends the table (from line {line})"
+        )
     spec = BlockSpec(
-        "table", 1, first + 1, names, final_units, [], start, stop, {}, False, quantities, strict
+        "table", 1, first, names, final_units, [], region, {}, False, quantities, strict
     )
-    return finish(source, "csv", encoding, delimiter, lines, [spec], {}, [])
+    return finish(source, "csv", buffer, delimiter, [spec], {}, problems)
 
 
-def read_csv(path, column_map=None, units=None, only_mapped=False, strict=False):
-    """Read a generic CSV/TSV file; see :func:`parse_csv`."""
+def read_csv(path, column_map=None, units=None, only_mapped=False, strict=False, max_bytes=None):
+    """Read a generic CSV/TSV file; see :func:`parse_csv` (``max_bytes``: the size limit,
+    see :func:`granflow.io.read`)."""
     return read_with(
         parse_csv,
         path,
+        max_bytes,
         column_map=column_map,
         units=units,
         only_mapped=only_mapped,

@@ -3,9 +3,10 @@
 from pathlib import Path
 
 from granflow.errors import FileFormatError
-from granflow.io._file import with_problems
+from granflow.io import _buffer
+from granflow.io._file import head_lines
 from granflow.io._runs import runs_from_file
-from granflow.io._text import decode, fail
+from granflow.io._text import fail
 from granflow.io.generic import parse_csv
 from granflow.io.rheocompass import looks_like_rheocompass, parse_rheocompass
 from granflow.io.rheoplus import looks_like_rheoplus, parse_rheoplus
@@ -21,8 +22,9 @@ FORMATS = tuple(_PARSERS)
 
 
 def detect_format(text):
-    """ "rheoplus", "rheocompass", "trios" or "csv" from the keywords in the text."""
-    lines = text.split("\n", 5000)[:5000]
+    """ "rheoplus", "rheocompass", "trios" or "csv" from the keywords in the text (its first
+    5000 lines)."""
+    lines = head_lines(_buffer.from_text(text), 5000, 16 << 20)
     if looks_like_rheoplus(lines):
         return "rheoplus"
     if looks_like_rheocompass(lines):
@@ -44,7 +46,7 @@ def parse(text, source="<text>", format=None, encoding="str", **options):
     return _PARSERS[form](text, source=source, encoding=encoding)
 
 
-def read(path, format=None, **options):
+def read(path, format=None, *, max_bytes=None, **options):
     """Read an instrument export, detecting its encoding and format.
 
     Parameters
@@ -53,6 +55,11 @@ def read(path, format=None, **options):
         The export file; never modified.
     format : {"rheocompass", "rheoplus", "trios", "csv"}, optional
         Skip detection.
+    max_bytes : int, optional
+        Largest file accepted [bytes]; a larger one is refused before it is read. Default:
+        the ``GRANFLOW_MAX_BYTES`` environment variable, else
+        ``granflow.io._buffer.MAX_BYTES`` (2 GiB). Reading costs about the file's size in
+        memory (half of it for UTF-16) plus the parsed columns.
     **options
         ``column_map`` and ``units`` for generic CSV (see :func:`parse_csv`).
 
@@ -60,12 +67,13 @@ def read(path, format=None, **options):
     -------
     ParsedFile
         ``format``, ``encoding``, ``tests``, ``intervals`` (columns with units, values in file
-        units, metadata), ``problems``; ``report()`` prints it.
+        units, metadata, data-quality problems), ``problems``; ``report()`` prints it.
 
     Raises
     ------
     granflow.FileFormatError
-        The file cannot be read; the message names the file and the line.
+        The file cannot be read, is over the size limit, or is not an export of a known
+        layout; the message names the file and the line, and what was expected.
 
     Examples
     --------
@@ -77,19 +85,13 @@ def read(path, format=None, **options):
     (',', array([0.00125, 0.0015 ]))
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise FileFormatError(f"{path}: cannot read the file ({exc.strerror})") from None
-    text, encoding, problems = decode(raw, str(path))
-    del raw  # a million-row export: do not hold the bytes and the text at once
-    if not text.strip():
+    buffer = _buffer.load(path, max_bytes)
+    if buffer.is_blank():
         raise fail(str(path), 1, "the file is empty")
-    parsed = parse(text, source=str(path), format=format, encoding=encoding, **options)
-    return with_problems(parsed, problems)
+    return parse(buffer, source=str(path), format=format, encoding=buffer.encoding, **options)
 
 
-def read_runs(path, geometry=None, format=None, **options):
+def read_runs(path, geometry=None, format=None, *, max_bytes=None, **options):
     """Read an export and turn each interval into a :class:`granflow.Run`.
 
     Parameters
@@ -99,6 +101,8 @@ def read_runs(path, geometry=None, format=None, **options):
     geometry : granflow.Annulus, optional
         The contact; default ``Annulus.paper()``. Torque -> force with its effective radius,
         deflection angle -> slip and rotational speed -> velocity at its mean radius.
+    format, max_bytes, **options
+        As for :func:`read`.
 
     Returns
     -------
@@ -106,7 +110,9 @@ def read_runs(path, geometry=None, format=None, **options):
         One per interval: ``t`` [s], ``slip`` [m] (zero at the first angle of the interval),
         ``velocity`` [m/s], ``force`` [N], NaN where the file has no value or no column;
         ``control`` "rate" or "stress"; ``meta`` with ``source``, ``interval`` (1-based, in
-        file order), ``test``, and what the file says (sample, normal_load, ...).
+        file order), ``test``, and what the file says (sample, normal_load, ...);
+        ``problems``: the data-quality sentences of the interval ("FILE, interval K: ..."),
+        rows without a time dropped.
 
     Examples
     --------
@@ -120,5 +126,5 @@ def read_runs(path, geometry=None, format=None, **options):
     """
     from granflow.model.geometry import Annulus
 
-    parsed = read(path, format=format, **options)
+    parsed = read(path, format=format, max_bytes=max_bytes, **options)
     return runs_from_file(parsed, geometry or Annulus.paper())

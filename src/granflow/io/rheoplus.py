@@ -6,6 +6,8 @@ data points, measuring profile), then a header row starting with "Meas. Pts.", a
 ("[s]", "[µNm]", "[]") and data rows up to a blank line. ``******`` marks a missing value.
 """
 
+import re
+
 from granflow.io import _columns
 from granflow.io._file import BlockSpec, parse_blocks, read_with
 from granflow.io._text import split
@@ -22,16 +24,22 @@ def _joined(cells):
     return " ".join(cell.strip() for cell in cells if cell.strip())
 
 
-def _scan(lines, delimiter, source, problems):
+#: What a Rheoplus export holds, for the error when none of it is found.
+EXPECT = (
+    "a Rheoplus 'Data Series Information' block, a header row starting with 'Meas. Pts.', "
+    "a row of units in brackets and data rows starting with a point number"
+)
+_ROWS_END = re.compile(rb"\n(?![0-9])")
+
+
+def _scan(cursor, delimiter, source, problems):
     specs, file_metadata = [], {}
     test, metadata, number, declared = "", {}, 0, None
     last_key = ""
-    index, count = 0, len(lines)
-    while index < count:
-        line = lines[index]
-        stripped = line.strip()
-        if not stripped:
-            index += 1
+    while not cursor.done():
+        line_number = cursor.number
+        line = cursor.next()
+        if not line.strip():
             continue
         cells = split(line, delimiter)
         head = cells[0].strip() if cells else ""
@@ -45,33 +53,26 @@ def _scan(lines, delimiter, source, problems):
                 number += 1
         elif keyword == "profile":
             profile = []
-            while index + 1 < count and lines[index + 1].strip() and lines[index + 1][:1] in " \t":
-                index += 1
-                profile.append(_joined(split(lines[index], delimiter)))
+            while cursor.peek().strip() and cursor.peek()[:1] in " \t":
+                profile.append(_joined(split(cursor.next(), delimiter)))
             metadata["profile"] = "; ".join(profile)
         elif _columns.match_quantity(head)[0] == "point":
-            names = cells
-            row = index + 1
-            units = lines[row].split(delimiter) if row < count else []
-            row += 1 if any(cell.strip().startswith("[") for cell in units) else 0
-            stop = row
-            while stop < count and lines[stop][:1].isdigit():
-                stop += 1
+            units = cursor.peek().split(delimiter)
+            if any(cell.strip().startswith("[") for cell in units):
+                cursor.advance()
             spec_metadata = dict(metadata)
             if declared is not None:
                 spec_metadata["declared_points"] = declared
+            region = cursor.block(_ROWS_END)
             specs.append(
-                BlockSpec(test, number or 1, index + 1, names, units, [], row, stop, spec_metadata)
+                BlockSpec(test, number or 1, line_number, cells, units, [], region, spec_metadata)
             )
-            index = stop
-            continue
         elif head.endswith(":") or len(cells) > 1:
             key = head.lstrip("- ").rstrip(":").strip()
             value = _joined(cells[1:])
             target = metadata if test else file_metadata
             if not key and last_key in target:
                 target[last_key] = [*target[last_key], *cells[1:]]
-                index += 1
                 continue
             last_key = key
             if _columns.normalize(key) == "name":
@@ -85,7 +86,6 @@ def _scan(lines, delimiter, source, problems):
                 metadata[key] = cells[1:]
             else:
                 file_metadata[key] = cells[1:]
-        index += 1
     return file_metadata, specs
 
 
@@ -100,9 +100,9 @@ def parse_rheoplus(text, source="<text>", encoding="str"):
     >>> parse_rheoplus(text).intervals[0].si("torque").tolist()
     [nan, 5e-06]
     """
-    return parse_blocks(_scan, "rheoplus", text, source, encoding)
+    return parse_blocks(_scan, "rheoplus", text, source, encoding, EXPECT)
 
 
-def read_rheoplus(path):
+def read_rheoplus(path, max_bytes=None):
     """Read a Rheoplus export file; see :func:`parse_rheoplus`."""
-    return read_with(parse_rheoplus, path)
+    return read_with(parse_rheoplus, path, max_bytes)

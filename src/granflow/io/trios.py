@@ -11,6 +11,8 @@ then one block per step::
     0.5<TAB>12.3<TAB>...          data rows up to a blank line or the next [step]
 """
 
+import re
+
 from granflow.io import _columns
 from granflow.io._file import BlockSpec, parse_blocks, read_with
 from granflow.io._text import split
@@ -28,39 +30,36 @@ def _is_header(cells):
     return sum(quantity is not None for quantity in known) >= 2
 
 
-def _scan(lines, delimiter, source, problems):
+#: What a TRIOS export holds, for the error when none of it is found.
+EXPECT = "TRIOS '[step]' sections, each with a step name, a header row and a row of units"
+_ROWS_END = re.compile(rb"\n(?=[ \t\r\x0b\x0c]*(?:\n|\Z)|[ \t]*\[step\][ \t\r]*(?:\n|\Z))", re.I)
+
+
+def _scan(cursor, delimiter, source, problems):
     specs, file_metadata = [], {}
-    index, count = 0, len(lines)
     step, metadata, steps = None, {}, 0
-    while index < count:
-        line = lines[index]
+    while not cursor.done():
+        line_number = cursor.number
+        line = cursor.next()
         if not line.strip():
-            index += 1
             continue
         if line.strip().lower() == "[step]":
             steps += 1
-            index += 1
-            while index < count and not lines[index].strip():
-                index += 1
-            step = lines[index].strip() if index < count else f"step {steps}"
+            while not cursor.done() and not cursor.peek().strip():
+                cursor.advance()
+            step = cursor.next().strip() or f"step {steps}"
             metadata = {}
-            index += 1
             continue
         cells = split(line, delimiter)
         if step is not None and _is_header(cells):
-            units = lines[index + 1].split(delimiter) if index + 1 < count else []
-            start = index + 2
-            stop = start
-            while stop < count and lines[stop].strip() and lines[stop].strip().lower() != "[step]":
-                stop += 1
-            specs.append(BlockSpec(step, steps, index + 1, cells, units, [], start, stop, metadata))
-            index = stop
+            units = cursor.next().split(delimiter)
+            region = cursor.block(_ROWS_END)
+            specs.append(BlockSpec(step, steps, line_number, cells, units, [], region, metadata))
             step = None
             continue
         target = metadata if step is not None else file_metadata
         if cells:
             target[cells[0].strip()] = cells[1:]
-        index += 1
     return file_metadata, specs
 
 
@@ -75,9 +74,9 @@ def parse_trios(text, source="<text>", encoding="str"):
     >>> parse_trios(text).intervals[0].si("torque")
     array([2.5e-06, 3.5e-06])
     """
-    return parse_blocks(_scan, "trios", text, source, encoding)
+    return parse_blocks(_scan, "trios", text, source, encoding, EXPECT)
 
 
-def read_trios(path):
+def read_trios(path, max_bytes=None):
     """Read a TRIOS text export; see :func:`parse_trios`."""
-    return read_with(parse_trios, path)
+    return read_with(parse_trios, path, max_bytes)

@@ -1,10 +1,11 @@
 """Simulated runs to instrument-style exports: RheoCompass-style and TRIOS-style text files.
 
 For the demo (simulated campaigns written as the files a rheometer would give) and for
-tests of the readers on formats the real example files lack: French and German labels,
-decimal commas, other encodings and units, TRIOS. The files carry the run's metadata
-(sample, preparation, normal load, rest time, nominal velocity, control mode) in header lines
-that the readers map back, so a written run reads back with the same values and metadata.
+tests of the readers on formats the real example files lack: French, German, Spanish and
+Italian labels, decimal commas, other encodings and units, TRIOS. The files carry the run's
+metadata (sample, preparation, normal load, rest time, nominal velocity, control mode) in
+header lines that the readers map back, so a written run reads back with the same values
+and metadata.
 """
 
 import math
@@ -147,8 +148,9 @@ def write_rheocompass(
     geometry : granflow.Annulus, optional
         Converts force -> torque, slip -> deflection angle and velocity -> rotational speed;
         default ``Annulus.paper()``. Read back with the same geometry.
-    language : {"en", "fr", "de"}
-        Labels of the columns and header lines.
+    language : {"en", "fr", "de", "es", "it"}
+        Labels of the columns and header lines (the first spelling of each language in
+        :mod:`granflow.io._columns`).
     encoding : {"utf-16", "utf-16-le", "utf-16-be", "utf-8", "utf-8-sig", "cp1252"}
         UTF-16 files start with a BOM, as RheoCompass writes them.
     decimal : {".", ","}
