@@ -3,6 +3,7 @@ convert's tidy tables (CSV + sidecar JSON, Parquet) and plain CSV; data-quality 
 travel with the run into the fit's output, and --strict makes them errors."""
 
 import json
+import sys
 
 import numpy as np
 import pandas as pd
@@ -239,3 +240,10 @@ def test_fit_reads_a_plain_csv_with_instrument_columns(tmp_path, capsys):
     payload = json.loads(capsys.readouterr().out)
     assert payload["params"]["x0"] == pytest.approx(TRUTH.x0, rel=1e-4)
     assert payload["record"]["geometry"]["spec"] == "paper (default)"
+
+
+def test_parquet_without_pyarrow_names_the_extra(tmp_path, monkeypatch, capsys):
+    export = write_rheocompass(tmp_path / "run.txt", startup(points=20))
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)  # as if not installed
+    assert main(["convert", str(export), "-o", str(tmp_path / "tidy.parquet")]) == 2
+    assert "pip install granflow[parquet]" in capsys.readouterr().err

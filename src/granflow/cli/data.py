@@ -69,8 +69,10 @@ def load_runs(path, choice):
         except FileFormatError:
             raise failure from None
     columns = parsed.intervals[0].columns
-    if _force_columns(columns, path) or failure is not None:
+    if _force_columns(columns, path):
         return Source([_table_run(path, columns)], None)
+    if failure is not None:
+        raise failure
     if any(column.quantity == "torque" for column in columns):
         return Source(granflow.io.read_runs(path, geometry=choice.annulus), choice.to_dict())
     raise FileFormatError(f"{path}: {_NEEDS}, found {_header_text(columns)}")

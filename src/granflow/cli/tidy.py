@@ -111,9 +111,7 @@ def save(runs, failures, path, choice):
         frame.to_csv(path, index=False, float_format="%.17g")
         sidecar(path).write_text(text + "\n", encoding="utf-8")
         return path, sidecar(path)
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
+    pa, pq = _pyarrow()
     table = pa.Table.from_pandas(frame, preserve_index=False)
     schema = {**(table.schema.metadata or {}), _KEY.encode(): text.encode("utf-8")}
     pq.write_table(table.replace_schema_metadata(schema), path)
@@ -145,9 +143,20 @@ def load(path):
     return _runs(_read_csv(path), metadata, path)
 
 
-def _load_parquet(path):
-    import pyarrow.parquet as pq
+def _pyarrow():
+    """(pyarrow, pyarrow.parquet), or an ImportError naming the extra."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise ImportError(
+            "Parquet tables need pyarrow: pip install granflow[parquet] (or write .csv)"
+        ) from None
+    return pa, pq
 
+
+def _load_parquet(path):
+    _, pq = _pyarrow()
     try:
         table = pq.read_table(path)
     except (OSError, ValueError):
