@@ -56,26 +56,25 @@ def load_runs(path, choice):
     table = tidy.load(path)
     if table is not None:
         return Source(*table)
-    try:
-        parsed, failure = granflow.io.read(path), None
-    except FileFormatError as exc:  # perhaps a table whose other columns are not instrument data
-        parsed, failure = None, exc
-    if parsed is not None and parsed.format != "csv":
-        runs = granflow.io.read_runs(path, geometry=choice.annulus, format=parsed.format)
+    import numpy as np
+
+    try:  # an export, or a CSV with instrument columns: read once
+        runs, failure = granflow.io.read_runs(path, geometry=choice.annulus), None
+    except FileFormatError as exc:  # perhaps a table whose columns are not instrument data
+        runs, failure = [], exc
+    if any(np.isfinite(run.force).any() for run in runs):
         return Source(runs, choice.to_dict())
-    if parsed is None:
-        try:
-            parsed = granflow.io.read(path, format="csv", only_mapped=True)
-        except FileFormatError:
-            raise failure from None
-    columns = parsed.intervals[0].columns
+    try:
+        columns = granflow.io.read(path, format="csv", only_mapped=True).intervals[0].columns
+    except FileFormatError:
+        columns = ()
     if _force_columns(columns, path):
         return Source([_table_run(path, columns)], None)
     if failure is not None:
         raise failure
-    if any(column.quantity == "torque" for column in columns):
-        return Source(granflow.io.read_runs(path, geometry=choice.annulus), choice.to_dict())
-    raise FileFormatError(f"{path}: {_NEEDS}, found {_header_text(columns)}")
+    raise FileFormatError(
+        f"{path}: {_NEEDS}; none of its {plural(len(runs), 'interval')} has a force or torque"
+    )
 
 
 # --------------------------------------------------------------------------- inspect
