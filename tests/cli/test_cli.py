@@ -27,8 +27,8 @@ def test_curve_writes_csv(tmp_path, capsys):
     assert "wrote 50 points" in capsys.readouterr().out
 
 
-def test_curve_slip_domain_and_plain_si_numbers(capsys):
-    args = ["curve", "--a", "0.00331", "--alpha", "41860.465", "--x0", "1.978e-7", "--Fd", "0.01"]
+def test_curve_slip_domain_with_units(capsys):
+    args = ["curve", "--a", "3.31mN", "--alpha", "41860.465/m", "--x0", "0.1978um", "--Fd", "10mN"]
     assert main(args) == 0
     assert "F = 13.7829" in capsys.readouterr().out
 

@@ -59,9 +59,13 @@ def test_fit_command_errors(tmp_path, curve_csv, capsys):
     assert main(["fit", str(tmp_path / "missing.csv")]) == 2
     assert "no such file" in capsys.readouterr().err
     bad = tmp_path / "bad.csv"
-    bad.write_text("time [s],torque [mN m]\n1,2\n")
+    bad.write_text("time [s],voltage [V]\n1,2\n")
     assert main(["fit", str(bad)]) == 2
     assert "need a force column" in capsys.readouterr().err
+    furlongs = tmp_path / "furlongs.csv"
+    furlongs.write_text("Time [s],Torque [furlongs]\n1,2\n")
+    assert main(["fit", str(furlongs)]) == 2
+    assert "furlongs" in capsys.readouterr().err
     nounit = tmp_path / "nounit.csv"
     nounit.write_text("time,force [mN]\n1,2\n")
     assert main(["fit", str(nounit)]) == 2

@@ -4,7 +4,7 @@ import numpy as np
 from conftest import shared_data
 
 import granflow
-from granflow.cli import main
+from granflow.cli import main, tidy
 from granflow.io import write_rheocompass
 
 
@@ -35,9 +35,19 @@ def test_convert_writes_a_campaign_and_reports_failures(tmp_path, capsys):
     )
     captured = capsys.readouterr()
     assert code == 1 and "none.csv" in captured.err and "wrote 2 runs (4 points)" in captured.out
-    back = granflow.Campaign.load(output)
+    back, geometry = tidy.load(output)
     np.testing.assert_allclose(back[1].force, [0.01, 0.02], rtol=1e-9)
+    assert geometry["spec"] == "paper"
     assert (
-        main(["convert", str(good), "-o", str(tmp_path / "t.csv"), "--geometry", "29.7mm:2.3mm"])
+        main(
+            [
+                "convert",
+                str(good),
+                "-o",
+                str(tmp_path / "t.csv"),
+                "--geometry",
+                "outer_diameter=29.7mm,wall_thickness=2.3mm",
+            ]
+        )
         == 0
     )

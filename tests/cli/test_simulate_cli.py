@@ -64,7 +64,7 @@ def test_simulate_command_dynamic_options(files, capsys):
             "--mass",
             "0.05kg",
             "--damping",
-            "1",
+            "1N*s/m",
             "--v-fail",
             "1mm/s",
         ]
@@ -96,7 +96,7 @@ def test_stability_map_command(files, capsys):
             "--params",
             str(params),
             "--switch-points",
-            "5,10,80",
+            "5s,10s,80s",
             "--ratios",
             "0.95:1.3:4",
             "-o",

@@ -1,17 +1,21 @@
 """The ``granflow`` command: a thin layer over the public API.
 
 Every command parses its arguments, calls the library and prints; each is testable in-process
-with ``main([...])``. Exit codes: 0 success, 1 some work failed, 2 usage or input errors.
+with ``main([...])``. Exit codes: 0 success, 1 some work failed, 2 usage or input errors, 141
+when whoever read the output went away (``granflow ... | head -1``: the output is cut short
+quietly, and the code is the one the shell gives a program stopped by SIGPIPE).
 The commands live one group per module (:mod:`~granflow.cli.curve`, :mod:`~granflow.cli.data`,
 :mod:`~granflow.cli.simulation`, :mod:`~granflow.cli.campaign`); none imports NumPy, pandas or
 matplotlib before it runs, so ``granflow --help`` starts fast.
 """
 
 import argparse
+import os
 import sys
 import traceback
 
 import granflow
+from granflow.cli._common import UNITS_RULE, Parser
 from granflow.cli.campaign import add_analyze, add_demo
 from granflow.cli.curve import add_curve
 from granflow.cli.data import add_convert, add_fit, add_inspect
@@ -19,21 +23,33 @@ from granflow.cli.forecast import add_forecast
 from granflow.cli.simulation import add_simulate, add_stability_map
 from granflow.errors import GranflowError
 
-__all__ = ["build_parser", "main"]
+__all__ = ["PIPE_CLOSED", "build_parser", "main"]
+
+#: The exit code when the output pipe was closed (128 + SIGPIPE, as the shell reports it).
+PIPE_CLOSED = 141
+
+_EPILOG = f"""examples:
+  granflow curve --a 3.31mN --k 0.036/s --t0 0.23s --Fd 10mN --velocity 0.86um/s
+  granflow inspect run1.txt --geometry paper
+  granflow convert run1.txt run2.txt -o tidy.csv      (tidy.csv + tidy.csv.json)
+  granflow fit run1.txt --interval 2 --window 1s:600s
+  granflow simulate switch.yaml --params blue.yaml --plot switch.png
+  granflow stability-map --params blue.yaml --switch-points 2s:100s:50 --ratios 0.95:1.2:50
+  granflow analyze campaign/ -o results    (your campaign: a folder with a manifest)
+  granflow demo -o demo                    (a synthetic campaign, analysed)
+Run 'granflow COMMAND --help' for a command's options and examples.
+{UNITS_RULE}
+Exit codes: 0 success, 1 some runs failed, 2 bad arguments or input, {PIPE_CLOSED} the output pipe
+was closed (e.g. by 'head'; the output stops quietly)."""
 
 
 def build_parser():
     """The argument parser of the ``granflow`` command (one subparser per command)."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="granflow",
         description="granflow: the onset of dense granular flow (Farain & Bonn's "
         "aging-rejuvenation friction model).",
-        epilog="examples:\n"
-        "  granflow demo -o demo                    (a synthetic campaign, analysed)\n"
-        "  granflow analyze campaign/ -o results    (your campaign: a folder with a manifest)\n"
-        "  granflow curve --a 3.31mN --k 0.036/s --t0 0.23s --Fd 10mN\n"
-        "Run 'granflow COMMAND --help' for a command's options and examples. Exit codes: 0 "
-        "success, 1 some runs failed, 2 bad arguments or input.",
+        epilog=_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"granflow {granflow.__version__}")
@@ -57,7 +73,18 @@ def build_parser():
 
 
 def main(argv=None):
-    """Run the command line; returns the exit code (0 ok, 1 some work failed, 2 bad input)."""
+    """Run the command line; returns the exit code (0 ok, 1 some work failed, 2 bad input,
+    141 the output pipe was closed)."""
+    try:
+        code = _main(argv)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        _discard_stdout()
+        return PIPE_CLOSED
+    return code
+
+
+def _main(argv):
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -68,11 +95,23 @@ def main(argv=None):
         return 2
     try:
         return args.run(args)
+    except BrokenPipeError:
+        raise
     except (GranflowError, ImportError, OSError) as exc:
         # bad input, a missing optional extra, a file that cannot be read or written
         return _error(args, exc, 2)
     except Exception as exc:  # a bug: one line, the traceback with --debug
         return _error(args, exc, 1, internal=True)
+
+
+def _discard_stdout():
+    """Point the process's stdout at /dev/null, so that the flush at exit raises nothing."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):  # an in-process stdout without a file descriptor
+        pass
 
 
 def _error(args, exc, code, internal=False):

@@ -1,14 +1,14 @@
 """``granflow curve``: the model curve (Eq. 3) under a constant velocity, and its peak."""
 
 import granflow
-from granflow.cli._common import UsageError, add_command, quantity
+from granflow.cli._common import UsageError, add_command, plural, quantity
 
 __all__ = ["add_curve"]
 
 _EPILOG_CURVE = """examples:
   granflow curve --a 3.31mN --k 0.036/s --t0 0.23s --Fd 10mN --velocity 0.86um/s
   granflow curve --a 3.31mN --alpha 4.19e4/m --x0 0.198um --Fd 10mN -o curve.csv
-Plain numbers are SI (N, 1/s, s, m/s, 1/m, m)."""
+The curve CSV (time_s, slip_m, force_N) is what 'granflow fit' reads back."""
 
 
 def add_curve(subparsers):
@@ -32,7 +32,7 @@ def add_curve(subparsers):
         "--velocity", default="0.86um/s", help="sliding velocity (default 0.86um/s) [m/s]"
     )
     parser.add_argument(
-        "--duration", help="time span of the curve (default: 20 times the peak time) [s]"
+        "--duration", help="time span of the curve, e.g. 600s (default: 20 times the peak time)"
     )
     parser.add_argument("--points", type=int, default=400, help="points on the curve (default 400)")
     parser.add_argument("-o", "--output", help="write the curve to this CSV file")
@@ -96,7 +96,7 @@ def _run_curve(args):
 
         frame = pd.DataFrame({"time_s": time, "slip_m": velocity * time, "force_N": force})
         frame.to_csv(args.output, index=False, float_format="%.17g")
-        print(f"wrote {len(frame)} points to {args.output}")
+        print(f"wrote {plural(len(frame), 'point')} to {args.output}")
     else:
         for index in np.linspace(0, len(time) - 1, 9).astype(int):
             print(f"  t = {time[index]:12.6g} s   F = {force[index] * 1e3:10.6f} mN")

@@ -1,14 +1,83 @@
-"""``granflow inspect``, ``convert`` and ``fit``: instrument exports and curves, read through
-:mod:`granflow.io`."""
+"""``granflow inspect``, ``convert`` and ``fit``: files to runs, tidy tables and fits.
+
+``convert`` and ``fit`` read every file granflow reads (:func:`load_runs`): instrument exports
+(RheoCompass, Rheoplus, TRIOS, and CSV with instrument columns such as 'Torque [mN·m]'),
+plain CSV whose header names a force column and a time or slip column with units, and the tidy
+tables ``convert`` writes (:mod:`granflow.cli.tidy`).
+"""
 
 import sys
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import granflow
-from granflow.cli._common import UsageError, add_command, quantity
+from granflow.cli import tidy
+from granflow.cli._common import (
+    UsageError,
+    add_command,
+    add_geometry_option,
+    describe_geometry,
+    geometry_choice,
+    plural,
+    positive_int,
+    quantity,
+)
 from granflow.errors import FileFormatError, GranflowError
 
-__all__ = ["add_convert", "add_fit", "add_inspect"]
+__all__ = ["add_convert", "add_fit", "add_inspect", "load_runs"]
+
+
+@dataclass(frozen=True)
+class Source:
+    """The runs of one file and the geometry that made their forces and slips.
+
+    ``geometry`` is a :meth:`GeometryChoice.to_dict` mapping, or None where the file gave the
+    friction force itself (a plain table; a tidy table without its metadata).
+    """
+
+    runs: list
+    geometry: dict | None
+
+
+def load_runs(path, choice):
+    """The runs of any file granflow reads, with the geometry used (see :class:`Source`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A tidy table ``convert`` wrote, an instrument export, or a plain CSV.
+    choice : GeometryChoice
+        Converts torque, angle and speed where the file holds them.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileFormatError(f"{path}: no such file")
+    table = tidy.load(path)
+    if table is not None:
+        return Source(*table)
+    import numpy as np
+
+    try:  # an export, or a CSV with instrument columns: read once
+        runs, failure = granflow.io.read_runs(path, geometry=choice.annulus), None
+    except FileFormatError as exc:  # perhaps a table whose columns are not instrument data
+        runs, failure = [], exc
+    if any(np.isfinite(run.force).any() for run in runs):
+        return Source(runs, choice.to_dict())
+    try:
+        columns = granflow.io.read(path, format="csv", only_mapped=True).intervals[0].columns
+    except FileFormatError:
+        columns = ()
+    if _force_columns(columns, path):
+        return Source([_table_run(path, columns)], None)
+    if failure is not None:
+        raise failure
+    raise FileFormatError(
+        f"{path}: {_NEEDS}; none of its {plural(len(runs), 'interval')} has a force or torque"
+    )
+
+
+# --------------------------------------------------------------------------- inspect
 
 
 def add_inspect(subparsers):
@@ -19,31 +88,55 @@ def add_inspect(subparsers):
         _run_inspect,
         help="show what an instrument export holds (format, tests, columns, units, problems)",
         description="Read an instrument export and print its format, encoding, number format, "
-        "tests and intervals, columns with units, control mode, row counts and problems.",
-        epilog="example:\n  granflow inspect run1.csv",
+        "tests and intervals, columns with units, control mode, row counts and problems; then "
+        "each interval as a run (time, slip, velocity, force) through the geometry.",
+        epilog="example:\n"
+        "  granflow inspect run1.txt --geometry outer_diameter=30mm,wall_thickness=2mm",
     )
     parser.add_argument("file", help="the export (RheoCompass, Rheoplus, TRIOS or CSV)")
     parser.add_argument("--format", choices=("rheocompass", "rheoplus", "trios", "csv"))
+    add_geometry_option(parser)
 
 
 def _run_inspect(args):
+    choice = geometry_choice(args.geometry)
     parsed = granflow.read(args.file, format=args.format)
-    print(parsed.report())
+    report = parsed.report()
+    print(report)
+    print(f"geometry:  {choice.describe()}")
+    try:
+        runs = granflow.io.read_runs(args.file, geometry=choice.annulus, format=args.format)
+    except GranflowError as exc:
+        print(f"as runs:   none ({exc})")
+        return 0
+    print(f"as runs:   {plural(len(runs), 'run')} [display units]")
+    for number, run in enumerate(runs, start=1):
+        print(f"[{number}] {plural(len(run), 'point')}, {run.control} control: {_ranges(run)}")
+        for problem in run.problems:
+            if problem not in report:
+                print(f"      problem: {problem}")
     return 0
 
 
-def _geometry(text):
-    if text == "paper":
-        return granflow.Annulus.paper()
-    parts = text.split(":")
-    if len(parts) != 2:
-        raise UsageError(
-            f"--geometry must be 'paper' or OUTER_DIAMETER:WALL (e.g. 29.7mm:2.3mm), got {text!r}"
-        )
-    return granflow.Annulus(
-        outer_diameter=quantity(parts[0], "outer_diameter", "--geometry outer diameter"),
-        wall_thickness=quantity(parts[1], "wall_thickness", "--geometry wall thickness"),
-    )
+def _ranges(run):
+    """'t 0 to 19 s; slip none; ...': the finite range of each column in display units."""
+    import numpy as np
+
+    from granflow.model.units import display_unit, to_display
+
+    parts = []
+    for name in ("t", "slip", "velocity", "force"):
+        values = getattr(run, name)
+        finite = values[np.isfinite(values)]
+        if finite.size == 0:
+            parts.append(f"{name} none")
+            continue
+        low, high = (to_display(name, float(value)) for value in (finite.min(), finite.max()))
+        parts.append(f"{name} {low:.4g} to {high:.4g} {display_unit(name)}")
+    return "; ".join(parts)
+
+
+# --------------------------------------------------------------------------- convert
 
 
 def add_convert(subparsers):
@@ -52,53 +145,69 @@ def add_convert(subparsers):
         subparsers,
         "convert",
         _run_convert,
-        help="convert instrument exports to one tidy Parquet or CSV table of runs",
-        description="Read instrument exports (or a campaign manifest), turn every interval into "
-        "a run (time, slip, velocity, friction force in SI units) and save them as one tidy "
-        "table. A file that fails is reported and the others are converted (exit code 1).",
-        epilog="examples:\n  granflow convert run1.csv run2.txt -o tidy.parquet --geometry paper\n"
-        "  granflow convert --manifest campaign.yaml -o tidy.csv",
+        help="convert instrument exports to one tidy CSV or Parquet table of runs",
+        description="Read instrument exports, plain CSV tables or a campaign manifest, turn "
+        "every interval into a run (time, slip, velocity, friction force in SI units) and save "
+        "them as one tidy table that pandas.read_csv reads as it is. A file that fails is "
+        "reported and the others are converted (exit code 1).",
+        epilog="examples:\n  granflow convert run1.txt run2.txt -o tidy.csv --geometry paper\n"
+        "  granflow convert --manifest campaign.yaml -o tidy.parquet\n" + tidy.DESCRIPTION,
     )
     parser.add_argument("files", nargs="*", help="export files")
     parser.add_argument("--manifest", help="a campaign manifest (.yaml or .csv)")
-    parser.add_argument("-o", "--output", required=True, help="output .parquet or .csv")
-    parser.add_argument(
-        "--geometry",
-        default="paper",
-        help="'paper' (29.7 mm tube, 2.3 mm wall; default) or OUTER_DIAMETER:WALL",
-    )
+    parser.add_argument("-o", "--output", required=True, help="output .csv or .parquet")
+    add_geometry_option(parser)
 
 
 def _run_convert(args):
-    geometry = _geometry(args.geometry)
+    choice = geometry_choice(args.geometry)
+    tidy.check_suffix(args.output)
     if not args.files and not args.manifest:
         raise UsageError("give export files or --manifest")
-    runs, problems = [], []
+    runs, failures = [], []
     if args.manifest:
-        campaign = granflow.Campaign.from_manifest(args.manifest, geometry=geometry)
+        campaign = granflow.Campaign.from_manifest(
+            args.manifest, geometry=choice.annulus if choice.given else None
+        )
         runs += list(campaign)
-        problems += list(campaign.problems)
+        failures += list(campaign.problems)
     for file in args.files:
         try:
-            runs += granflow.read_runs(file, geometry=geometry)
+            runs += load_runs(file, choice).runs
         except GranflowError as exc:
-            problems.append(str(exc))
-    campaign = granflow.Campaign(runs, problems)
-    for problem in problems:
-        print(f"granflow convert: failed: {problem}", file=sys.stderr)
+            failures.append(str(exc))
+    for failure in failures:
+        print(f"granflow convert: failed: {failure}", file=sys.stderr)
     if runs:
-        path = campaign.save(args.output)
+        path, metadata = tidy.save(runs, failures, args.output, choice)
         points = sum(len(run) for run in runs)
-        print(f"wrote {len(runs)} runs ({points} points) to {path}")
-    return 1 if problems else 0
+        print(
+            f"wrote {plural(len(runs), 'run')} ({plural(points, 'point')}) to {path}, "
+            f"metadata in {metadata}"
+        )
+        print(f"geometry: {choice.describe()}")
+        damaged = sum(1 for run in runs if run.problems)
+        if damaged:
+            print(f"data quality: {plural(damaged, 'run')} with problems, listed in {metadata}")
+    return 1 if failures else 0
 
+
+# --------------------------------------------------------------------------- fit
 
 _EPILOG_FIT = """examples:
-  granflow fit run1.csv                         (columns e.g. 'slip [um]', 'force [mN]')
-  granflow fit run1.csv --domain time --velocity 0.86um/s --fix Fd=10mN
-  granflow fit run1.csv --window 1s:600s --json
-The CSV needs a time or slip column and a force column, each with its unit in the header:
-'time [s]', 't (min)', 'slip [µm]', 'force [mN]', or granflow's own 'time_s', 'force_N'."""
+  granflow fit run1.txt --interval 2                (an instrument export: its 2nd interval)
+  granflow fit tidy.csv --interval 3                (the 3rd run of what 'convert' wrote)
+  granflow fit curve.csv --domain time --velocity 0.86um/s --fix Fd=10mN --json
+  granflow fit run1.txt --window 1s:600s --geometry outer_radius=15mm,inner_radius=12.5mm
+A plain CSV needs a force column and a time or slip column, each with its unit in the header:
+'time [s]', 't (min)', 'slip [µm]', 'force [mN]', or granflow's own 't_s', 'force_N'. The
+data-quality problems the reader found are printed with the fit and kept in --json's
+'problems'; --strict makes them an error (exit 1)."""
+
+_NEEDS = (
+    "need a force column ('force [mN]') or a torque column ('Torque [mN·m]'), and a time or "
+    "slip column"
+)
 
 #: The header names of the columns a curve file may hold, by the quantity they measure.
 _COLUMN_KINDS = {
@@ -109,8 +218,8 @@ _COLUMN_KINDS = {
 
 
 def _kind_and_unit(name, unit):
-    """(kind or None, unit or None) of a header as io split it; 'force_N' carries its unit
-    after the underscore."""
+    """(kind or None, label, unit or None) of a header as io split it; 'force_N' carries its
+    unit after the underscore."""
     if not unit:
         base, _, suffix = name.rpartition("_")
         name, unit = (base, suffix) if base and suffix else (name, None)
@@ -119,14 +228,26 @@ def _kind_and_unit(name, unit):
     return kind, label, unit
 
 
-def _read_curve(path):
-    """{'time'|'slip'|'force': SI array} from a CSV whose headers carry units, read with
-    :func:`granflow.io.read` and a column map of the columns found by name."""
-    if not Path(path).is_file():
-        raise FileFormatError(f"{path}: no such file")
-    header = granflow.io.read(path, format="csv", only_mapped=True).intervals[0].columns
+def _force_columns(columns, path):
+    """Whether a table names a force column (and then a time or slip column)."""
+    kinds = {_kind_and_unit(column.name, column.unit)[0] for column in columns}
+    if "force" not in kinds:
+        return False
+    if not kinds & {"time", "slip"}:
+        raise FileFormatError(f"{path}: {_NEEDS}, found {_header_text(columns)}")
+    return True
+
+
+def _header_text(columns):
+    return ", ".join(f"{c.name} [{c.unit}]" if c.unit else c.name for c in columns[:12])
+
+
+def _table_run(path, columns):
+    """The Run of a plain table (force and time or slip by name), read with a column map."""
+    import numpy as np
+
     column_map, units = {}, {}
-    for column in header:
+    for column in columns:
         kind, label, unit = _kind_and_unit(column.name, column.unit)
         if kind is None or kind in column_map:
             continue
@@ -137,15 +258,21 @@ def _read_curve(path):
         column_map[kind] = column.name
         units[column.name] = unit
     if "force" not in column_map or not ({"time", "slip"} & column_map.keys()):
-        found = ", ".join(f"{c.name} [{c.unit}]" if c.unit else c.name for c in header)
-        raise FileFormatError(
-            f"{path}: need a force column and a time or slip column, found {found}"
-        )
+        raise FileFormatError(f"{path}: {_NEEDS}, found {_header_text(columns)}")
     parsed = granflow.io.read(
         path, format="csv", column_map=column_map, units=units, only_mapped=True, strict=True
     )
     interval = parsed.intervals[0]
-    return {kind: interval.si(kind) for kind in column_map}
+    missing = np.full(interval.rows, np.nan)
+    values = {kind: interval.si(kind) for kind in column_map}
+    return granflow.Run(
+        t=values.get("time", missing),
+        slip=values.get("slip", missing),
+        velocity=missing,
+        force=values["force"],
+        meta={"source": str(path), "interval": 1},
+        problems=(*parsed.problems, *interval.problems),
+    )
 
 
 def add_fit(subparsers):
@@ -154,17 +281,27 @@ def add_fit(subparsers):
         subparsers,
         "fit",
         _run_fit,
-        help="fit Eq. 3 to a friction curve in a CSV file",
+        help="fit Eq. 3 to one friction curve (an export's interval, a table, a tidy run)",
         description="Fit the aging-rejuvenation model (Eq. 3) to one friction curve, with no "
-        "initial guess, and print the parameters with standard errors and 95 % intervals.",
+        "initial guess, and print the parameters with standard errors and 95 % intervals. "
+        "The record's time is the model's time t (0 when shearing starts).",
         epilog=_EPILOG_FIT,
     )
-    parser.add_argument("data", help="CSV file with a time or slip column and a force column")
+    parser.add_argument(
+        "data", help="an instrument export, a CSV table, or a tidy table from 'granflow convert'"
+    )
+    parser.add_argument(
+        "--interval",
+        type=positive_int,
+        metavar="N",
+        help="which interval (or run of a tidy table) to fit, 1-based in file order; needed "
+        "when the file holds several",
+    )
     parser.add_argument(
         "--domain",
         choices=("slip", "time"),
         help="fit F(slip) with a, alpha, Fd, x0 or F(t) with a, k, Fd, t0 "
-        "(default: slip when the file has a slip column)",
+        "(default: slip when the run has a slip, else time)",
     )
     parser.add_argument(
         "--fix",
@@ -176,19 +313,34 @@ def add_fit(subparsers):
     parser.add_argument("--velocity", help="sliding velocity, e.g. 0.86um/s (time domain)")
     parser.add_argument("--window", help="fit window START:STOP with units, e.g. 1s:600s")
     parser.add_argument("--sigma", help="known force noise, e.g. 0.05mN")
+    add_geometry_option(parser)
+    parser.add_argument(
+        "--strict", action="store_true", help="a data-quality problem is an error (exit 1)"
+    )
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
 
 
-def _run_fit(args):
-    import json
+def _choose(runs, interval, path):
+    """(run, label) of ``--interval`` among a file's runs."""
+    count = len(runs)
+    if count == 0:
+        raise FileFormatError(f"{path}: no data to fit")
+    if interval is None and count > 1:
+        raise UsageError(
+            f"{path} holds {plural(count, 'interval')}: choose one with --interval N (1 to "
+            f"{count}); 'granflow inspect {path}' lists them"
+        )
+    interval = interval or 1
+    if interval > count:
+        raise UsageError(f"--interval {interval}: {path} holds {plural(count, 'interval')}")
+    label = str(path) if count == 1 else f"{path}, interval {interval} of {count}"
+    return runs[interval - 1], label
 
+
+def _fit_options(args, domain):
+    """The keyword arguments of :func:`granflow.fit` that the options give."""
     from granflow.fitting.single import parameter_names
 
-    columns = _read_curve(args.data)
-    domain = args.domain or ("slip" if "slip" in columns else "time")
-    abscissa = "slip" if domain == "slip" else "time"
-    if abscissa not in columns:
-        raise UsageError(f"--domain {domain} needs a {abscissa} column in {args.data}")
     names = parameter_names(domain)
     fixed = {}
     for item in args.fix:
@@ -198,6 +350,7 @@ def _run_fit(args):
                 f"--fix must be NAME=VALUE with NAME one of {', '.join(names)}, got {item!r}"
             )
         fixed[name] = quantity(value, name, f"--fix {name}")
+    abscissa = "slip" if domain == "slip" else "time"
     window = None
     if args.window:
         start, sep, stop = args.window.partition(":")
@@ -207,19 +360,100 @@ def _run_fit(args):
             quantity(start, abscissa, "--window start"),
             quantity(stop, abscissa, "--window stop") if stop else None,
         )
-    velocity = quantity(args.velocity, "velocity", "--velocity") if args.velocity else None
-    sigma = quantity(args.sigma, "sigma", "--sigma") if args.sigma else None
-    result = granflow.fit(
-        (columns[abscissa], columns["force"]),
-        domain=domain,
-        velocity=velocity,
-        fixed=fixed,
-        window=window,
-        sigma=sigma,
-    )
+    return {
+        "domain": domain,
+        "velocity": quantity(args.velocity, "velocity", "--velocity") if args.velocity else None,
+        "fixed": fixed,
+        "window": window,
+        "sigma": quantity(args.sigma, "sigma", "--sigma") if args.sigma else None,
+    }
+
+
+def _run_fit(args):
+    import json
+
+    import numpy as np
+
+    from granflow._json import json_safe
+
+    choice = geometry_choice(args.geometry)
+    source = load_runs(args.data, choice)
+    if choice.given and source.geometry is None:
+        raise UsageError(
+            f"--geometry does not apply to {args.data}: it gives the friction force, not torque"
+        )
+    run, label = _choose(source.runs, args.interval, args.data)
+    problems = list(run.problems)
+    if args.strict and problems:
+        print(
+            f"granflow fit: error: {label} has {plural(len(problems), 'data-quality problem')} "
+            f"(--strict): {'; '.join(problems)}",
+            file=sys.stderr,
+        )
+        return 1
+    domain = args.domain or ("slip" if np.isfinite(run.slip).any() else "time")
+    if not np.isfinite(run.slip if domain == "slip" else run.t).any():
+        column = "a slip (or deflection angle)" if domain == "slip" else "a time"
+        raise UsageError(f"--domain {domain} needs {column} column in {label}")
+    options = _fit_options(args, domain)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = granflow.fit(run, **options)
+        except GranflowError as exc:
+            raise type(exc)(f"{label}: {exc}") from None
+    # the caveats granflow gives (ConvergenceWarning); NumPy's floating-point notes are noise here
+    notes = (str(item.message) for item in caught if issubclass(item.category, UserWarning))
+    for message in dict.fromkeys(notes):
+        print(f"granflow fit: warning: {message}", file=sys.stderr)
     if args.json:
-        print(json.dumps(result.to_dict(), indent=2))
+        payload = result.to_dict()
+        payload["problems"] = problems
+        payload["record"] = json_safe(
+            {
+                "source": str(args.data),
+                "interval": run.meta.get("interval"),
+                "test": run.meta.get("test"),
+                "control": run.control,
+                "points": len(run),
+                "geometry": source.geometry,
+            }
+        )
+        print(json.dumps(payload, indent=2))
     else:
-        print(f"fit of {args.data}")
+        details = [f"{run.control} control", plural(len(run), "point")]
+        if run.meta.get("test"):
+            details.insert(0, f"test {run.meta['test']!r}")
+        print(f"fit of {label} ({', '.join(details)})")
+        print(f"geometry: {_geometry_text(source.geometry)}")
+        print(_quality_text(problems))
         print(result.report())
+        print(_display_text(result))
     return 0 if result.success else 1
+
+
+def _geometry_text(geometry):
+    if geometry is None:
+        return "not used (the file gives the friction force)"
+    return describe_geometry(geometry)
+
+
+def _quality_text(problems):
+    """The data-quality line (and one line per problem)."""
+    if not problems:
+        return "data quality: no problems recorded by the reader"
+    lines = [f"data quality: {plural(len(problems), 'problem')} (kept in --json's 'problems')"]
+    return "\n".join([*lines, *(f"  - {problem}" for problem in problems)])
+
+
+def _display_text(result):
+    """The fitted values with standard errors in display units (mN, µm, ...)."""
+    from granflow.model.units import display_unit, to_display
+
+    parts = []
+    for name in result.names:
+        value = to_display(name, result.params[name])
+        error = to_display(name, result.stderr[name])
+        unit = display_unit(name)
+        parts.append(f"{name} = {value:.6g} ± {error:.2g} {unit}".rstrip())
+    return "[[Display units]]\n    " + "\n    ".join(parts)

@@ -16,8 +16,9 @@ PARAMS.yaml gives a, alpha, Fd, x0 (or a, k, t0, Fd, velocity), as SI numbers or
 
 _EPILOG_MAP = """examples:
   granflow stability-map --params blue.yaml --velocity 0.86um/s \\
-      --switch-points 2:100:50 --ratios 0.95:1.2:50 --jobs 2 -o map.csv --plot map.png
-A range START:STOP:COUNT is evenly spaced; a list is comma-separated."""
+      --switch-points 2s:100s:50 --ratios 0.95:1.2:50 --jobs 2 -o map.csv --plot map.png
+A range START:STOP:COUNT is evenly spaced (START and STOP with units); a list is
+comma-separated (each with its unit: 5s,10s,80s)."""
 
 #: The simulator's options that take a quantity (units from the unit table).
 _DYNAMIC_QUANTITIES = ("mass", "damping", "stiffness", "v_fail", "direct_effect")
@@ -37,7 +38,7 @@ def _add_dynamic_options(parser):
         help="neglect inertia (default) or integrate it",
     )
     parser.add_argument("--mass", help="effective mass at the contact, e.g. 0.05kg (dynamic)")
-    parser.add_argument("--damping", help="damping of the drive [N s/m] (dynamic)")
+    parser.add_argument("--damping", help="damping of the drive, e.g. 1N*s/m (dynamic)")
     parser.add_argument("--stiffness", help="machine stiffness, e.g. 1e4N/m (dynamic)")
     parser.add_argument("--v-fail", help="failure velocity threshold, e.g. 1mm/s [m/s]")
     parser.add_argument("--direct-effect", help="direct-effect amplitude A, e.g. 0.05mN [N]")
@@ -77,7 +78,7 @@ def _run_simulate(args):
     protocol = granflow.Protocol.load(args.protocol)
     result = granflow.simulate(params, protocol, **_dynamic_options(args))
     print(result.report())
-    write_outputs(args, result.to_frame, "points", lambda: plot_simulation(result)[0])
+    write_outputs(args, result.to_frame, "point", lambda: plot_simulation(result)[0])
     return 0 if result.success else 1
 
 
@@ -112,9 +113,15 @@ def add_stability_map(subparsers):
         epilog=_EPILOG_MAP,
     )
     parser.add_argument("--params", required=True, help="parameters YAML file")
-    parser.add_argument("--velocity", default="0.86um/s", help="start-up velocity [m/s]")
-    parser.add_argument("--switch-points", required=True, help="switch times [s]")
-    parser.add_argument("--ratios", required=True, help="imposed / current force ratios")
+    parser.add_argument(
+        "--velocity", default="0.86um/s", help="start-up velocity, e.g. 0.86um/s (the default)"
+    )
+    parser.add_argument(
+        "--switch-points", required=True, help="switch times, e.g. 2s:100s:50 or 5s,10s,80s"
+    )
+    parser.add_argument(
+        "--ratios", required=True, help="imposed / current force ratios, e.g. 0.95:1.2:50"
+    )
     parser.add_argument("--hold", default="60s", help="time under force control (default 60s)")
     parser.add_argument("--ramp", default="0s", help="time to apply the force (default 0s)")
     parser.add_argument("--jobs", type=int, default=1, help="local processes (default 1)")
@@ -141,5 +148,5 @@ def _run_stability_map(args):
         **options,
     )
     print(stability.report())
-    write_outputs(args, stability.to_frame, "cells", lambda: plot_stability_map(stability))
+    write_outputs(args, stability.to_frame, "cell", lambda: plot_stability_map(stability))
     return 1 if np.any(stability.outcome == "error") else 0
