@@ -1,8 +1,8 @@
 """Checks at the door: every public function validates its input here and names the culprit.
 
-Every check that takes a ``unit`` also accepts a string with a unit ("0.86 um/s") or a pint
+Every check given a ``unit`` also accepts a string with a unit ("0.86 um/s") or a pint
 quantity and converts it to that SI unit (:func:`granflow.model.units.as_si`); a bare number
-is taken as already in SI units.
+is taken as already in SI units. A pure number (no unit) must be given as a number.
 """
 
 import math
@@ -24,9 +24,12 @@ def _si(value, name, unit):
     return as_si(value, unit, name)
 
 
-def _typed(value):
-    """Whether ``value`` is text or a pint quantity (anything :func:`_si` converts)."""
-    return isinstance(value, str) or type(value).__module__.partition(".")[0] == "pint"
+def _typed(value, unit):
+    """Whether ``value`` is text or a pint quantity for a quantity with a ``unit`` (what
+    :func:`_si` converts); a pure number (no unit) must be a number."""
+    return bool(unit) and (
+        isinstance(value, str) or type(value).__module__.partition(".")[0] == "pint"
+    )
 
 
 def real_scalar(value, name, unit=""):
@@ -34,7 +37,7 @@ def real_scalar(value, name, unit=""):
 
     ``value`` may be a number in ``unit``, a string with a unit or a pint quantity.
     """
-    if _typed(value):
+    if _typed(value, unit):
         value = _si(value, name, unit)
         if np.ndim(value) != 0:
             raise InvalidParameterError(f"{name} must be a single quantity, got an array")
@@ -65,7 +68,7 @@ def non_negative(value, name, unit=""):
 
 def _converted_array(value, name, unit):
     """An array of strings or quantities (or one array quantity) converted to ``unit``."""
-    if _typed(value) or isinstance(value, list | tuple):
+    if _typed(value, unit) or (unit and isinstance(value, list | tuple)):
         return _si(value, name, unit)
     return value
 

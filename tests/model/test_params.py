@@ -42,7 +42,7 @@ def test_params_are_frozen_and_json_safe():
         ({"x0": 0.0}, r"x0 must be positive, got 0 m"),
         ({"x0": math.inf}, r"x0 must be finite"),
         ({"a": "3 m"}, r"a must be a quantity in N, got '3 m' \(in m, which does not"),
-        ({"a": "3"}, r"a: '3' has no unit"),
+        ({"a": "3"}, r"a must be a real number in N or a string with a unit, got '3' \(no"),
         ({"a": True}, r"a must be a real number"),
         ({"a": np.array([1.0, 2.0])}, r"a must be a real number"),
     ],

@@ -55,7 +55,7 @@ def test_as_si_converts_arrays_of_quantities():
     [
         ("3 kg", r"a must be a quantity in N, got '3 kg' \(in kg, which does not convert to N"),
         (UREG.Quantity(3, "s"), r"a must be a quantity in N, got 3 s \(in s, which"),
-        ("3", r"a: '3' has no unit; give a number in N"),
+        ("3", r"a must be a real number in N or a string with a unit, got '3' \(no unit"),
         ("abc", r"a: cannot read 'abc' as a quantity in N"),
     ],
 )

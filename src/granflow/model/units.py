@@ -278,8 +278,8 @@ def _from_text(text, unit, name):
         quantity = registry.Quantity(quantity)
     if quantity.dimensionless and unit and not registry.Quantity(1, _clean(unit)).dimensionless:
         raise InvalidParameterError(
-            f"{name}: {text!r} has no unit; give a number in {unit} or a string with a unit "
-            f"(e.g. '{text} {unit}')"
+            f"{name} must be a real number in {unit} or a string with a unit, got {text!r} "
+            f"(no unit; e.g. '{text} {unit}')"
         )
     return float(_converted(quantity, unit, name, repr(text)))
 
