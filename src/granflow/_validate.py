@@ -1,4 +1,9 @@
-"""Checks at the door: every public function validates its input here and names the culprit."""
+"""Checks at the door: every public function validates its input here and names the culprit.
+
+Every check given a ``unit`` also accepts a string with a unit ("0.86 um/s") or a pint
+quantity and converts it to that SI unit (:func:`granflow.model.units.as_si`); a bare number
+is taken as already in SI units. A pure number (no unit) must be given as a number.
+"""
 
 import math
 import numbers
@@ -12,8 +17,30 @@ def _fmt_unit(unit):
     return f" {unit}" if unit else ""
 
 
+def _si(value, name, unit):
+    """``value`` converted by :func:`granflow.model.units.as_si` (pint loads on first use)."""
+    from granflow.model.units import as_si
+
+    return as_si(value, unit, name)
+
+
+def _typed(value, unit):
+    """Whether ``value`` is text or a pint quantity for a quantity with a ``unit`` (what
+    :func:`_si` converts); a pure number (no unit) must be a number."""
+    return bool(unit) and (
+        isinstance(value, str) or type(value).__module__.partition(".")[0] == "pint"
+    )
+
+
 def real_scalar(value, name, unit=""):
-    """Return ``value`` as a finite float or raise InvalidParameterError naming ``name``."""
+    """Return ``value`` as a finite float or raise InvalidParameterError naming ``name``.
+
+    ``value`` may be a number in ``unit``, a string with a unit or a pint quantity.
+    """
+    if _typed(value, unit):
+        value = _si(value, name, unit)
+        if np.ndim(value) != 0:
+            raise InvalidParameterError(f"{name} must be a single quantity, got an array")
     if isinstance(value, bool) or not isinstance(value, numbers.Real | np.floating | np.integer):
         if isinstance(value, np.ndarray) and value.ndim == 0:
             return real_scalar(value.item(), name, unit)
@@ -39,8 +66,20 @@ def non_negative(value, name, unit=""):
     return number
 
 
+def _converted_array(value, name, unit):
+    """An array of strings or quantities (or one array quantity) converted to ``unit``."""
+    if _typed(value, unit) or (unit and isinstance(value, list | tuple)):
+        return _si(value, name, unit)
+    return value
+
+
 def float_array(value, name, unit=""):
-    """``value`` as a float64 array (no copy when it already is one; never modified here)."""
+    """``value`` as a float64 array (no copy when it already is one; never modified here).
+
+    ``value`` may also be a pint array quantity or a list of strings with units.
+    """
+    if not isinstance(value, np.ndarray):
+        value = _converted_array(value, name, unit)
     try:
         return np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -61,7 +100,12 @@ def index_text(index):
 
 
 def real_array(value, name, unit=""):
-    """Return ``value`` as a float64 array of finite numbers (a new array, never a view)."""
+    """Return ``value`` as a float64 array of finite numbers (a new array, never a view).
+
+    ``value`` may also be a pint array quantity or a list of strings with units.
+    """
+    if not isinstance(value, np.ndarray):
+        value = _converted_array(value, name, unit)
     try:
         array = np.array(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:

@@ -208,7 +208,7 @@ def test_jacobian_matches_mpmath_derivatives(blue, F_init):
         (lambda p: gf.friction_time(0.1, p, PAPER_VELOCITY), "t must not lie below"),
         (lambda p: gf.friction_time(1.0, p, -1e-6), "velocity must be positive"),
         (lambda p: gf.friction_slip(1e-6, p, F_init=-1.0), "F_init must be non-negative"),
-        (lambda p: gf.friction_slip("abc", p), "x must be an array of real numbers"),
+        (lambda p: gf.friction_slip("abc", p), "x: cannot read 'abc' as a quantity in m"),
         (lambda p: gf.friction_slip(1e-6, "params"), "params must be a granflow.Params"),
         (lambda p: gf.friction_slip([[1e-6], [1e-5, 2e-5]], p), "x must be an array"),
     ],

@@ -31,11 +31,15 @@ def _switch(duration, factor=1.01, hold=60.0):
 
 @pytest.mark.parametrize("clock", ["slip", "time"])
 def test_constant_velocity_gives_the_closed_form(blue, clock):
+    """On the record's clock: the start-up enters the model at t0 with slip x0 = v t0, and
+    from there t, the slip and the age are the model's t, x and t of Eq. 3."""
     result = gf.simulate(blue, gf.Protocol([gf.Velocity(V, 200.0)]), clock=clock)
     t0 = blue.t0(V)
-    np.testing.assert_allclose(result.age, result.t + t0, rtol=1e-15)
-    np.testing.assert_allclose(result.slip, blue.x0 + V * result.t, rtol=1e-14)
-    closed = gf.friction_time(result.t + t0, blue, V)
+    assert result.t[0] == t0 and result.displacement[0] == blue.x0 and result.t[-1] == 200.0
+    np.testing.assert_allclose(result.age, result.t, rtol=1e-15)
+    np.testing.assert_allclose(result.slip, V * result.t, rtol=1e-14)
+    np.testing.assert_allclose(result.displacement, result.slip, rtol=1e-14)
+    closed = gf.friction_time(result.t, blue, V)
     np.testing.assert_allclose(result.force, closed, rtol=1e-8, atol=0)
     np.testing.assert_allclose(result.state, gf.friction_slip(result.slip, blue), rtol=1e-8)
     assert result.success and not result.failed
@@ -47,12 +51,12 @@ def test_constant_velocity_agrees_with_an_ode_solver(blue):
     t0 = blue.t0(V)
     ode = solve_ivp(
         lambda t, F: gf.rhs_time(t, F, blue, V),
-        (t0, t0 + 200.0),
+        (t0, 200.0),
         [gf.initial_force(blue)],
         method="DOP853",
         rtol=1e-11,
         atol=1e-16,
-        t_eval=result.t + t0,
+        t_eval=result.t,
     )
     np.testing.assert_allclose(result.force, ode.y[0], rtol=1e-8)
 
@@ -63,7 +67,7 @@ def test_the_peak_event_is_the_static_yield_point(blue):
     expected = gf.peak(blue, velocity=V)
     assert top.force == pytest.approx(expected.force, rel=1e-14)
     assert top.slip == pytest.approx(expected.slip, rel=1e-12)
-    assert top.time + blue.t0(V) == pytest.approx(expected.time, rel=1e-12)
+    assert top.time == pytest.approx(expected.time, rel=1e-12)
     assert result.force.max() == pytest.approx(expected.force, rel=1e-14)
 
 
@@ -85,14 +89,19 @@ def test_slip_clock_transient_depends_on_slip_only(blue):
 def test_time_clock_under_a_changing_velocity_matches_an_ode_solver(blue):
     table = gf.VelocityTable([0.0, 20.0, 50.0], [0.2e-6, 2e-6, 0.5e-6])
     result = gf.simulate(blue, gf.Protocol([table]), clock="time")
-    t0 = blue.t0(table.velocity[0])
+    t0 = blue.t0(table.velocity[0])  # the age where the model takes over
+    # the start-up enters the model where it has slipped x0: v0 t + (dv/dt) t^2 / 2 = x0
+    accel = (2e-6 - 0.2e-6) / 20.0
+    entry = brentq(lambda t: 0.2e-6 * t + 0.5 * accel * t**2 - blue.x0, 0.0, 20.0, xtol=1e-16)
+    assert result.t[0] == pytest.approx(entry, rel=1e-12)
+    assert result.displacement[0] == pytest.approx(blue.x0, rel=1e-15)
 
     def velocity(t):
         return np.interp(t, np.array(table.time), np.array(table.velocity))
 
     ode = solve_ivp(
-        lambda t, F: blue.a / (t + t0) - blue.alpha * velocity(t) * (F - blue.Fd),
-        (0.0, 50.0),
+        lambda t, F: blue.a / (t - entry + t0) - blue.alpha * velocity(t) * (F - blue.Fd),
+        (entry, 50.0),
         [gf.initial_force(blue)],
         method="Radau",
         rtol=1e-11,
@@ -112,8 +121,8 @@ def test_slide_hold_slide_strengthens_with_the_time_clock_only(blue):
     aged = [reload_peak(hold, "time") for hold in holds]
     assert aged[0] < aged[1] < aged[2]
     # the strength after the hold grows as a ln(t_age); the first peak is the largest value
-    before = gf.friction_time(100.0 + blue.t0(V), blue, V)
-    expected = before + blue.a * math.log((100.0 + blue.t0(V) + holds[2]) / (100 + blue.t0(V)))
+    before = gf.friction_time(100.0, blue, V)
+    expected = before + blue.a * math.log((100.0 + holds[2]) / 100.0)
     assert aged[2] == pytest.approx(expected, rel=1e-9)
     slipping = [reload_peak(hold, "slip") for hold in holds]
     assert slipping[0] == slipping[1] == slipping[2] == pytest.approx(before, rel=1e-12)
@@ -173,7 +182,7 @@ def test_stress_ramp_fails_at_the_peak(blue):
 def test_switch_after_the_peak_fails(blue):
     result = gf.simulate(blue, _switch(80.0))
     assert result.failed
-    switch_force = gf.friction_time(80.0 + blue.t0(V), blue, V)
+    switch_force = gf.friction_time(80.0, blue, V)
     assert result.failure.time == 80.0
     assert result.failure.force == pytest.approx(1.01 * switch_force, rel=1e-12)
     assert result.segments[1].outcome == "failed"
@@ -183,7 +192,7 @@ def test_switch_before_the_peak_stops_after_half_a_micrometre(blue):
     result = gf.simulate(blue, _switch(10.0))
     assert not result.failed
     (stop,) = result.events_of("stop")
-    switch_slip = blue.x0 + 10.0 * V
+    switch_slip = 10.0 * V
     sigma = 1.01 * gf.friction_slip(switch_slip, blue)
     assert stop.force == pytest.approx(sigma, rel=1e-15)
     assert gf.friction_slip(stop.slip, blue) == pytest.approx(sigma, rel=1e-6)
@@ -195,7 +204,7 @@ def test_switch_before_the_peak_stops_after_half_a_micrometre(blue):
 def test_a_rising_force_after_the_peak_fails_at_once(blue):
     protocol = gf.Protocol([gf.Velocity(V, 80.0), gf.ForceRamp(rate=1e-5, duration=10.0)])
     result = gf.simulate(blue, protocol)
-    switch_force = gf.friction_time(80.0 + blue.t0(V), blue, V)
+    switch_force = gf.friction_time(80.0, blue, V)
     assert result.failed and result.failure.time == 80.0
     assert result.failure.force == pytest.approx(switch_force, rel=1e-12)
     assert np.all(result.velocity >= 0)
@@ -204,7 +213,7 @@ def test_a_rising_force_after_the_peak_fails_at_once(blue):
 def test_a_lower_force_after_the_switch_stops_at_once(blue):
     result = gf.simulate(blue, _switch(10.0, factor=0.9))
     (stop,) = result.events_of("stop")
-    assert stop.time == 10.0 and stop.slip == pytest.approx(blue.x0 + 10 * V, rel=1e-14)
+    assert stop.time == 10.0 and stop.slip == pytest.approx(10 * V, rel=1e-14)
 
 
 def test_force_staircase_stops_below_the_peak_and_fails_above(blue):
@@ -223,7 +232,7 @@ def test_stop_and_failure_agree_with_root_finding_on_the_closed_form(blue):
     """An independent check: brentq on friction_slip itself."""
     for switch_time, factor in [(5.0, 1.05), (15.0, 1.01), (20.0, 1.002)]:
         result = gf.simulate(blue, _switch(switch_time, factor))
-        start = blue.x0 + V * switch_time
+        start = V * switch_time
         sigma = factor * gf.friction_slip(start, blue)
         top = gf.peak(blue)
         if sigma > top.force:
@@ -288,11 +297,11 @@ def test_time_clock_step_below_fd_slides_by_rejuvenation(blue):
     params = blue.replace(Fd=30e-3)
     protocol = gf.Protocol([gf.Velocity(V, 10.0), gf.SwitchToForce(10.0, factor=1.2)])
     result = gf.simulate(params, protocol, clock="time")
-    switch_force = gf.friction_time(10.0 + params.t0(V), params, V)
+    switch_force = gf.friction_time(10.0, params, V)
     sigma = 1.2 * switch_force
     (stop,) = result.events_of("stop")
     expected = math.log((params.Fd - switch_force) / (params.Fd - sigma)) / params.alpha
-    assert stop.slip - (params.x0 + 10.0 * V) == pytest.approx(expected, rel=1e-9)
+    assert stop.slip - 10.0 * V == pytest.approx(expected, rel=1e-9)
     assert result.velocity[-1] == 0 and not result.failed
 
 
@@ -301,7 +310,7 @@ def test_time_clock_step_below_fd_slides_by_rejuvenation(blue):
 
 def test_direct_effect_makes_the_layer_creep_logarithmically(blue):
     startup = gf.Velocity(V, 5.0)
-    sigma = 0.98 * gf.friction_time(5.0 + blue.t0(V), blue, V)
+    sigma = 0.98 * gf.friction_time(5.0, blue, V)
     protocol = gf.Protocol([startup, gf.Force(sigma, 1000.0)])
     result = gf.simulate(blue, protocol, direct_effect=0.05e-3)
     assert result.success and not result.failed

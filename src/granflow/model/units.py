@@ -5,6 +5,11 @@ SI unit (the unit of every number inside granflow) and the unit it is displayed 
 reports, figures). Readers, protocols, fits, results and the report look units up here
 instead of keeping tables of their own. pint converts text with units; its registry is
 created on first use (pint takes a fraction of a second to load it).
+
+:func:`as_si` is the one converter of a number a person types in Python: a bare number is
+taken as already in SI units, a string ("0.86 um/s") or a pint quantity is converted; every
+check of :mod:`granflow._validate` goes through it, so every public function and value type
+that takes a physical number accepts all three.
 """
 
 import functools
@@ -16,7 +21,9 @@ from granflow.errors import InvalidParameterError
 __all__ = [
     "QUANTITIES",
     "Quantity",
+    "as_si",
     "display_unit",
+    "is_quantity",
     "parse_quantity",
     "quantity",
     "si_unit",
@@ -225,4 +232,102 @@ def parse_quantity(text, unit, name="value"):
                 ) from None
     if not math.isfinite(value):
         raise InvalidParameterError(f"{name} must be finite, got {text!r}")
+    return value
+
+
+def is_quantity(value):
+    """Whether ``value`` is a pint quantity (of any registry), without importing pint."""
+    return type(value).__module__.partition(".")[0] == "pint" and hasattr(value, "magnitude")
+
+
+def _unit_text(unit):
+    return unit if unit else "dimensionless"
+
+
+def _converted(quantity, unit, name, shown):
+    """The magnitude of the pint ``quantity`` in ``unit``, or an error naming both units."""
+    target = _unit_text(unit)
+    try:
+        factor = float((1.0 * quantity.units).to(_clean(target)).magnitude)
+    except Exception:  # pint raises DimensionalityError, UndefinedUnitError, ...
+        have = f"{quantity.units:~}" or "no unit"
+        raise InvalidParameterError(
+            f"{name} must be a quantity in {target}, got {shown} (in {have}, which does not "
+            f"convert to {target})"
+        ) from None
+    # divide by an exact power of ten where there is one: "0.86 um/s" -> 8.6e-07, as typed
+    inverse = round(1.0 / factor) if factor > 0 else 0
+    if inverse > 1 and 1.0 / inverse == factor:
+        return quantity.magnitude / inverse
+    return quantity.magnitude * factor
+
+
+def _from_text(text, unit, name):
+    """A string with a unit ("0.86 um/s") as a float in ``unit``."""
+    registry = unit_registry()
+    cleaned = _clean(text)
+    if cleaned.startswith("/"):
+        cleaned = "1" + cleaned
+    try:
+        quantity = registry.Quantity(cleaned)
+    except Exception as exc:  # pint raises several unrelated types for bad text
+        raise InvalidParameterError(
+            f"{name}: cannot read {text!r} as a quantity in {_unit_text(unit)} ({exc})"
+        ) from None
+    if not isinstance(quantity, registry.Quantity):  # a bare number: "3"
+        quantity = registry.Quantity(quantity)
+    if quantity.dimensionless and unit and not registry.Quantity(1, _clean(unit)).dimensionless:
+        raise InvalidParameterError(
+            f"{name} must be a real number in {unit} or a string with a unit, got {text!r} "
+            f"(no unit; e.g. '{text} {unit}')"
+        )
+    return float(_converted(quantity, unit, name, repr(text)))
+
+
+def as_si(value, unit, name="value"):
+    """A number a person typed, as a float (or float array) in the SI unit ``unit``.
+
+    Parameters
+    ----------
+    value : float, str, pint.Quantity or array_like
+        A bare number (or array) is taken as already in ``unit`` and returned unchanged;
+        a string ("3.31 mN", "0.86 um/s", "0.036 1/s") is parsed with pint and must carry
+        a unit of the right dimension (a bare number in a string is refused for a
+        dimensional quantity); a pint quantity (scalar or array, any registry) is
+        converted; a list or tuple may mix the three.
+    unit : str
+        The SI unit expected ("N", "m/s", "1/s", ...); "" for a pure number.
+    name : str
+        The argument's name, for error messages.
+
+    Returns
+    -------
+    object
+        ``value`` itself when it holds no string or quantity, else the converted float
+        (or float array). Finiteness and sign are checked by the caller.
+
+    Raises
+    ------
+    granflow.InvalidParameterError
+        Text that is not a quantity, a unit of the wrong dimension (the message names the
+        argument and both units), or a string without a unit for a dimensional quantity.
+
+    Examples
+    --------
+    >>> from granflow.model.units import as_si
+    >>> as_si("3.31 mN", "N", "a")
+    0.00331
+    >>> round(as_si("0.86 um/s", "m/s", "velocity"), 15)
+    8.6e-07
+    >>> as_si(0.5, "N", "a")
+    0.5
+    """
+    if isinstance(value, str):
+        return _from_text(value, unit, name)
+    if is_quantity(value):
+        return _converted(value, unit, name, f"{value:~}")
+    if isinstance(value, list | tuple) and any(
+        isinstance(item, str) or is_quantity(item) for item in value
+    ):
+        return [as_si(item, unit, f"{name}[{index}]") for index, item in enumerate(value)]
     return value

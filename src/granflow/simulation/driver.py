@@ -31,12 +31,15 @@ The keywords of :func:`simulate` are checked and bundled into frozen option obje
 (:mod:`granflow.simulation.options`); the result types live in
 :mod:`granflow.simulation.results`.
 
-Results use the experiment's time t (0 at the start of the protocol); the slip is the aging
-coordinate x of the model (x0 on a fresh layer, back to x0 after a re-preparation), the
-displacement the total slip since the start.
+Results are on the record's clock (the one-clock rule of :mod:`granflow.simulation`): t is 0
+when the protocol starts; a start-up of the prepared layer enters the model at t0 = x0 / v
+with displacement x0 (:meth:`~granflow.simulation.state.RunState.enter`); a layer loaded from
+rest is described from the start, at the aging coordinate x0 + displacement. The slip is the
+aging coordinate x of the model (back to x0 after a re-preparation), the displacement the
+total slip since the start of the protocol. ``SimulationResult.origin`` says which applies.
 """
 
-from granflow.errors import InvalidParameterError
+from granflow.errors import InvalidParameterError, InvalidProtocolError
 from granflow.model.friction import initial_force
 from granflow.model.params import Params
 from granflow.simulation.dynamic import DynamicStepper
@@ -54,7 +57,8 @@ from granflow.simulation.options import (
 )
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.quasistatic import QuasiStaticStepper
-from granflow.simulation.results import Event, SegmentRecord, SimulationResult
+from granflow.simulation.results import Event, Origin, SegmentRecord, SimulationResult
+from granflow.simulation.segments import RatePiece
 from granflow.simulation.state import IntegrationError, RunState, WorkExceededError
 
 __all__ = [
@@ -94,7 +98,7 @@ def simulate(
     solver=None,
     max_evaluations=2_000_000,
     max_transitions=10_000,
-    max_wall=60.0,
+    max_wall=None,
 ):
     """Run a protocol through the model and report sticking, sliding, stops and failure.
 
@@ -113,8 +117,10 @@ def simulate(
     F_init : float, optional
         Friction state on a fresh layer [N]; default the paper's ``Fd (1 - exp(-alpha x0))``.
     t0 : float, optional
-        Age of a fresh layer [s] (the time clock's start): default ``x0 / v`` with v the
-        protocol's first imposed velocity, else ``DEFAULT_REFERENCE_VELOCITY`` (1 um/s).
+        Age of a fresh layer where the model takes over [s] (the time clock's start):
+        default ``x0 / v`` with v the protocol's first imposed velocity, else
+        ``DEFAULT_REFERENCE_VELOCITY`` (1 um/s). (The time at which a start-up enters the
+        model is always the time it takes to slip x0, ``x0 / v``.)
     mass : float, optional
         Effective mass of drive and tool at the contact [kg] (dynamic only); default
         ``DEFAULT_MASS`` = 1e-5 kg m^2 / r_m^2 = 0.0533 kg (an MCR 302 at the paper's tube).
@@ -137,13 +143,22 @@ def simulate(
     solver : str, optional
         solve_ivp method of the dynamic integration (default "LSODA", with an analytic
         Jacobian; it handles the stiffness of slow creep and of the direct effect).
-    max_evaluations, max_transitions, max_wall : int, int, float
-        Bounds on the work: right-hand-side evaluations, stick-slip transitions and wall time
-        [s]. A run that reaches one returns ``success=False`` with a message.
+    max_evaluations, max_transitions : int
+        Bounds on the work, counted: right-hand-side evaluations and stick-slip transitions.
+        A run that reaches one returns ``success=False`` with a message; the work done is
+        in ``SimulationResult.work``.
+    max_wall : float, optional
+        A wall-clock limit [s], off by default (None): with it, whether a long run completes
+        depends on the machine, and a run it stops says so in its message.
+
+    Every physical number may also be a string with a unit ("0.05 kg", "1 mm/s") or a pint
+    quantity; a bare number is in SI units.
 
     Returns
     -------
     SimulationResult
+        On the record's clock: a start-up of a fresh layer at v begins at t = x0 / v with
+        displacement x0 (see :mod:`granflow.simulation`).
 
     Raises
     ------
@@ -151,7 +166,8 @@ def simulate(
         For a bad argument (mass or stiffness with the quasi-static method, a negative
         damping, ...).
     InvalidProtocolError
-        For a protocol that cannot be run (a ramp whose force would become negative).
+        For a protocol that cannot be run (a ramp whose force would become negative, a
+        start-up that ends before the layer has slipped x0).
 
     Examples
     --------
@@ -161,6 +177,9 @@ def simulate(
     >>> result = gf.simulate(p, ramp)
     >>> result.failed, round(result.failure.force * 1e3, 6)  # fails at the peak, in mN
     (True, 13.782947)
+    >>> startup = gf.simulate(p, [gf.Velocity("0.86 um/s", "100 s")])
+    >>> float(startup.t[0]), round(startup.events_of("peak")[0].time, 6)  # as gf.peak(...)
+    (0.23, 24.304978)
     """
     if not isinstance(params, Params):
         raise InvalidParameterError(
@@ -232,6 +251,73 @@ def _options(method, aging, drive, effect, numerics):
     }
 
 
+class _Pieces:
+    """Some pieces of a rate-controlled segment, as :meth:`Stepper.segment` takes them."""
+
+    control = "rate"
+
+    def __init__(self, pieces):
+        self._pieces = pieces
+
+    def pieces(self):
+        return self._pieces
+
+
+def _entry(pieces, x0):
+    """Where a start-up of the prepared layer slips x0: (time into ``pieces`` [s], the pieces
+    left), or None when they never slip that far."""
+    elapsed = 0.0
+    for index, piece in enumerate(pieces):
+        accel = (piece.end - piece.start) / piece.duration
+        slip = 0.5 * (piece.start + piece.end) * piece.duration
+        if slip < x0:
+            x0 -= slip
+            elapsed += piece.duration
+            continue
+        if accel == 0:
+            into = x0 / piece.start
+        else:  # start u + accel u^2 / 2 = x0, the root in the piece (stable form)
+            into = 2.0 * x0 / (piece.start + (piece.start**2 + 2.0 * accel * x0) ** 0.5)
+        into = min(into, piece.duration)
+        velocity = piece.start + accel * into
+        rest = list(pieces[index + 1 :])
+        if piece.duration - into > 1e-12 * piece.duration:
+            rest.insert(0, RatePiece(velocity, piece.end, piece.duration - into))
+        return elapsed + into, rest
+    return None
+
+
+def _rate_segment(stepper, state, segment, where):
+    """A rate-controlled segment: a start-up of the prepared layer enters the model at t0."""
+    if not state.pristine:
+        stepper.segment(segment)
+        return
+    pieces = segment.pieces()
+    moving = next((i for i, piece in enumerate(pieces) if piece.end > 0 or piece.start > 0), None)
+    if moving is None and not state.time_clock:  # a rest changes nothing on the slip clock
+        stepper.segment(segment)
+        return
+    if moving is None or pieces[moving].start == 0 or (state.time_clock and moving > 0):
+        state.loaded()  # from rest: an accelerating drive, or a rest that ages the layer
+        stepper.segment(segment)
+        return
+    if moving > 0:  # rests before the start-up (slip clock: the layer does not change)
+        stepper.segment(_Pieces(pieces[:moving]))
+    p = state.params
+    entry = _entry(pieces[moving:], p.x0)
+    if entry is None:
+        raise InvalidProtocolError(
+            f"{where} ends before the layer has slipped x0 = {p.x0:.6g} m since the start of "
+            "shear, where the model takes over (the one-clock rule): lengthen it"
+        )
+    duration, rest = entry
+    state.enter(duration)
+    if rest:
+        stepper.segment(_Pieces(rest))
+    else:  # the segment ends where the model takes over
+        state.record_now()
+
+
 def _run(params, protocol, method, aging, drive, effect, numerics):
     """Run every segment through the method's stepper until the end or a failure."""
     state = RunState(params, aging, numerics)
@@ -245,7 +331,11 @@ def _run(params, protocol, method, aging, drive, effect, numerics):
         outcome = "completed"
         where = f"segment {index + 1} ({segment.type_name})"
         try:
-            stepper.segment(segment)
+            if segment.control == "rate":
+                _rate_segment(stepper, state, segment, where)
+            else:
+                state.loaded()
+                stepper.segment(segment)
         except WorkExceededError as exc:
             success, outcome, message = False, "aborted", f"{where}: {exc}"
         except IntegrationError as exc:
@@ -274,6 +364,8 @@ def _run(params, protocol, method, aging, drive, effect, numerics):
         )
         if outcome != "completed":
             break
+    if state.origin is None:  # nothing loaded the layer: rests only
+        state.loaded()
     return SimulationResult(
         **state.arrays(),
         events=tuple(state.events),
@@ -285,4 +377,6 @@ def _run(params, protocol, method, aging, drive, effect, numerics):
         params=params,
         protocol=protocol,
         options=_options(method, aging, drive, effect, numerics),
+        origin=Origin(*state.origin),
+        work={"evaluations": state.evaluations, "transitions": state.phases},
     )

@@ -214,8 +214,10 @@ class Numerics:
         Right-hand-side evaluations before a run gives up; positive.
     max_transitions : int
         Stick-slip transitions before a run gives up; positive.
-    max_wall : float
-        Wall time [s] before a run gives up; positive.
+    max_wall : float, optional
+        Wall time [s] before a run gives up; positive. None (the default): no wall-clock
+        limit, so that the outcome never depends on the machine (the work is bounded by
+        ``max_evaluations`` and ``max_transitions``).
     """
 
     points: int = 200
@@ -223,7 +225,7 @@ class Numerics:
     solver: str = "LSODA"
     max_evaluations: int = 2_000_000
     max_transitions: int = 10_000
-    max_wall: float = 60.0
+    max_wall: float | None = None
 
     def __post_init__(self):
         points = self.points
@@ -233,7 +235,8 @@ class Numerics:
         _set(self, "rtol", _positive(self.rtol, "rtol"))
         _set(self, "max_evaluations", _positive_int(self.max_evaluations, "max_evaluations"))
         _set(self, "max_transitions", _positive_int(self.max_transitions, "max_transitions"))
-        _set(self, "max_wall", _positive(self.max_wall, "max_wall", "s"))
+        if self.max_wall is not None:
+            _set(self, "max_wall", _positive(self.max_wall, "max_wall", "s"))
 
     @property
     def implicit(self):

@@ -3,6 +3,8 @@
 Every type here is frozen, has a JSON-safe ``to_dict()`` and a ``from_dict()`` that inverts
 it. Non-finite numbers are written as None; the only one a run records is the infinite
 velocity of a quasi-static failure, which ``from_dict`` reads back as +inf (NaN elsewhere).
+Every result says which clock its times and slips are on (:class:`Origin`, the one-clock
+rule of :mod:`granflow.simulation`).
 """
 
 import math
@@ -13,10 +15,10 @@ import numpy as np
 
 from granflow.model.params import Params
 from granflow.model.units import si_unit
-from granflow.simulation.options import DirectEffect
+from granflow.simulation.options import DirectEffect, check_choice
 from granflow.simulation.protocol import Protocol
 
-__all__ = ["ARRAYS", "Event", "SegmentRecord", "SimulationResult"]
+__all__ = ["ARRAYS", "ORIGINS", "Event", "Origin", "SegmentRecord", "SimulationResult"]
 
 #: The recorded arrays of a run, in the order of :meth:`SimulationResult.to_frame`.
 ARRAYS = ("t", "slip", "velocity", "force", "state", "age", "displacement", "segment")
@@ -30,6 +32,15 @@ _ARRAY_QUANTITIES = {
     "state": "state",
     "age": "time",
     "displacement": "displacement",
+}
+
+
+#: The kinds of :class:`Origin`: how the record's clock and displacement relate to the model.
+ORIGINS = {
+    "shear": "a start-up of the prepared layer: t and displacement count from the start of the "
+    "protocol; the model takes over once the layer has slipped x0 since the start of shear",
+    "rest": "the prepared layer loaded from rest: t and displacement count from the start of "
+    "the protocol; the model's slip coordinate is x0 + displacement",
 }
 
 
@@ -58,7 +69,7 @@ class Event:
         slide), ``"peak"`` (a maximum of the friction under an imposed velocity: the
         overshoot) or ``"reset"`` (the sample is re-prepared).
     time : float
-        Time [s] since the start of the protocol.
+        Time [s] since the start of the protocol (the record's clock, as ``t``).
     slip : float
         Aging coordinate x [m] at the event.
     force : float
@@ -97,6 +108,67 @@ class Event:
 
 
 @dataclass(frozen=True, slots=True)
+class Origin:
+    """Where a result's clock and displacement start, and where the model takes over.
+
+    Times are always the record's time, 0 when the protocol starts; displacements the slip
+    since then. Until a re-preparation (a ``reset`` event) the model's coordinates follow:
+    its time t (Eq. 3) is ``t - shear_start`` and its slip ``displacement + slip_offset``.
+
+    Attributes
+    ----------
+    kind : {"shear", "rest"}
+        ``"shear"``: a start-up of the prepared layer at velocity v, which the model
+        describes from ``t = shear_start + x0 / v`` on, at displacement x0 (the paper's
+        clock: with ``shear_start = 0`` the record's time is the model's t and the
+        displacement its slip x; ``fit`` reads such a record as it is). ``"rest"``: the
+        prepared layer loaded from rest (a force, a drive accelerating from 0, a rest that
+        ages it), which the model describes from ``model_start`` on, at the slip
+        coordinate x0 + displacement and (time clock) the age t0 + t - model_start.
+    shear_start : float or None
+        Record time when shearing started [s] (``"shear"``; 0 unless the protocol begins
+        with a rest); None for ``"rest"``.
+    model_start : float
+        Record time where the model takes over [s].
+    slip_offset : float
+        The model's slip coordinate minus the displacement [m]: 0 for ``"shear"``, x0 for
+        ``"rest"``.
+    """
+
+    kind: str
+    shear_start: float | None
+    model_start: float
+    slip_offset: float
+
+    def describe(self):
+        """One line: where t and the displacement start and where the model takes over."""
+        if self.kind == "shear":
+            return (
+                f"start of shear at t = {self.shear_start:.6g} s; the model takes over at "
+                f"t = {self.model_start:.6g} s (model time = t - {self.shear_start:.6g} s, "
+                f"slip = displacement + {self.slip_offset * 1e6:.6g} um)"
+            )
+        return (
+            f"rest at t = {self.model_start:.6g} s; the model describes the layer from there "
+            f"(slip = displacement + {self.slip_offset * 1e6:.6g} um)"
+        )
+
+    def to_dict(self):
+        return _fields_of(self)
+
+    @classmethod
+    def from_dict(cls, mapping):
+        """Inverse of :meth:`to_dict`."""
+        shear = mapping["shear_start"]
+        return cls(
+            kind=mapping["kind"],
+            shear_start=None if shear is None else float(shear),
+            model_start=float(mapping["model_start"]),
+            slip_offset=float(mapping["slip_offset"]),
+        )
+
+
+@dataclass(frozen=True, slots=True)
 class SegmentRecord:
     """Bookkeeping of one protocol segment in a run (times [s], slips [m], forces [N])."""
 
@@ -127,7 +199,8 @@ class SimulationResult:
     Attributes
     ----------
     t : numpy.ndarray
-        Time since the start of the protocol [s] (repeated at a jump: a sudden slip, a reset).
+        Time since the start of the protocol [s] (repeated at a jump: a sudden slip, a reset):
+        the record's clock. A start-up of a fresh layer at v begins at x0 / v (``origin``).
     slip : numpy.ndarray
         Aging coordinate x [m] (x0 on a fresh layer; back to x0 after ``Hold(reset=True)``).
     velocity : numpy.ndarray
@@ -140,7 +213,8 @@ class SimulationResult:
     age : numpy.ndarray
         Time since preparation [s] (t0 + t on a fresh layer): the time clock's coordinate.
     displacement : numpy.ndarray
-        Total slip since the start of the protocol [m], never reset.
+        Total slip since the start of the protocol [m], never reset (x0 where a start-up
+        enters the model).
     segment : numpy.ndarray
         Index of the protocol segment of each point (int).
     events : tuple of Event
@@ -158,7 +232,14 @@ class SimulationResult:
     params : Params
     protocol : Protocol
     options : mapping
-        clock, method, t0, mass, damping, stiffness, v_fail, v_stop, direct_effect.
+        clock, method, t0, mass, damping, stiffness, v_fail, v_stop, direct_effect, and the
+        numerics (rtol, solver, max_evaluations, max_transitions, max_wall: None when there
+        was no wall-clock limit).
+    origin : Origin
+        Which clock the times and displacements are on, and where the model takes over.
+    work : mapping
+        The work done, counted: ``evaluations`` (right-hand sides) and ``transitions``
+        (stick-slip phases); the bounds on it are in ``options``.
     """
 
     t: np.ndarray
@@ -178,11 +259,16 @@ class SimulationResult:
     params: Params
     protocol: Protocol
     options: MappingProxyType = field(default_factory=dict)
+    origin: Origin | None = None
+    work: MappingProxyType = field(default_factory=dict)
 
     def __post_init__(self):
         for name in ARRAYS:
             getattr(self, name).flags.writeable = False
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
+        object.__setattr__(self, "work", MappingProxyType(dict(self.work)))
+        if self.origin is None:  # the clock before the one-clock rule: the model from t = 0
+            object.__setattr__(self, "origin", Origin("rest", None, 0.0, self.params.x0))
 
     def __repr__(self):
         outcome = "failed" if self.failed else ("ok" if self.success else "aborted")
@@ -208,28 +294,51 @@ class SimulationResult:
         }
         return frame
 
-    def to_run(self):
-        """The simulated data as a :class:`granflow.Run` (slip measured from the start).
+    def to_run(self, origin="record"):
+        """The simulated data as a :class:`granflow.Run`: what a rheometer would record.
 
-        Time and slip start at zero at the initial state, as a rheometer would record them.
-        :func:`granflow.fit` reads a run the paper's way instead (its abscissa is the model's
-        own coordinate, which starts at x0 = v t0): to fit a simulated start-up, shift it
-        first, e.g. ``Run(t + x0 / v, slip + x0, ...)``, or fit the fitted x0 as an offset.
+        Parameters
+        ----------
+        origin : {"record", "model"}
+            ``"record"`` (default): t and slip as recorded, 0 at the start of the protocol
+            (``t`` and ``displacement``); a start-up of a fresh layer at v begins at
+            t = x0 / v with slip x0, so that :func:`granflow.fit` reads it as it is.
+            ``"model"``: shifted onto the model's coordinates by :attr:`origin` (time minus
+            the start of shear, slip plus the slip offset; from rest, the age t0 + t), for a
+            protocol that begins with a rest or from rest.
+
+        Returns
+        -------
+        Run
+            ``meta`` holds ``source`` ("simulation"), ``method``, ``clock``, ``origin``
+            (the :class:`Origin` kind, or "model"), ``model_start`` [s] and ``slip_offset``
+            [m] (what to add to the slip to get the model's coordinate), and for a
+            start-up ``shear_start`` [s]; shifted, ``time_shift`` [s] and ``slip_shift``
+            [m] (what was added).
         """
         from granflow.model.run import Run
 
+        check_choice(origin, "origin", ("record", "model"))
         control = "stress" if any(s.control == "force" for s in self.protocol) else "rate"
+        start = self.origin
+        meta = {"source": "simulation", "method": self.options["method"]}
+        meta["clock"] = self.options["clock"]
+        t, slip = self.t, self.displacement
+        if origin == "model":
+            if start.kind == "shear":
+                shift = start.shear_start
+            else:
+                shift = start.model_start - self.options["t0"]
+            t, slip = t - shift, slip + start.slip_offset
+            meta.update(origin="model", time_shift=-shift, slip_shift=start.slip_offset)
+        else:
+            meta.update(
+                origin=start.kind, model_start=start.model_start, slip_offset=start.slip_offset
+            )
+            if start.shear_start is not None:
+                meta["shear_start"] = start.shear_start
         return Run(
-            t=self.t,
-            slip=self.displacement,
-            velocity=self.velocity,
-            force=self.force,
-            control=control,
-            meta={
-                "source": "simulation",
-                "method": self.options["method"],
-                "clock": self.options["clock"],
-            },
+            t=t, slip=slip, velocity=self.velocity, force=self.force, control=control, meta=meta
         )
 
     def to_dict(self):
@@ -259,12 +368,18 @@ class SimulationResult:
                 for e in self.events
             ],
             "segments": [record.to_dict() for record in self.segments],
+            "origin": self.origin.to_dict(),
+            "work": dict(self.work),
             **arrays,
         }
 
     @classmethod
     def from_dict(cls, mapping):
-        """Inverse of :meth:`to_dict`: the result, with its params, protocol and options."""
+        """Inverse of :meth:`to_dict`: the result, with its params, protocol and options.
+
+        A mapping written before results stated their origin (no ``"origin"``) was on the
+        old clock: the model from t = 0 at the slip x0 + displacement (an origin ``"rest"``).
+        """
         options = dict(mapping["options"])
         if options.get("direct_effect") is not None:
             options["direct_effect"] = DirectEffect.from_dict(options["direct_effect"])
@@ -289,6 +404,8 @@ class SimulationResult:
             params=Params(**mapping["params"]),
             protocol=Protocol.from_dict(mapping["protocol"]),
             options=options,
+            origin=None if "origin" not in mapping else Origin.from_dict(mapping["origin"]),
+            work=mapping.get("work", {}),
         )
 
     def report(self):
@@ -298,6 +415,7 @@ class SimulationResult:
             "[[Simulation]]",
             f"    method     = {opts['method']}",
             f"    clock      = {opts['clock']}",
+            f"    origin     = {self.origin.describe()}",
             f"    segments   = {len(self.segments)} of {len(self.protocol)}",
             f"    time       = {self.t[-1]:.6g} s of {self.protocol.duration:.6g} s",
             f"    success    = {self.success}",
@@ -310,6 +428,13 @@ class SimulationResult:
             if opts["stiffness"] is not None:
                 lines.append(f"    stiffness  = {opts['stiffness']:.6g} N/m")
         lines.append(f"    v_fail     = {opts['v_fail'] * 1e6:.6g} um/s")
+        if self.work:
+            lines.append(
+                f"    work       = {self.work['evaluations']} evaluations, "
+                f"{self.work['transitions']} transitions (counted)"
+            )
+        if opts.get("max_wall") is not None:
+            lines.append(f"    max_wall   = {opts['max_wall']:.6g} s (a wall-clock limit)")
         if opts["direct_effect"] is not None:
             effect = opts["direct_effect"]
             lines.append(

@@ -3,7 +3,12 @@
 :class:`RunState` holds the layer (aging coordinate x, friction state F, age tau), the drive
 (velocity, applied force, total displacement), the recorded arrays and the events, and
 bounds the work. The steppers move it; the moves every stepper shares (a stuck interval, a
-quasi-static jump or runaway, a reset) live here.
+quasi-static jump or runaway, a reset) live here, and so does the entry of the model into a
+start-up (:meth:`RunState.enter`, the one-clock rule of :mod:`granflow.simulation`).
+
+The work is bounded by counting it (right-hand-side evaluations, stick-slip transitions), so
+that the answer never depends on the machine; a wall-clock limit is offered but off by
+default, and a run stopped by it says so.
 """
 
 import time as _time
@@ -17,7 +22,8 @@ __all__ = ["IntegrationError", "RunState", "WorkExceededError"]
 
 
 class WorkExceededError(Exception):
-    """The bounded work of a run (evaluations, wall time, transitions) was used up."""
+    """The bounded work of a run (evaluations, transitions, or an opted-in wall time) was used
+    up."""
 
 
 class IntegrationError(Exception):
@@ -53,8 +59,11 @@ class RunState:
         self.events = []
         self.failure = None
         self.evaluations = 0
-        self.started = _time.perf_counter()
+        self.started = None if numerics.max_wall is None else _time.perf_counter()
         self.phases = 0
+        # the layer is still in its prepared state: a start-up enters the model at t0
+        self.pristine = True
+        self.origin = None  # (kind, shear_start, model_start, slip_offset) once known
 
     # -- recording
 
@@ -91,16 +100,19 @@ class RunState:
         self.failure = self.event("failure", time, slip, force, state, message)
 
     def count(self, evaluations=1):
-        """Bound the work: evaluations and wall time."""
+        """Bound the work: evaluations (and the wall time, only when a limit was asked for)."""
         self.evaluations += evaluations
         if self.evaluations > self.numerics.max_evaluations:
             raise WorkExceededError(
                 f"gave up after {self.evaluations} right-hand-side evaluations (max_evaluations)"
             )
-        if self.evaluations % 256 == 0:
+        if self.started is not None and self.evaluations % 256 == 0:
             elapsed = _time.perf_counter() - self.started
             if elapsed > self.numerics.max_wall:
-                raise WorkExceededError(f"gave up after {elapsed:.3g} s of wall time (max_wall)")
+                raise WorkExceededError(
+                    f"gave up after {elapsed:.3g} s of wall time (max_wall, a wall-clock limit: "
+                    "this outcome depends on the machine)"
+                )
 
     def transition(self):
         """Count one stick-slip phase; bound their number."""
@@ -110,6 +122,32 @@ class RunState:
                 f"gave up after {self.numerics.max_transitions} stick-slip transitions "
                 "(max_transitions)"
             )
+
+    # -- the one clock
+
+    def loaded(self):
+        """The prepared layer is loaded from rest (force control, a time-clock rest, a drive
+        accelerating from 0): the model describes it from now on, at x0 + displacement."""
+        if self.origin is None:
+            self.origin = ("rest", None, self.t, self.params.x0 - self.displacement)
+        self.pristine = False
+
+    def enter(self, duration):
+        """A start-up of the prepared layer: the model takes over after ``duration`` [s] of
+        shear, when the slip since the start of shear is x0.
+
+        The record's time and displacement move on by ``duration`` and x0 (nothing is
+        recorded in between: the model does not describe it); the layer is still in its
+        prepared state (aging coordinate x0, friction F_init, age t0). A rigid drive moves
+        it on at once; a machine spring, unloaded as the drive has moved x0 too, loads from
+        here (the machine's own elastic ramp).
+        """
+        start = self.t
+        self.t += duration
+        self.displacement += self.params.x0
+        if self.origin is None:
+            self.origin = ("shear", start, self.t, 0.0)
+        self.pristine = False
 
     # -- moves every stepper shares
 
@@ -121,6 +159,7 @@ class RunState:
         self.applied = 0.0
         self.v = 0.0
         self.sliding = False
+        self.pristine = True
         self.event("reset", self.t, self.x, self.applied, self.F, "sample re-prepared")
         self.record_now()
 
