@@ -29,3 +29,19 @@ def test_problems_survive_select_pickle_and_frames():
 def test_problems_must_be_sentences(bad):
     with pytest.raises(InvalidDataError, match="problems"):
         _run(bad)
+
+
+def test_shifted_moves_the_clock_and_remembers_it():
+    run = _run(["gap"]).shifted(time="2 s", slip=1e-6).shifted(time=1.0)
+    assert np.array_equal(run.t, np.arange(5.0) - 3.0)
+    assert np.allclose(run.slip, np.arange(5.0) * 1e-6 - 1e-6, rtol=0, atol=1e-20)
+    assert run.meta["time_shift"] == 3.0
+    assert run.meta["slip_shift"] == 1e-6
+    assert run.problems == ("gap",)
+
+
+def test_shifted_refuses_a_wrong_unit():
+    from granflow import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match="time"):
+        _run().shifted(time="2 mm")

@@ -172,3 +172,9 @@ def test_from_dict_inverts_to_dict_through_json(blue):
     assert again.params == built.params
     assert again.options["direct_effect"] == direct
     assert (again.velocity, again.method, again.clock) == (0.86e-6, built.method, built.clock)
+
+
+def test_a_switch_before_the_model_takes_over_names_t0():
+    p = gf.Params.from_time_domain(a=3.31e-3, k=0.036, t0=0.23, Fd=10e-3, velocity=0.86e-6)
+    with pytest.raises(gf.InvalidParameterError, match=r"t0 = x0 / velocity = 0\.23 s"):
+        gf.stability_map(p, [0.1, 10.0], [1.01], velocity=0.86e-6)

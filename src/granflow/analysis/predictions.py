@@ -26,7 +26,6 @@ __all__ = [
     "MAP_HOLD",
     "MAP_POINTS",
     "MAP_RATIOS",
-    "WALL_LIMIT_OFF",
     "compare_creep",
     "compare_ramps",
     "compare_switches",
@@ -40,10 +39,6 @@ __all__ = [
 MAP_POINTS, MAP_RATIOS = 8, 7
 #: Time under force control in each cell of the map [s].
 MAP_HOLD = 60.0
-#: The simulator's wall-clock bound, set out of reach (a year [s]): an analysis's answer must
-#: not depend on how busy the machine is, so its simulations are bounded by their work
-#: (evaluations and transitions) only.
-WALL_LIMIT_OFF = 3.15e7
 
 
 def _peak_force(mu_a, mu_d, alpha, x0, load):
@@ -212,21 +207,21 @@ def compare_creep(entries, basis, forecast):
 
 def _predict_switch(params, switch):
     """Outcome of the switch under the model (quasi-static, slip clock): the start-up at the
-    nominal velocity up to the switch time (the simulator's clock starts at t0 = x0 / v, the
-    export's at 0), then the observed force ratio held for the observed time (at least 1 s)."""
+    nominal velocity up to the switch time (on the record's clock, as the simulator reads
+    it), then the observed force ratio held for the observed time (at least 1 s); None when
+    the switch comes before the model takes over at t0 = x0 / v."""
     from granflow.simulation.driver import simulate
     from granflow.simulation.protocol import Protocol, SwitchToForce, Velocity
 
-    duration = switch.switch_time - params.x0 / switch.velocity
-    if duration <= 0:
+    if switch.switch_time <= params.x0 / switch.velocity:
         return None
     protocol = Protocol(
         [
-            Velocity(switch.velocity, duration),
+            Velocity(switch.velocity, switch.switch_time),
             SwitchToForce(max(switch.hold_time, 1.0), factor=switch.factor),
         ]
     )
-    return simulate(params, protocol, max_wall=WALL_LIMIT_OFF)
+    return simulate(params, protocol)
 
 
 def compare_switches(entries, startups, basis):
@@ -311,7 +306,6 @@ def stability(entries, startups, chosen, basis, executor):
             velocity=velocity,
             hold=MAP_HOLD,
             executor=executor,
-            max_wall=WALL_LIMIT_OFF,
         ),
     )
     return (None if result is None else StabilityPrediction(load, result)), notes

@@ -147,6 +147,44 @@ class Run:
         problems = tuple(frame.attrs.get("problems", ()))
         return cls(control=control, meta=meta, problems=problems, **columns)
 
+    def shifted(self, time=0.0, slip=0.0):
+        """The same run with its clock moved: ``t - time`` and ``slip - slip``.
+
+        For a record whose first point is not the start of shear (a delay before the motor
+        starts, an elastic loading ramp): give the record time [s] at which shearing
+        started, and the slip [m] there, so that the new record reads on the one clock
+        (t = 0 when shearing starts, as the model's t). granflow never guesses these; the
+        shifts are added up in ``meta["time_shift"]`` and ``meta["slip_shift"]``.
+
+        Parameters
+        ----------
+        time : float or str
+            Record time at which shearing started [s] (a number in s or a string with a
+            unit, "2.5 s").
+        slip : float or str
+            Slip at that moment [m].
+
+        Returns
+        -------
+        Run
+        """
+        from granflow import _validate as check
+
+        dt = check.real_scalar(time, "time", "s")
+        dx = check.real_scalar(slip, "slip", "m")
+        meta = dict(self.meta)
+        meta["time_shift"] = float(meta.get("time_shift", 0.0)) + dt
+        meta["slip_shift"] = float(meta.get("slip_shift", 0.0)) + dx
+        return Run(
+            t=self.t - dt,
+            slip=self.slip - dx,
+            velocity=self.velocity,
+            force=self.force,
+            control=self.control,
+            meta=meta,
+            problems=self.problems,
+        )
+
     def select(self, mask):
         """A new Run with only the points where ``mask`` is true (same metadata)."""
         mask = np.asarray(mask, dtype=bool)

@@ -289,7 +289,8 @@ def stability_map(
     params : Params
         Model parameters.
     switch_points : array_like
-        Times of the switch after the start of the start-up [s]; positive.
+        Times of the switch on the record's clock (0 when shearing starts) [s]; after the
+        model takes over at t0 = x0 / velocity.
     stress_ratios : array_like
         Imposed force over the force at the switch [-]; positive.
     velocity : float
@@ -339,6 +340,12 @@ def stability_map(
     if np.any(ratios <= 0):
         raise InvalidParameterError(f"stress_ratios must be positive, got {ratios.min():g}")
     velocity = check.positive(velocity, "velocity", "m/s")
+    start = params.x0 / velocity
+    if np.any(points <= start):
+        raise InvalidParameterError(
+            f"switch_points must come after the model takes over at t0 = x0 / velocity = "
+            f"{start:g} s, got {points.min():g} s"
+        )
     hold = check.positive(hold, "hold", "s")
     ramp = check.non_negative(ramp, "ramp", "s")
     if ramp > hold:
