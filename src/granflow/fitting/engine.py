@@ -77,10 +77,7 @@ def _eq3_normal(z, y, w, a, alpha, Fd, x0):
 def model_only(z, a, alpha, Fd, x0):
     """F [N] of Eq. 3 (paper initial condition) at the points z, held at F(x0) below x0."""
     F = np.empty(z.shape[0])
-    s0 = alpha * x0
-    s = alpha * z
-    decay = np.exp(s0 - s)
-    kernel.eq3_loop(z, s, decay, -math.inf, x0, a, alpha, Fd, x0, 0.0, True, True, F)
+    kernel.eq3_values(z, 1.0, -math.inf, x0, a, alpha, Fd, x0, 0.0, True, True, F)
     return F
 
 

@@ -38,7 +38,11 @@ from granflow.model.special import (
     compiled_inline,
     horner,
     scaled_ei_diff_scalar,
+    scaled_ei_piece,
     scaled_ei_scalar,
+    scaled_ei_simd,
+    simd_exp,
+    simd_log1p,
 )
 
 __all__ = [
@@ -46,6 +50,7 @@ __all__ = [
     "check_below",
     "curve_start",
     "eq3_loop",
+    "eq3_values",
     "general_value",
     "jacobian_loop",
     "normal_equations",
@@ -57,6 +62,8 @@ __all__ = [
 BELOW = ("raise", "hold")
 
 _SERIES = _t.SERIES[::-1].copy()  # highest power first, as in special.horner
+_TINY = 1e-300  # the SIMD log needs a normal positive argument
+_BLOCK = 256  # points per block of the SIMD passes (their scratch stays in the L1 cache)
 _EXPM1_LIMIT = 1e-3  # below this s, 1 - exp(-s) cancels: use its Taylor series instead
 
 
@@ -121,6 +128,84 @@ def _scaled_terms(s, decay, start):
     diff = scaled_ei_diff_scalar(s, s0, scaled_ei_s0, decay)
     rise = -math.expm1(-s) if s < _t.SMALL_LIMIT else 1.0 - exp_minus_s
     return diff, rise
+
+
+@compiled_inline
+def _is_plain(s, h):
+    """Whether the SIMD formulas of :func:`_plain_block` hold at s (h = s - s0 > 0): below
+    s = 0.5 always, above it not within reach of s0 (where the quadrature takes over)."""
+    return s >= _TINY and (s < _t.SMALL_LIMIT or h >= 1.0 or h >= 0.5 * s)
+
+
+@compiled_inline
+def _rise(s, exp_minus_s):
+    """1 - exp(-s), by its Taylor series where it cancels (s <= 1e-3); branch-free."""
+    series = s * (1.0 - s * (0.5 - s * (1.0 / 6.0 - s * (1.0 / 24.0 - s / 120.0))))
+    return series if s <= _EXPM1_LIMIT else 1.0 - exp_minus_s
+
+
+@compiled_inline
+def _series_diff(s, decay, start):
+    """D at s0 <= s < 0.5: exp(-s) [log1p(h / s0) + h (S(s) - S(s0)) / h]; branch-free.
+
+    As :func:`_scaled_terms` computes it next to s0, which is accurate far from s0 too: the
+    divided difference of S is a Horner recurrence on the Horner values at s0.
+    """
+    s0, horner_s0 = start[0], start[4]
+    h = s - s0
+    divided = 0.0
+    for k in range(_SERIES.shape[0]):
+        divided = divided * s + horner_s0[k]
+    return decay * start[2] * (simd_log1p(h / s0) + h * divided)
+
+
+@compiled_inline
+def _table_diff(s, decay, start):
+    """D at s >= 0.5 where :func:`_is_plain`: the tables, branch-free."""
+    row, t = scaled_ei_piece(s)
+    return scaled_ei_simd(s, row, t) - decay * start[1]
+
+
+@compiled
+def _plain_block(z, lo, hi, rate, start, diff, decay):
+    """D and exp(-(s - s0)) at ``z[lo:hi]`` (s = rate z) into ``diff[:hi - lo]`` and
+    ``decay[:hi - lo]``, by the SIMD formulas (where :func:`_is_plain`).
+
+    Only the formulas the block needs are evaluated: the power series where s < 0.5, the
+    tables where s >= 0.5 (both, selected point by point, where the block straddles 0.5;
+    one row of the table, without gathers, where the block lies within one piece).
+    """
+    s0, scaled_ei_s0 = start[0], start[1]
+    low = high = rate * z[lo]
+    for i in range(lo + 1, hi):
+        s = rate * z[i]
+        low = min(low, s)
+        high = max(high, s)
+    row = scaled_ei_piece(low)[0]
+    if low >= _t.SMALL_LIMIT and row == scaled_ei_piece(high)[0]:
+        for i in range(lo, hi):
+            s = rate * z[i]
+            decay[i - lo] = simd_exp(s0 - s)
+            value = scaled_ei_simd(s, row, scaled_ei_piece(s)[1])
+            diff[i - lo] = value - decay[i - lo] * scaled_ei_s0
+    elif low >= _t.SMALL_LIMIT:
+        for i in range(lo, hi):
+            s = rate * z[i]
+            decay[i - lo] = simd_exp(s0 - s)
+            diff[i - lo] = _table_diff(s, decay[i - lo], start)
+    elif high < _t.SMALL_LIMIT:
+        for i in range(lo, hi):
+            s = rate * z[i]
+            decay[i - lo] = simd_exp(s0 - s)
+            diff[i - lo] = _series_diff(s, decay[i - lo], start)
+    else:
+        for i in range(lo, hi):
+            s = rate * z[i]
+            e = simd_exp(s0 - s)
+            decay[i - lo] = e
+            series = _series_diff(s, e, start)
+            table = _table_diff(s, e, start)
+            diff[i - lo] = series if s < _t.SMALL_LIMIT else table
 
 
 @compiled_inline
@@ -217,6 +302,42 @@ def eq3_loop(z, s, decay, lowest, z0, a, alpha, Fd, x0, offset, paper, hold, out
 
 
 @compiled
+def eq3_values(z, scale, lowest, z0, a, alpha, Fd, x0, offset, paper, hold, out):
+    """F at the points z (slip, or time with ``scale`` = velocity) into out; fused and SIMD.
+
+    :func:`eq3_loop` with the scaled argument ``s = alpha scale z`` and the decay term
+    computed in the same pass: block by block, a branch-free pass evaluates every point by the
+    SIMD formulas (:func:`_plain_block`); then a second pass re-evaluates, with
+    :func:`point_value`, the few points where they do not hold (:func:`_is_plain`: next to
+    the initial state above s = 0.5, held, invalid). Returns
+    the index of the first z that is not finite or lies below ``lowest``, or -1.
+    """
+    start = curve_start(alpha, x0)
+    s0, exp_minus_s0 = start[0], start[2]
+    rate = alpha * scale
+    diff = np.empty(_BLOCK)
+    decay = np.empty(_BLOCK)
+    for lo in range(0, z.shape[0], _BLOCK):
+        hi = min(lo + _BLOCK, z.shape[0])
+        _plain_block(z, lo, hi, rate, start, diff, decay)
+        for i in range(lo, hi):
+            if paper:
+                s = rate * z[i]
+                out[i] = a * diff[i - lo] + Fd * _rise(s, decay[i - lo] * exp_minus_s0)
+            else:
+                out[i] = Fd + offset * decay[i - lo] + a * diff[i - lo]
+    for i in range(z.shape[0]):
+        zi = z[i]
+        s = alpha * (scale * zi)
+        if zi > z0 and zi >= lowest and zi < math.inf and _is_plain(s, s - s0):
+            continue
+        if not (zi >= lowest and zi < math.inf):
+            return i
+        out[i] = point_value(s, math.exp(s0 - s), a, Fd, offset, paper, hold and zi <= z0, start)
+    return -1
+
+
+@compiled
 def jacobian_loop(z, a, alpha, Fd, x0, offset, paper, hold, F, J):
     """F and the columns d/da, d/dalpha, d/dFd, d/dx0, d/dF_init of J (n by 5) at z."""
     start = curve_start(alpha, x0)
@@ -234,19 +355,34 @@ def normal_equations(z, y, w, a, alpha, Fd, x0, jtj, jtr):
     """Sum of squared weighted residuals; J^T J into jtj (4x4) and J^T r into jtr (4).
 
     The fits' fused pass: r = w (F - y), J = dr/d(a, alpha, Fd, x0), paper initial condition,
-    held below x0. One pass, scalar accumulators, no n-by-4 array.
+    held below x0. One pass, block by block: D and the decay term from the SIMD formulas
+    (:func:`_plain_block`), then the derivatives into scalar accumulators; no n-by-4 array.
     """
     start = curve_start(alpha, x0)
-    s0 = start[0]
+    s0, exp_minus_s0 = start[0], start[2]
     cost = 0.0
     g0 = g1 = g2 = g3 = 0.0
     h00 = h01 = h02 = h03 = h11 = h12 = h13 = h22 = h23 = h33 = 0.0
+    diff = np.empty(_BLOCK)
+    decay = np.empty(_BLOCK)
     for i in range(z.shape[0]):
+        if i % _BLOCK == 0:
+            _plain_block(z, i, min(i + _BLOCK, z.shape[0]), alpha, start, diff, decay)
         zi = z[i]
         s = alpha * zi
-        F, j0, j1, j2, j3, _ = point(
-            zi, s, math.exp(s0 - s), a, alpha, Fd, x0, 0.0, True, zi <= x0, start
-        )
+        h = s - s0
+        if zi > x0 and _is_plain(s, h):
+            d, e = diff[i % _BLOCK], decay[i % _BLOCK]
+            rise_h = -math.expm1(-h) if h < _t.SMALL_LIMIT else 1.0 - e
+            F = a * d + Fd * _rise(s, e * exp_minus_s0)
+            j0 = d
+            j1 = a * (rise_h / alpha - zi * d) + Fd * zi * e * exp_minus_s0
+            j2 = _rise(s, e * exp_minus_s0)
+            j3 = -a * e / x0
+        else:
+            F, j0, j1, j2, j3, _ = point(
+                zi, s, math.exp(s0 - s), a, alpha, Fd, x0, 0.0, True, zi <= x0, start
+            )
         wi = w[i]
         r = wi * (F - y[i])
         j0 *= wi
