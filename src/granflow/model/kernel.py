@@ -30,6 +30,7 @@ Python):
 
 import math
 
+import numba
 import numpy as np
 
 from granflow.model import _ei_tables as _t
@@ -350,46 +351,20 @@ def jacobian_loop(z, a, alpha, Fd, x0, offset, paper, hold, F, J):
         )
 
 
-@compiled
-def normal_equations(z, y, w, a, alpha, Fd, x0, jtj, jtr):
-    """Sum of squared weighted residuals; J^T J into jtj (4x4) and J^T r into jtr (4).
+#: The sums of the normal equations over a block of weighted residuals and Jacobian rows
+#: (rows 0..4: r, then d r / d(a, alpha, Fd, x0)) may be reordered into SIMD partial sums:
+#: deterministic, and different from the sequential sum by rounding only.
+_summed = numba.njit(cache=True, error_model="numpy", nogil=True, fastmath={"contract", "reassoc"})
 
-    The fits' fused pass: r = w (F - y), J = dr/d(a, alpha, Fd, x0), paper initial condition,
-    held below x0. One pass, block by block: D and the decay term from the SIMD formulas
-    (:func:`_plain_block`), then the derivatives into scalar accumulators; no n-by-4 array.
-    """
-    start = curve_start(alpha, x0)
-    s0, exp_minus_s0 = start[0], start[2]
-    cost = 0.0
-    g0 = g1 = g2 = g3 = 0.0
+
+@_summed
+def _accumulate(rows, count, sums):
+    """sums += (r.r, J^T r (4), upper J^T J (10)) over the first ``count`` columns of rows."""
+    c = g0 = g1 = g2 = g3 = 0.0
     h00 = h01 = h02 = h03 = h11 = h12 = h13 = h22 = h23 = h33 = 0.0
-    diff = np.empty(_BLOCK)
-    decay = np.empty(_BLOCK)
-    for i in range(z.shape[0]):
-        if i % _BLOCK == 0:
-            _plain_block(z, i, min(i + _BLOCK, z.shape[0]), alpha, start, diff, decay)
-        zi = z[i]
-        s = alpha * zi
-        h = s - s0
-        if zi > x0 and _is_plain(s, h):
-            d, e = diff[i % _BLOCK], decay[i % _BLOCK]
-            rise_h = -math.expm1(-h) if h < _t.SMALL_LIMIT else 1.0 - e
-            F = a * d + Fd * _rise(s, e * exp_minus_s0)
-            j0 = d
-            j1 = a * (rise_h / alpha - zi * d) + Fd * zi * e * exp_minus_s0
-            j2 = _rise(s, e * exp_minus_s0)
-            j3 = -a * e / x0
-        else:
-            F, j0, j1, j2, j3, _ = point(
-                zi, s, math.exp(s0 - s), a, alpha, Fd, x0, 0.0, True, zi <= x0, start
-            )
-        wi = w[i]
-        r = wi * (F - y[i])
-        j0 *= wi
-        j1 *= wi
-        j2 *= wi
-        j3 *= wi
-        cost += r * r
+    for k in range(count):
+        r, j0, j1, j2, j3 = rows[0, k], rows[1, k], rows[2, k], rows[3, k], rows[4, k]
+        c += r * r
         g0 += j0 * r
         g1 += j1 * r
         g2 += j2 * r
@@ -404,15 +379,68 @@ def normal_equations(z, y, w, a, alpha, Fd, x0, jtj, jtr):
         h22 += j2 * j2
         h23 += j2 * j3
         h33 += j3 * j3
-    jtr[0], jtr[1], jtr[2], jtr[3] = g0, g1, g2, g3
-    jtj[0, 0], jtj[1, 1], jtj[2, 2], jtj[3, 3] = h00, h11, h22, h33
-    jtj[0, 1] = jtj[1, 0] = h01
-    jtj[0, 2] = jtj[2, 0] = h02
-    jtj[0, 3] = jtj[3, 0] = h03
-    jtj[1, 2] = jtj[2, 1] = h12
-    jtj[1, 3] = jtj[3, 1] = h13
-    jtj[2, 3] = jtj[3, 2] = h23
-    return cost
+    totals = (c, g0, g1, g2, g3, h00, h01, h02, h03, h11, h12, h13, h22, h23, h33)
+    for m, value in enumerate(totals):
+        sums[m] += value
+
+
+@compiled
+def normal_equations(z, y, w, a, alpha, Fd, x0, jtj, jtr):
+    """Sum of squared weighted residuals; J^T J into jtj (4x4) and J^T r into jtr (4).
+
+    The fits' fused pass: r = w (F - y), J = dr/d(a, alpha, Fd, x0), paper initial condition,
+    held below x0. Block by block: D and the decay term from the SIMD formulas
+    (:func:`_plain_block`), the residuals and Jacobian rows in SIMD code, the few points where
+    those formulas do not hold (and dF/dalpha where 1 - exp(-h) cancels) patched with
+    :func:`point`, then the sums (:func:`_accumulate`); no n-by-4 array.
+    """
+    start = curve_start(alpha, x0)
+    s0, exp_minus_s0 = start[0], start[2]
+    diff = np.empty(_BLOCK)
+    decay = np.empty(_BLOCK)
+    rows = np.empty((5, _BLOCK))
+    sums = np.zeros(15)
+    for lo in range(0, z.shape[0], _BLOCK):
+        hi = min(lo + _BLOCK, z.shape[0])
+        _plain_block(z, lo, hi, alpha, start, diff, decay)
+        for i in range(lo, hi):
+            k = i - lo
+            zi, d, e, wi = z[i], diff[k], decay[k], w[i]
+            rise = _rise(alpha * zi, e * exp_minus_s0)
+            rows[0, k] = wi * (a * d + Fd * rise - y[i])
+            rows[1, k] = wi * d
+            rows[2, k] = wi * (a * ((1.0 - e) / alpha - zi * d) + Fd * zi * e * exp_minus_s0)
+            rows[3, k] = wi * rise
+            rows[4, k] = wi * (-a * e / x0)
+        for i in range(lo, hi):
+            zi = z[i]
+            s = alpha * zi
+            h = s - s0
+            plain = zi > x0 and _is_plain(s, h)
+            if plain and h >= _t.SMALL_LIMIT:
+                continue
+            k = i - lo
+            wi = w[i]
+            if plain:  # 1 - exp(-h) cancels: dF/dalpha with expm1
+                d, e = diff[k], decay[k]
+                d_alpha = a * (-math.expm1(-h) / alpha - zi * d) + Fd * zi * e * exp_minus_s0
+                rows[2, k] = wi * d_alpha
+                continue
+            F, j0, j1, j2, j3, _ = point(
+                zi, s, math.exp(s0 - s), a, alpha, Fd, x0, 0.0, True, zi <= x0, start
+            )
+            rows[0, k] = wi * (F - y[i])
+            rows[1, k], rows[2, k], rows[3, k], rows[4, k] = wi * j0, wi * j1, wi * j2, wi * j3
+        _accumulate(rows, hi - lo, sums)
+    jtr[0], jtr[1], jtr[2], jtr[3] = sums[1], sums[2], sums[3], sums[4]
+    jtj[0, 0], jtj[1, 1], jtj[2, 2], jtj[3, 3] = sums[5], sums[9], sums[12], sums[14]
+    jtj[0, 1] = jtj[1, 0] = sums[6]
+    jtj[0, 2] = jtj[2, 0] = sums[7]
+    jtj[0, 3] = jtj[3, 0] = sums[8]
+    jtj[1, 2] = jtj[2, 1] = sums[10]
+    jtj[1, 3] = jtj[3, 1] = sums[11]
+    jtj[2, 3] = jtj[3, 2] = sums[13]
+    return sums[0]
 
 
 @compiled
