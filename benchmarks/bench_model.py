@@ -11,7 +11,10 @@ Rows (one thread unless said):
 * ``kernel.eq3_values`` -- the fused compiled pass (scaled argument, decay term and Ei part
   in one SIMD pass);
 * ``kernel.eq3_loop`` after NumPy's ``s`` and ``exp`` (the two-pass kernel it replaces);
-* ``granflow.friction_time`` (1 thread and all threads) -- the public function.
+* ``granflow.friction_time`` (1 thread and all threads) -- the public function;
+* on one scalar: the naive formula on a float64 (``math`` and ``scipy.special.expi``), the
+  compiled scalar paths ``kernel.general_value`` and ``kernel.eq3_scalar``, and
+  ``granflow.friction_time(float)``.
 """
 
 import math
@@ -113,6 +116,11 @@ def scalars():
         for _ in range(SCALAR_CALLS):
             kernel.general_value(t, A, K, FD, T0, FD * -math.expm1(-s0))
 
+    def scalar():
+        lowest = T0 * (1.0 - 1e-12)
+        for _ in range(SCALAR_CALLS):
+            kernel.eq3_scalar(t, VELOCITY, lowest, T0, p.a, p.alpha, p.Fd, p.x0, 0.0, True, False)
+
     def public():
         for _ in range(SCALAR_CALLS):
             gf.friction_time(t, PARAMS, VELOCITY)
@@ -120,7 +128,8 @@ def scalars():
     best = interleaved(
         {
             "naive formula on a float64 (math + expi)": naive,
-            "kernel.general_value (compiled scalar)": general,
+            "kernel.general_value (the simulator's)": general,
+            "kernel.eq3_scalar (the model functions')": scalar,
             "granflow.friction_time(float)": public,
         },
         repeats=7,

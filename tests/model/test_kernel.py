@@ -160,6 +160,22 @@ def test_fused_values_in_the_time_domain_hold_and_report_the_first_bad_point():
     )
 
 
+def test_scalar_path_is_the_fused_pass_at_one_point():
+    velocity = 0.86e-6
+    t0 = X0 / velocity
+    t = np.array([0.5 * t0, t0, 1.001 * t0, 3 * t0, 10.0, 1e4])
+    out = np.empty_like(t)
+    for paper, offset in ((True, 0.0), (False, -2e-3)):
+        args = (velocity, -math.inf, t0, A, ALPHA, FD, X0, offset, paper, True)
+        kernel.eq3_values(t, *args, out)
+        for i, ti in enumerate(t):
+            assert kernel.eq3_scalar(ti, *args) == pytest.approx(out[i], rel=1e-14)
+    lowest = t0 * (1 - 1e-12)
+    for bad in (math.nan, math.inf, 0.5 * t0):
+        args = (velocity, lowest, t0, A, ALPHA, FD, X0, 0.0, True, False)
+        assert math.isnan(kernel.eq3_scalar(bad, *args))
+
+
 def test_normal_equations_match_the_jacobian_loop():
     rng = np.random.default_rng(0)
     z = np.concatenate([[0.5 * X0, X0], np.geomspace(1.0001 * X0, 1e-3, 1000)])

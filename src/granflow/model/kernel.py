@@ -24,6 +24,8 @@ Python):
 * :func:`curve_start` ``(alpha, x0)`` -- the per-curve constants :func:`point` takes;
 * :func:`point` -- value and the derivatives in (a, alpha, Fd, x0, F_init) at one point,
   :func:`point_value` the value alone;
+* :func:`eq3_values` -- F over an array in one fused SIMD pass (the scaled argument and the
+  decay term computed in it), :func:`eq3_scalar` the same at one point without arrays;
 * :func:`eq3_loop`, :func:`jacobian_loop`, :func:`normal_equations` -- loops over arrays;
 * :func:`general_value` ``(z, a, alpha, Fd, z0, F_init)`` -- F from any state (the simulator).
 """
@@ -51,6 +53,7 @@ __all__ = [
     "check_below",
     "curve_start",
     "eq3_loop",
+    "eq3_scalar",
     "eq3_values",
     "general_value",
     "jacobian_loop",
@@ -336,6 +339,18 @@ def eq3_values(z, scale, lowest, z0, a, alpha, Fd, x0, offset, paper, hold, out)
             return i
         out[i] = point_value(s, math.exp(s0 - s), a, Fd, offset, paper, hold and zi <= z0, start)
     return -1
+
+
+@compiled
+def eq3_scalar(z, scale, lowest, z0, a, alpha, Fd, x0, offset, paper, hold):
+    """F at one z, as :func:`eq3_values` takes its arguments, without arrays: the scalar path
+    of the model functions, the simulator and root finders. NaN where z is not finite or
+    lies below ``lowest`` (the caller names the problem)."""
+    if not (z >= lowest and z < math.inf):
+        return math.nan
+    start = curve_start(alpha, x0)
+    s = alpha * (scale * z)
+    return point_value(s, math.exp(start[0] - s), a, Fd, offset, paper, hold and z <= z0, start)
 
 
 @compiled
