@@ -184,28 +184,48 @@ def test_python_m_granflow(tmp_path):
 
 
 # The analysis of the small campaign takes well under a second, too fast to stop from the
-# outside: the subprocess slows each run down before calling the real command line.
-_SLOW_CLI = """
-import sys, time
+# outside on the clock. Instead the subprocess stops at a known point: the fourth run's
+# analysis opens a named pipe for reading, which blocks until a writer opens it, and the test
+# opens it only after the signal has been sent. So exactly three runs are saved when the
+# signal arrives, whatever the load of the machine; no hook in the production code.
+_BLOCKING_CLI = """
+import sys
 import granflow.analysis.engine as analysis
 analyse_run = analysis.analyse_run
-def slow(task):
-    time.sleep(0.4)
+started = 0
+def stop_at_the_fourth(task):
+    global started
+    started += 1
+    if started == 4:
+        with open({barrier!r}, encoding="utf-8") as barrier:
+            barrier.read()
     return analyse_run(task)
-analysis.analyse_run = slow
+analysis.analyse_run = stop_at_the_fourth
 from granflow.cli import main
 sys.exit(main(sys.argv[1:]))
 """
 
 
+def _release(barrier):
+    """Unblock a reader of the named pipe ``barrier``, if one still waits on it."""
+    try:
+        descriptor = os.open(barrier, os.O_WRONLY | os.O_NONBLOCK)
+    except OSError:  # ENXIO: the signal already took the reader out of open()
+        return
+    os.close(descriptor)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes (POSIX)")
 @pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_stopped_analysis_resumes_with_the_same_results(campaign, reference, tmp_path, stop):
     output = tmp_path / "out"
+    barrier = tmp_path / "barrier"
+    os.mkfifo(barrier)
     process = subprocess.Popen(
         [
             sys.executable,
             "-c",
-            _SLOW_CLI,
+            _BLOCKING_CLI.format(barrier=str(barrier)),
             "analyze",
             str(campaign),
             "-o",
@@ -218,24 +238,29 @@ def test_stopped_analysis_resumes_with_the_same_results(campaign, reference, tmp
         stderr=subprocess.PIPE,
         text=True,
     )
-    deadline = time.monotonic() + 120
-    while len(list((output / "runs").glob("*.json"))) < 3:
-        assert process.poll() is None, process.communicate()
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-    process.send_signal(stop)
-    _, err = process.communicate(timeout=60)
+    try:
+        # a guard against a hang, not a timing assumption: the subprocess cannot pass the
+        # barrier, so the three records are all there will be until the signal
+        deadline = time.monotonic() + 600
+        while len(list((output / "runs").glob("*.json"))) < 3:
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        process.send_signal(stop)
+    finally:
+        _release(barrier)
+    _, err = process.communicate(timeout=600)
     assert process.returncode == 130, err
     assert "--resume" in err
     records = list((output / "runs").glob("*.json"))
-    assert 3 <= len(records) < RUNS
+    assert len(records) == 3
     for record in records:
         json.loads(record.read_text(encoding="utf-8"))  # complete, never half-written
     assert not list(output.rglob("*.tmp"))
     code = main(["analyze", str(campaign), "-o", str(output), "--resume", "--jobs", "2", "--quiet"])
     assert code == 0
     timing = json.loads((output / "results.json").read_text(encoding="utf-8"))["timing"]
-    assert (timing["fitted_now"], timing["reused"]) == (RUNS - len(records), len(records))
+    assert (timing["fitted_now"], timing["reused"]) == (RUNS - 3, 3)
     assert without_timing(output) == without_timing(reference)
 
 

@@ -25,6 +25,17 @@ def reference(z, a, alpha, Fd, x0, F_init=None):
     return Fd + (mp.mpf(F_init) - Fd) * mp.exp(-(s - s0)) + aging
 
 
+def reference_scaled(s, s0, a, Fd, F_init=None):
+    """Eq. 3 at 40 digits from the scaled arguments themselves (s = alpha z, s0 = alpha x0 as
+    rounded to doubles): next to s0, the rounding of alpha z alone moves F by more than
+    1e-13, whatever the formula."""
+    s, s0, a, Fd = (mp.mpf(v) for v in (s, s0, a, Fd))
+    aging = a * mp.exp(-s) * (mp.ei(s) - mp.ei(s0))
+    if F_init is None:
+        return aging + Fd * (1 - mp.exp(-s))
+    return Fd + (mp.mpf(F_init) - Fd) * mp.exp(-(s - s0)) + aging
+
+
 def point(z, F_init=None, held=False, params=(A, ALPHA, FD, X0)):
     a, alpha, Fd, x0 = params
     start = kernel.curve_start(alpha, x0)
@@ -88,12 +99,86 @@ def test_general_value_matches_mpmath_and_friction_slip():
         value = kernel.general_value(z, A, ALPHA, FD, X0, 8e-3)
         expected = float(reference(z, A, ALPHA, FD, X0, 8e-3))
         assert abs(value - expected) <= 1e-14 * abs(expected)
-        assert value == gf.friction_slip(z, gf.Params(A, ALPHA, FD, X0), F_init=8e-3)
+        assert value == pytest.approx(
+            gf.friction_slip(z, gf.Params(A, ALPHA, FD, X0), F_init=8e-3), rel=1e-14
+        )
+
+
+def fused_grid(x0, alpha, rng):
+    """Slips over every region of the SIMD pass for the initial state x0: s <= 1e-3, the power
+    series (next to s0 and far from it), the tables, the large-s fit, in shuffled order,
+    with runs of sorted points (blocks within one piece of the table)."""
+    s0 = alpha * x0
+    scattered = np.concatenate(
+        [
+            s0 * (1.0 + np.geomspace(1e-9, 1.0, 40)),
+            np.geomspace(max(2 * s0, 1e-4), 0.5, 30),
+            np.geomspace(0.5, 700.0, 50),
+            s0 + np.geomspace(1e-9, 2.0, 20),
+        ]
+    )
+    scattered = scattered[scattered > s0]
+    sorted_run = np.linspace(max(2.0, 1.01 * s0), max(2.0, 1.01 * s0) + 0.01, 300)
+    return np.concatenate([rng.permutation(scattered), sorted_run]) / alpha
+
+
+@pytest.mark.parametrize("F_init", [None, 7e-3])
+@pytest.mark.parametrize("x0", [X0, 1e-9, 2e-5])  # s0 = 8.3e-3, 4.2e-5 and 0.84
+def test_fused_values_match_mpmath_in_every_region(x0, F_init):
+    rng = np.random.default_rng(1)
+    z = fused_grid(x0, ALPHA, rng)
+    paper = F_init is None
+    offset = 0.0 if paper else F_init - FD
+    out = np.empty_like(z)
+    bad = kernel.eq3_values(z, 1.0, x0, x0, A, ALPHA, FD, x0, offset, paper, False, out)
+    assert bad == -1
+    checked = np.concatenate([np.arange(0, z.size, 3), np.arange(z.size - 300, z.size, 50)])
+    for i in checked:
+        expected = float(reference_scaled(ALPHA * (1.0 * z[i]), ALPHA * x0, A, FD, F_init))
+        assert abs(out[i] - expected) <= 1e-13 * abs(expected), (z[i] * ALPHA, x0)
+
+
+def test_fused_values_in_the_time_domain_hold_and_report_the_first_bad_point():
+    velocity = 0.86e-6
+    t0 = X0 / velocity
+    t = np.array([0.5 * t0, t0, 3 * t0, 10.0, 100.0])
+    out = np.empty_like(t)
+    bad = kernel.eq3_values(t, velocity, -math.inf, t0, A, ALPHA, FD, X0, 0.0, True, True, out)
+    assert bad == -1
+    assert out[0] == out[1] == gf.initial_force(gf.Params(A, ALPHA, FD, X0))
+    for i in (2, 3, 4):
+        expected = float(reference(t[i] * velocity, A, ALPHA, FD, X0))
+        assert out[i] == pytest.approx(expected, rel=1e-13)
+    t_bad = np.array([10.0, math.nan, 0.1 * t0, 20.0])
+    lowest = t0 * (1 - 1e-12)
+    assert (
+        kernel.eq3_values(t_bad, velocity, lowest, t0, A, ALPHA, FD, X0, 0.0, True, False, out) == 1
+    )
+    t_low = np.array([10.0, 0.1 * t0])
+    assert (
+        kernel.eq3_values(t_low, velocity, lowest, t0, A, ALPHA, FD, X0, 0.0, True, False, out) == 1
+    )
+
+
+def test_scalar_path_is_the_fused_pass_at_one_point():
+    velocity = 0.86e-6
+    t0 = X0 / velocity
+    t = np.array([0.5 * t0, t0, 1.001 * t0, 3 * t0, 10.0, 1e4])
+    out = np.empty_like(t)
+    for paper, offset in ((True, 0.0), (False, -2e-3)):
+        args = (velocity, -math.inf, t0, A, ALPHA, FD, X0, offset, paper, True)
+        kernel.eq3_values(t, *args, out)
+        for i, ti in enumerate(t):
+            assert kernel.eq3_scalar(ti, *args) == pytest.approx(out[i], rel=1e-14)
+    lowest = t0 * (1 - 1e-12)
+    for bad in (math.nan, math.inf, 0.5 * t0):
+        args = (velocity, lowest, t0, A, ALPHA, FD, X0, 0.0, True, False)
+        assert math.isnan(kernel.eq3_scalar(bad, *args))
 
 
 def test_normal_equations_match_the_jacobian_loop():
     rng = np.random.default_rng(0)
-    z = np.concatenate([[0.5 * X0, X0], np.geomspace(2 * X0, 1e-3, 200)])
+    z = np.concatenate([[0.5 * X0, X0], np.geomspace(1.0001 * X0, 1e-3, 1000)])
     y = rng.normal(0.01, 1e-3, z.size)
     w = rng.uniform(0.5, 2.0, z.size)
     F, J = np.empty(z.size), np.empty((z.size, 5))

@@ -86,3 +86,28 @@ def test_diff_is_antisymmetric_in_the_unscaled_sense():
     assert scaled_ei_diff(x, x0) == pytest.approx(
         -np.exp(-(x - x0)) * scaled_ei_diff(x0, x), rel=1e-14
     )
+
+
+def test_simd_exp_log_and_log1p_match_mpmath():
+    import numba
+
+    from granflow.model.special import simd_exp, simd_log, simd_log1p
+
+    @numba.njit
+    def apply(x):
+        out = np.empty((3, x.size))
+        for i in range(x.size):
+            out[0, i] = simd_exp(x[i])
+            out[1, i] = simd_log(abs(x[i]) + 1e-300)
+            out[2, i] = simd_log1p(x[i] / 800.0)
+        return out
+
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.uniform(-708.0, 709.0, 300), [-1e-12, 0.0, 1e-15, 1e-8, -0.3]])
+    exp, log, log1p = apply(x)
+    for i, value in enumerate(x):
+        assert exp[i] == pytest.approx(float(mp.exp(value)), rel=3e-16, abs=0.0)
+        expected_log = float(mp.log(abs(mp.mpf(value)) + mp.mpf(1e-300)))
+        assert log[i] == pytest.approx(expected_log, rel=3e-16, abs=3e-16)
+        assert log1p[i] == pytest.approx(float(mp.log1p(mp.mpf(value) / 800)), rel=3e-16)
+    assert apply(np.array([-800.0]))[0, 0] == 0.0

@@ -240,18 +240,25 @@ def curve_features(z, y):
     }
 
 
-def _x0_from_rise(z, y, smooth, index, a, alpha, Fd):
-    """x0 such that the model passes through the smoothed curve half-way up the rise.
+def _rise_point(z, y, smooth, index):
+    """(z, force) half-way up the rise: the first smoothed point above half the peak, with
+    the raw data around it (a running mean is biased upwards on a steep rise)."""
+    half = 0.5 * smooth[index]
+    rising = np.nonzero(smooth[: index + 1] >= half)[0]
+    point = int(rising[0]) if rising.size else index
+    return float(z[point]), float(np.mean(y[max(point - 1, 0) : point + 2]))
+
+
+_X0_TRIALS = np.exp(-np.linspace(26.0, 1e-6, 64))  # x0 from 5e-12 z_rise to z_rise
+
+
+def _x0_from_rise(z_rise, f_rise, a, alpha, Fd):
+    """x0 such that the model passes through the rise point ``(z_rise, f_rise)``.
 
     F at that point decreases monotonically with x0; it is evaluated for 64 trial values of
     x0 in one vectorised call and the crossing is interpolated in log x0.
     """
-    half = 0.5 * smooth[index]
-    rising = np.nonzero(smooth[: index + 1] >= half)[0]
-    point = int(rising[0]) if rising.size else index
-    # the raw data near the point: a running mean is biased upwards on a steep rise
-    z_rise, f_rise = float(z[point]), float(np.mean(y[max(point - 1, 0) : point + 2]))
-    trial = z_rise * np.exp(-np.linspace(26.0, 1e-6, 64))  # x0 from 5e-12 z_rise to z_rise
+    trial = z_rise * _X0_TRIALS
     s, s0 = alpha * z_rise, alpha * trial
     force = a * scaled_ei_diff(s, s0) - Fd * math.expm1(-s)
     above = np.nonzero(force <= f_rise)[0]
@@ -268,11 +275,12 @@ def start_candidates(z, y, fixed, features):
     Fd = fixed.get("Fd", max(features["plateau"], 0.0))
     overshoot = max(features["peak_force"] - Fd, features["overshoot"], 1e-12)
     z_peak = max(features["peak_z"], z[0])
+    z_rise, f_rise = _rise_point(z, y, features["smooth"], features["peak_index"])
     candidates = []
     for peak_slip in _START_PEAK_SLIPS:
         alpha = fixed.get("alpha", peak_slip / z_peak)
         a = fixed.get("a", overshoot * alpha * z_peak)
-        rise = _x0_from_rise(z, y, features["smooth"], features["peak_index"], a, alpha, Fd)
+        rise = _x0_from_rise(z_rise, f_rise, a, alpha, Fd)
         # the initial state from the rise, or just before the first point
         for x0 in (rise, 0.5 * z[0]):
             candidates.append((a, alpha, Fd, fixed.get("x0", x0)))

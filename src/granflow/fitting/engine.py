@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
+from granflow.fitting import _eq3_solver
 from granflow.fitting.results import FrozenMap as FrozenMap  # re-exported for callers
 from granflow.model import kernel
 
@@ -77,10 +78,7 @@ def _eq3_normal(z, y, w, a, alpha, Fd, x0):
 def model_only(z, a, alpha, Fd, x0):
     """F [N] of Eq. 3 (paper initial condition) at the points z, held at F(x0) below x0."""
     F = np.empty(z.shape[0])
-    s0 = alpha * x0
-    s = alpha * z
-    decay = np.exp(s0 - s)
-    kernel.eq3_loop(z, s, decay, -math.inf, x0, a, alpha, Fd, x0, 0.0, True, True, F)
+    kernel.eq3_values(z, 1.0, -math.inf, x0, a, alpha, Fd, x0, 0.0, True, True, F)
     return F
 
 
@@ -190,6 +188,13 @@ class Problem:
             (slot, 1.0) for slot in range(len(parameters))
         ]
         self._plans = {}
+        self._strided = {}  # stride: every stride-th point of each curve, for chisqr
+        # one Eq. 3 curve whose slots are the global parameters: the compiled solver's case
+        self._compiled = self._identity and self.model is EQ3
+        if self._compiled:
+            curve = curves[0]
+            data = (curve.z, curve.y, curve.w)
+            self._data = tuple(np.ascontiguousarray(a, dtype=float) for a in data)
 
     def natural(self, u, order):
         """Global values with the parameters ``order`` set from internal coordinates ``u``,
@@ -324,10 +329,57 @@ class Problem:
             self._plans[key] = plan
         full_order, order_array, block = plan
         full_u = np.concatenate([u, list(pinned.values())]) if pinned else u
+        if self._compiled:
+            return _eq3_solver.eq3_state(
+                *self._data,
+                self._base,
+                self._scale,
+                self._log,
+                full_order,
+                np.asarray(full_u, dtype=float),
+                order_array.size,
+            )
         values, chain = self.natural(full_u, full_order)
         cost, gradient, hessian = self.normal(values)
         chain = chain[: order_array.size]
         return cost, gradient[order_array] * chain, hessian[block] * np.outer(chain, chain)
+
+    def gauss_newton(self, u_start, order, pinned, tolerance, max_steps=4):
+        """Minimum of chi-square over ``order`` (``pinned`` held) next to ``u_start``.
+
+        At most ``max_steps`` Gauss-Newton steps (it converges quadratically there), until a
+        step's predicted decrease is below ``tolerance``. Returns (u, chi-square), with
+        chi-square None when it did not get there (a singular or non-finite step).
+        """
+        if self._compiled:
+            full_order = np.array(list(order) + list(pinned), dtype=np.int64)
+            start = np.concatenate([np.asarray(u_start, dtype=float), list(pinned.values())])
+            u, chisqr, found = _eq3_solver.eq3_gauss_newton(
+                *self._data,
+                self._base,
+                self._scale,
+                self._log,
+                full_order,
+                start,
+                len(order),
+                tolerance,
+                max_steps,
+            )
+            return u, (float(chisqr) if found else None)
+        u = u_start
+        for _ in range(max_steps):
+            cost, g, H = self.state(u, order, pinned)
+            try:
+                step = np.linalg.solve(H, -g)
+            except np.linalg.LinAlgError:
+                break
+            decrease = -0.5 * float(g @ step)
+            if not (math.isfinite(cost) and decrease >= 0.0):
+                break
+            u = u + step
+            if decrease < tolerance:
+                return u, cost - decrease
+        return u, None
 
     def lm(self, u_start, order=None, pinned=None, max_iter=100, rtol=1e-10, damping=1e-2):
         """Levenberg-Marquardt on the normal equations (one fused kernel pass per step).
@@ -337,6 +389,25 @@ class Problem:
         """
         order = list(self.free if order is None else order)
         bounds = np.array([self.parameters[i].internal_bounds() for i in order]).reshape(-1, 2).T
+        if self._compiled:
+            pinned = pinned or {}
+            full_order = np.array(order + list(pinned), dtype=np.int64)
+            start = np.concatenate([np.asarray(u_start, dtype=float), list(pinned.values())])
+            u, cost, converged, steps, hessian = _eq3_solver.eq3_lm(
+                *self._data,
+                self._base,
+                self._scale,
+                self._log,
+                full_order,
+                start,
+                len(order),
+                np.ascontiguousarray(bounds[0]),
+                np.ascontiguousarray(bounds[1]),
+                max_iter,
+                rtol,
+                damping,
+            )
+            return u, float(cost), bool(converged), int(steps), hessian
         u = np.clip(np.array(u_start, dtype=float), bounds[0], bounds[1])
 
         def state(u):
@@ -390,11 +461,15 @@ class Problem:
     def chisqr(self, values, stride=1):
         """Weighted sum of squared residuals (every ``stride``-th point only, for ranking)."""
         if stride > 1:
+            if stride not in self._strided:
+                self._strided[stride] = [
+                    tuple(np.ascontiguousarray(a[::stride]) for a in (c.z, c.y, c.w))
+                    for c in self.curves
+                ]
             total = 0.0
-            for curve, (index, factor) in zip(self.curves, self._links, strict=True):
-                z = np.ascontiguousarray(curve.z[::stride])
-                F = self.model.function(z, *(values[index] * factor))
-                total += float(np.sum((curve.w[::stride] * (F - curve.y[::stride])) ** 2))
+            for (z, y, w), (index, factor) in zip(self._strided[stride], self._links, strict=True):
+                residuals = w * (self.model.function(z, *(values[index] * factor)) - y)
+                total += float(residuals @ residuals)
             return total
         return self._chisqr(values)
 

@@ -80,22 +80,9 @@ def profile_interval(
             pinned = {index: u}
             if others:
                 u_found = u_others_start + follow * (u - u_last)
-                chisqr = None
-                for _ in range(4):
-                    cost, g, H = problem.state(u_found, others, pinned)
-                    try:
-                        step = np.linalg.solve(H, -g)
-                        decrease = -0.5 * float(g @ step)
-                    except np.linalg.LinAlgError:
-                        break
-                    if not (math.isfinite(cost) and decrease >= 0.0):
-                        break
-                    if decrease < 0.02 * variance:
-                        # so close that one Gauss-Newton step's quadratic model gives the
-                        # conditional minimum to far better than 1e-3 of 3.84 variance
-                        u_found, chisqr = u_found + step, cost - decrease
-                        break
-                    u_found = u_found + step  # Gauss-Newton converges quadratically here
+                # the tolerance: so close that one Gauss-Newton step's quadratic model gives
+                # the conditional minimum to far better than 1e-3 of 3.84 variance
+                u_found, chisqr = problem.gauss_newton(u_found, others, pinned, 0.02 * variance)
                 if chisqr is None:
                     u_found, chisqr, *_ = problem.lm(
                         u_found, others, pinned, max_iter=30, rtol=1e-9

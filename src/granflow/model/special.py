@@ -40,13 +40,22 @@ __all__ = [
     "scaled_ei",
     "scaled_ei_diff",
     "scaled_ei_diff_scalar",
+    "scaled_ei_piece",
     "scaled_ei_scalar",
+    "scaled_ei_simd",
+    "simd_exp",
+    "simd_log",
+    "simd_log1p",
 ]
 
 _SERIES = _t.SERIES[::-1].copy()  # highest power first, for Horner's rule
 _ROOT_TAYLOR = _t.ROOT_TAYLOR[::-1].copy()
 _MIDDLE = _t.MIDDLE[:, ::-1].copy()
 _LARGE = _t.LARGE[::-1].copy()
+#: The middle parts and the large-x fit in one table (the same degree), so that one indexed
+#: polynomial serves both regions without a branch.
+_TABLE = np.vstack([_t.MIDDLE, _t.LARGE[None, :]])[:, ::-1].copy()
+_LARGE_ROW = _t.MIDDLE.shape[0]
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(12)
 _GL_NODES = 0.5 * (_GL_NODES + 1.0)  # on [0, 1]
 _GL_WEIGHTS = 0.5 * _GL_WEIGHTS
@@ -70,6 +79,16 @@ def _float_bits(typingctx, value):
     return numba.types.int64(numba.types.float64), codegen
 
 
+@intrinsic
+def _bits_float(typingctx, bits):
+    """The float64 whose IEEE-754 bit pattern is the int64 ``bits`` (a free reinterpretation)."""
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return numba.types.float64(numba.types.int64), codegen
+
+
 _FRACTION_BITS = 52
 _PART_BITS = 4  # 2**4 = 16 parts per octave: the top fraction bits select the part
 _REST_BITS = _FRACTION_BITS - _PART_BITS
@@ -77,6 +96,67 @@ _REST_SCALE = 2.0 ** (1 - _REST_BITS)  # maps the remaining fraction bits onto [
 _EXPONENT_OF_HALF = 1022  # biased exponent of 0.5
 if _t.PARTS_PER_OCTAVE != 1 << _PART_BITS:
     raise ImportError("granflow._ei_tables does not match special.py: regenerate the tables")
+
+
+# exp and log without branches or library calls, so that loops over them compile to SIMD code
+# (Numba's math.exp and math.log are scalar calls); both agree with the C library to 1 ulp.
+_LOG2E = 1.4426950408889634
+_LN2_HI = 6.93147180369123816490e-01  # ln 2 in two parts: n * _LN2_HI is exact for |n| < 2**11
+_LN2_LO = 1.90821492927058770002e-10
+_SHIFTER = 6755399441055744.0  # 1.5 * 2**52: adding it rounds to an integer kept in the low bits
+_EXP_TAYLOR = np.array([1.0 / math.factorial(k) for k in range(13, -1, -1)])  # |r| <= ln2 / 2
+_ATANH_ODD = np.array([2.0 / (2 * k + 1) for k in range(12, -1, -1)])  # 2 atanh(f) / f in f^2
+_SQRT2 = math.sqrt(2.0)
+
+
+@compiled_inline
+def simd_exp(x):
+    """exp(x) for any x (0 below -708, the value at 709 above): branch-free, vectorisable.
+
+    ``x = n ln2 + r`` with |r| <= ln2 / 2 (Cody-Waite), a degree-13 Taylor polynomial of
+    exp(r) (truncation 5e-18 relative) and 2**n built from its bits.
+    """
+    clipped = min(max(x, -708.0), 709.0)
+    shifted = clipped * _LOG2E + _SHIFTER
+    n = shifted - _SHIFTER
+    r = (clipped - n * _LN2_HI) - n * _LN2_LO
+    acc = 0.0
+    for k in range(_EXP_TAYLOR.shape[0]):
+        acc = acc * r + _EXP_TAYLOR[k]
+    power = _bits_float((_float_bits(shifted) + 1023) << _FRACTION_BITS)
+    return acc * power if x >= -708.0 else 0.0
+
+
+@compiled_inline
+def simd_log(x):
+    """log(x) for a normal positive x: branch-free, vectorisable.
+
+    ``x = 2**e m`` with m in [sqrt(1/2), sqrt(2)); log m = 2 atanh(f), f = (m - 1)/(m + 1),
+    |f| < 0.172, as an odd series of 13 terms (truncation 1e-19 relative).
+    """
+    bits = _float_bits(x)
+    exponent = (bits >> _FRACTION_BITS) - 1023
+    mantissa = _bits_float((bits & ((1 << _FRACTION_BITS) - 1)) | (1023 << _FRACTION_BITS))
+    high = mantissa > _SQRT2
+    mantissa = 0.5 * mantissa if high else mantissa
+    e = float(exponent + 1) if high else float(exponent)
+    f = (mantissa - 1.0) / (mantissa + 1.0)
+    f2 = f * f
+    acc = 0.0
+    for k in range(_ATANH_ODD.shape[0]):
+        acc = acc * f2 + _ATANH_ODD[k]
+    return e * _LN2_HI + (f * acc + e * _LN2_LO)
+
+
+@compiled_inline
+def simd_log1p(x):
+    """log(1 + x) for x > -1 to full relative precision (also for tiny x): branch-free.
+
+    With u = 1 + x rounded, ``log(u) x / (u - 1)`` corrects the rounding of u (Goldberg 1991).
+    """
+    u = 1.0 + x
+    correction = x / (u - 1.0) if u != 1.0 else 1.0
+    return simd_log(u) * correction if u != 1.0 else x
 
 
 @compiled_inline
@@ -109,6 +189,33 @@ def scaled_ei_scalar(x):
         return horner(_MIDDLE[octave * _t.PARTS_PER_OCTAVE + part], t)
     u = _t.LARGE_LIMIT / x
     return horner(_LARGE, 2.0 * u - 1.0) / x
+
+
+@compiled_inline
+def scaled_ei_piece(x):
+    """(row of the polynomial table, its argument t in [-1, 1]) for exp(-x) Ei(x) at x >= 0.5.
+
+    Branch-free; the row grows with x (the middle parts in order, then the large-x fit).
+    """
+    bits = _float_bits(x)
+    large = x >= _t.LARGE_LIMIT
+    row = min(max((bits >> _REST_BITS) - (_EXPONENT_OF_HALF << _PART_BITS), 0), _LARGE_ROW - 1)
+    t_middle = (bits & ((1 << _REST_BITS) - 1)) * _REST_SCALE - 1.0
+    return (_LARGE_ROW if large else row), (2.0 * _t.LARGE_LIMIT / x - 1.0 if large else t_middle)
+
+
+@compiled_inline
+def scaled_ei_simd(x, row, t):
+    """exp(-x) Ei(x) for x >= 0.5 (garbage below) from :func:`scaled_ei_piece`'s row and t.
+
+    The same polynomials as :func:`scaled_ei_scalar`; the row and the argument are selected,
+    not branched on, so that a loop over it compiles to SIMD code (and to SIMD code without
+    gathers where every x shares one row).
+    """
+    acc = 0.0
+    for k in range(_TABLE.shape[1]):
+        acc = acc * t + _TABLE[row, k]
+    return acc / x if row == _LARGE_ROW else acc
 
 
 @compiled_inline
