@@ -57,14 +57,9 @@ class NoPeakError(GranflowError, ValueError):
 
 def _evaluate_chunk(flat, out, scale, start, lowest, params, offset, paper, hold):
     """Fill ``out`` with F at ``flat``; returns the index of the first bad point, or -1."""
-    s0 = params.alpha * params.x0
-    with np.errstate(over="ignore", invalid="ignore"):  # bad points are reported by the caller
-        s = params.alpha * (scale * flat)
-        decay = np.subtract(s0, s)
-        np.exp(decay, out=decay)
     p = params
-    return kernel.eq3_loop(
-        flat, s, decay, lowest, start, p.a, p.alpha, p.Fd, p.x0, offset, paper, hold, out
+    return kernel.eq3_values(
+        flat, scale, lowest, start, p.a, p.alpha, p.Fd, p.x0, offset, paper, hold, out
     )
 
 
@@ -76,13 +71,20 @@ def _evaluate(values, params, F_init, *, scale=1.0, name="x", unit="m", below="r
     GIL).
     """
     hold = kernel.check_below(below) == "hold"
-    array = check.float_array(values, name, unit)
-    flat = np.ascontiguousarray(array).ravel()
-    out = np.empty_like(flat)
     start = params.x0 / scale
     paper = F_init is None
     offset = 0.0 if paper else F_init - params.Fd
     lowest = -math.inf if hold else start * (1.0 - _BELOW_X0_TOLERANCE)
+    if type(values) is float:  # the scalar path: no arrays (NaN: let the array path say why)
+        p = params
+        value = kernel.eq3_scalar(
+            values, scale, lowest, start, p.a, p.alpha, p.Fd, p.x0, offset, paper, hold
+        )
+        if value == value:
+            return value
+    array = check.float_array(values, name, unit)
+    flat = np.ascontiguousarray(array).ravel()
+    out = np.empty_like(flat)
     args = (scale, start, lowest, params, offset, paper, hold)
     bounds = _threads.chunks(flat.shape[0])
     if len(bounds) == 1:
