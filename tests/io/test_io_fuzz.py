@@ -9,6 +9,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from conftest import shared_data
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -127,3 +128,9 @@ def test_inputs_are_never_modified():
         granflow.read(path)
         granflow.read_runs(path)
         assert hashlib.sha256(path.read_bytes()).hexdigest() == HASHES[path]
+
+
+def test_the_real_exports_are_among_the_fuzzed_files():
+    exports = shared_data("instrument-exports")
+    assert exports.resolve() == _exports().resolve()
+    assert len(SOURCES) >= 5, f"only {len(SOURCES)} real exports found in {exports}"
