@@ -9,11 +9,11 @@ import numpy as np
 import pandas as pd
 import pytest
 from conftest import shared_data
+from old_tables import write_old_campaign
 
 import granflow as gf
-from granflow.cli import main, tidy
-from granflow.cli._common import geometry_choice
-from granflow.io import write_rheocompass
+from granflow.cli import main
+from granflow.io import tidy, write_rheocompass
 
 TRUTH = gf.Params(a=3.31e-3, alpha=4.186e4, Fd=10e-3, x0=1.978e-7)
 VELOCITY = 0.86e-6
@@ -102,7 +102,7 @@ def test_fit_reads_an_export_through_the_declared_geometry(tmp_path, capsys):
 
 def test_fit_prints_and_keeps_the_problems_of_the_run(tmp_path, capsys):
     table = tmp_path / "tidy.csv"
-    tidy.save([startup(problems=PROBLEMS)], [], table, geometry_choice(None))
+    tidy.write_tidy(table, [startup(problems=PROBLEMS)])
     assert main(["fit", str(table)]) == 0
     out = capsys.readouterr().out
     assert "data quality: 2 problems" in out
@@ -120,7 +120,7 @@ def test_fit_prints_and_keeps_the_problems_of_the_run(tmp_path, capsys):
 
 def test_fit_of_a_clean_run_says_so_and_strict_passes(tmp_path, capsys):
     table = tmp_path / "tidy.csv"
-    tidy.save([startup()], [], table, geometry_choice(None))
+    tidy.write_tidy(table, [startup()])
     assert main(["fit", str(table), "--strict"]) == 0
     assert "data quality: no problems recorded by the reader" in capsys.readouterr().out
 
@@ -167,12 +167,12 @@ def test_convert_writes_csv_that_pandas_reads_as_it_is(tmp_path, capsys):
 
 def test_convert_keeps_each_runs_problems_in_its_metadata(tmp_path, capsys):
     table = tmp_path / "in.csv"
-    tidy.save([startup(problems=PROBLEMS), startup()], [], table, geometry_choice(None))
+    tidy.write_tidy(table, [startup(problems=PROBLEMS), startup()])
     for name in ("out.csv", "out.parquet"):
         out = tmp_path / name
         assert main(["convert", str(table), "-o", str(out)]) == 0
         assert "data quality: 1 run with problems" in capsys.readouterr().out
-        back, _ = tidy.load(out)
+        back = tidy.read_tidy(out).runs
         assert [run.problems for run in back] == [PROBLEMS, ()]
     metadata = json.loads((tmp_path / "out.csv.json").read_text(encoding="utf-8"))
     assert metadata["runs"][0]["problems"] == list(PROBLEMS)
@@ -194,8 +194,8 @@ def test_convert_with_a_declared_geometry_recovers_the_forces(tmp_path, capsys):
 
 def test_fit_reads_a_tidy_table_without_its_sidecar(tmp_path, capsys):
     table = tmp_path / "tidy.csv"
-    tidy.save([startup(), startup()], [], table, geometry_choice(None))
-    tidy.sidecar(table).unlink()
+    tidy.write_tidy(table, [startup(), startup()])
+    tidy.sidecar_path(table).unlink()
     assert main(["fit", str(table), "--interval", "2", "--json"]) == 0
     payload = json.loads(capsys.readouterr().out)
     assert payload["record"]["geometry"] is None and payload["problems"] == []
@@ -204,15 +204,14 @@ def test_fit_reads_a_tidy_table_without_its_sidecar(tmp_path, capsys):
 
 
 def test_fit_reads_an_old_convert_csv(tmp_path, capsys):
-    path = tmp_path / "old.csv"
-    gf.Campaign([startup()]).save(path)
+    path = write_old_campaign(tmp_path / "old.csv", [startup()])
     assert main(["fit", str(path), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["params"]["Fd"] == pytest.approx(TRUTH.Fd, 1e-4)
 
 
 def test_a_damaged_tidy_table_is_a_sentence_naming_the_line(tmp_path, capsys):
     table = tmp_path / "tidy.csv"
-    tidy.save([startup(points=20)], [], table, geometry_choice(None))
+    tidy.write_tidy(table, [startup(points=20)])
     lines = table.read_text(encoding="utf-8").splitlines()
     cells = lines[5].split(",")
     lines[5] = ",".join([*cells[:4], "abc", *cells[5:]])

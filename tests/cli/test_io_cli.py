@@ -1,11 +1,16 @@
-"""granflow inspect and granflow convert, in-process."""
+"""granflow inspect and granflow convert, in-process; ``python -m granflow.cli``."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 from conftest import shared_data
 
 import granflow
-from granflow.cli import main, tidy
-from granflow.io import write_rheocompass
+from granflow.cli import main
+from granflow.io import tidy, write_rheocompass
 
 
 def _shear_export():
@@ -35,9 +40,10 @@ def test_convert_writes_a_campaign_and_reports_failures(tmp_path, capsys):
     )
     captured = capsys.readouterr()
     assert code == 1 and "none.csv" in captured.err and "wrote 2 runs (4 points)" in captured.out
-    back, geometry = tidy.load(output)
-    np.testing.assert_allclose(back[1].force, [0.01, 0.02], rtol=1e-9)
-    assert geometry["spec"] == "paper"
+    table = tidy.read_tidy(output)
+    np.testing.assert_allclose(table.runs[1].force, [0.01, 0.02], rtol=1e-9)
+    assert table.geometry["spec"] == "paper"
+    assert len(table.problems) == 1 and "none.csv" in table.problems[0]
     assert (
         main(
             [
@@ -51,3 +57,24 @@ def test_convert_writes_a_campaign_and_reports_failures(tmp_path, capsys):
         )
         == 0
     )
+
+
+def test_python_dash_m_runs_the_command(tmp_path):
+    source = Path(granflow.__file__).parents[1]  # the granflow under test, not another one
+    completed = subprocess.run(
+        [sys.executable, "-m", "granflow.cli", "convert", str(tmp_path / "none.csv"), "-o", "x"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(source)},
+        cwd=tmp_path,
+    )
+    assert completed.returncode == 2 and completed.stdout == ""
+    assert completed.stderr.startswith("granflow convert: error: -o must end in .csv")
+    version = subprocess.run(
+        [sys.executable, "-m", "granflow.cli", "--version"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(source)},
+        check=True,
+    )
+    assert version.stdout.strip() == f"granflow {granflow.__version__}"

@@ -1,6 +1,7 @@
 """Campaigns: manifests (YAML and CSV) over written exports, select/group, save/load."""
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import granflow
@@ -93,6 +94,11 @@ def test_save_and_load_identically(folder, suffix):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
         assert a.control == b.control
         assert dict(a.meta) == dict(b.meta)
+        assert a.problems == b.problems
+    if suffix == ".csv":  # pandas reads the table as it is; the metadata is beside it
+        table = pd.read_csv(path)
+        assert table["run"].tolist() == [k for k, run in enumerate(campaign, 1) for _ in run.t]
+        np.testing.assert_array_equal(table["force_N"], np.concatenate([r.force for r in back]))
     frame = back.to_frame()
     assert {"run", "t", "slip", "velocity", "force", "control", "normal_load"} <= set(frame)
     assert len(frame) == sum(len(run) for run in campaign)

@@ -3,7 +3,7 @@
 ``convert`` and ``fit`` read every file granflow reads (:func:`load_runs`): instrument exports
 (RheoCompass, Rheoplus, TRIOS, and CSV with instrument columns such as 'Torque [mN·m]'),
 plain CSV whose header names a force column and a time or slip column with units, and the tidy
-tables ``convert`` writes (:mod:`granflow.cli.tidy`).
+tables ``convert`` writes (:mod:`granflow.io.tidy`).
 """
 
 import sys
@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import granflow
-from granflow.cli import tidy
 from granflow.cli._common import (
     UsageError,
     add_command,
@@ -50,12 +49,14 @@ def load_runs(path, choice):
     choice : GeometryChoice
         Converts torque, angle and speed where the file holds them.
     """
+    from granflow.io import tidy
+
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
-    table = tidy.load(path)
-    if table is not None:
-        return Source(*table)
+    if tidy.is_tidy_table(path):
+        table = tidy.read_tidy(path)
+        return Source(list(table.runs), table.geometry)
     import numpy as np
 
     try:  # an export, or a CSV with instrument columns: read once
@@ -151,7 +152,7 @@ def add_convert(subparsers):
         "them as one tidy table that pandas.read_csv reads as it is. A file that fails is "
         "reported and the others are converted (exit code 1).",
         epilog="examples:\n  granflow convert run1.txt run2.txt -o tidy.csv --geometry paper\n"
-        "  granflow convert --manifest campaign.yaml -o tidy.parquet\n" + tidy.DESCRIPTION,
+        "  granflow convert --manifest campaign.yaml -o tidy.parquet\n" + _TABLE,
     )
     parser.add_argument("files", nargs="*", help="export files")
     parser.add_argument("--manifest", help="a campaign manifest (.yaml or .csv)")
@@ -159,9 +160,20 @@ def add_convert(subparsers):
     add_geometry_option(parser)
 
 
+_TABLE = (
+    "The table has one row per point, columns run, source, interval, control, t_s, slip_m,\n"
+    "velocity_m_s, force_N (SI; empty where unknown); pandas.read_csv reads it as it is. Each\n"
+    "run's metadata and data-quality problems, the files that failed and the geometry are in\n"
+    "TABLE.json beside a CSV (tidy.csv -> tidy.csv.json), in the metadata of a Parquet table."
+)
+
+
 def _run_convert(args):
+    from granflow.io import tidy
+
     choice = geometry_choice(args.geometry)
-    tidy.check_suffix(args.output)
+    if Path(args.output).suffix.lower() not in tidy.SUFFIXES:
+        raise UsageError(f"-o must end in .csv or .parquet, got {Path(args.output).name!r}")
     if not args.files and not args.manifest:
         raise UsageError("give export files or --manifest")
     runs, failures = [], []
@@ -179,7 +191,8 @@ def _run_convert(args):
     for failure in failures:
         print(f"granflow convert: failed: {failure}", file=sys.stderr)
     if runs:
-        path, metadata = tidy.save(runs, failures, args.output, choice)
+        path = tidy.write_tidy(args.output, runs, problems=failures, geometry=choice.to_dict())
+        metadata = tidy.metadata_location(path)
         points = sum(len(run) for run in runs)
         print(
             f"wrote {plural(len(runs), 'run')} ({plural(points, 'point')}) to {path}, "

@@ -19,8 +19,17 @@ on ``Run.problems``. Files over a size limit (``max_bytes=``, ``GRANFLOW_MAX_BYT
 2 GiB) are refused before they are read; reading costs about the file's size in memory.
 An unknown layout or unit is a :class:`granflow.FileFormatError` that says what was expected.
 
+granflow's own table of runs (``tidy``): one row per point with the columns run, source,
+interval, control, t_s, slip_m, velocity_m_s, force_N (SI), which ``pandas.read_csv`` reads as
+it is; the metadata (column descriptions, geometry, each run's metadata and problems, what
+failed) in a sidecar ``<table>.json`` beside a CSV or under the Parquet metadata key
+``granflow``. :func:`write_tidy` writes it (``granflow convert``, :meth:`Campaign.save`) and
+:func:`read_tidy` reads it back bit for bit, as well as the tables of earlier versions (a
+``# granflow campaign`` first line).
+
 Modules: ``reader`` (detection, :func:`read`, :func:`read_runs`), one module per format,
-``writer`` (exports for tests and the demo), ``campaign`` (a manifest of runs).
+``writer`` (exports for tests and the demo), ``tidy`` (granflow's table of runs),
+``campaign`` (a manifest of runs; save and load through ``tidy``).
 """
 
 from granflow._lazy import attach
@@ -36,6 +45,7 @@ __getattr__, __dir__, __all__ = attach(
         "rheoplus": ["parse_rheoplus", "read_rheoplus"],
         "trios": ["parse_trios", "read_trios"],
         "writer": ["write_rheocompass", "write_trios"],
+        "tidy": ["TidyTable", "read_tidy", "write_tidy"],
         "campaign": ["Campaign", "read_manifest"],
     },
 )

@@ -2,11 +2,10 @@
 
 The manifest is what a user writes once for a folder of exports (YAML or CSV): which file,
 which interval, the normal load, the preparation, notes. A :class:`Campaign` selects and
-groups runs by load, velocity and preparation, and saves the tidy data as Parquet or CSV
-that loads back identically.
+groups runs by load, velocity and preparation, and saves them as granflow's tidy table
+(:mod:`granflow.io.tidy`: CSV with a sidecar JSON, or Parquet) that loads back identically.
 """
 
-import json
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -25,8 +24,6 @@ __all__ = [
     "manifest_runs",
     "read_manifest",
 ]
-
-_HEADER = "# granflow campaign "
 
 
 def geometry_label(geometry, declared=True):
@@ -269,81 +266,41 @@ class Campaign:
         tidy.attrs = {}
         return tidy
 
-    def _header(self):
-        return {
-            "runs": [
-                {
-                    "control": run.control,
-                    "meta": json_safe(dict(run.meta)),
-                    "problems": list(run.problems),
-                }
-                for run in self
-            ],
-            "problems": list(self.problems),
-        }
+    def save(self, path, geometry=None):
+        """Save the runs as granflow's tidy table (:mod:`granflow.io.tidy`).
 
-    def save(self, path):
-        """Save the tidy data as Parquet (.parquet) or CSV (.csv); :meth:`load` reads it back
-        identically (values bit for bit, NaN included; metadata as JSON values)."""
-        path = Path(path)
-        suffix = path.suffix.lower()
-        frame = self.to_frame()
-        header = json.dumps(self._header(), ensure_ascii=False)
-        if suffix == ".parquet":
-            import pyarrow as pa
-            import pyarrow.parquet as pq
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            ``.csv`` (the metadata in a sidecar ``<path>.json``) or ``.parquet`` (in its
+            metadata). ``pandas.read_csv(path)`` reads a CSV table as it is.
+        geometry : mapping, optional
+            The geometry the forces and slips were made with, kept in the metadata.
 
-            table = pa.Table.from_pandas(frame, preserve_index=False)
-            metadata = {**(table.schema.metadata or {}), b"granflow": header.encode("utf-8")}
-            pq.write_table(table.replace_schema_metadata(metadata), path)
-        elif suffix == ".csv":
-            with path.open("w", encoding="utf-8", newline="") as stream:
-                stream.write(_HEADER + header + "\n")
-                frame.to_csv(stream, index=False, float_format="%.17g")
-        else:
-            raise InvalidParameterError(f"save to .parquet or .csv, got {path.name!r}")
-        return path
+        Returns
+        -------
+        pathlib.Path
+            The table; :meth:`load` reads it back identically (arrays bit for bit, NaN
+            included; metadata as JSON values; each run's problems and the campaign's).
+        """
+        from granflow.io.tidy import write_tidy
+
+        return write_tidy(path, self.runs, problems=self.problems, geometry=geometry)
 
     @classmethod
     def load(cls, path):
-        """Load a campaign written by :meth:`save`."""
-        import pandas as pd
+        """Load a campaign written by :meth:`save`, by ``granflow convert``, or by an earlier
+        version of granflow (a CSV whose first line is ``# granflow campaign {...}``).
 
-        path = Path(path)
-        try:
-            if path.suffix.lower() == ".parquet":
-                import pyarrow.parquet as pq
+        Raises
+        ------
+        granflow.FileFormatError
+            A file that is not such a table, naming it (and the line of a bad cell).
+        """
+        from granflow.io.tidy import read_tidy
 
-                table = pq.read_table(path)
-                header = json.loads(table.schema.metadata[b"granflow"].decode("utf-8"))
-                frame = table.to_pandas()
-            else:
-                with path.open(encoding="utf-8") as stream:
-                    first = stream.readline()
-                    if not first.startswith(_HEADER):
-                        raise FileFormatError(f"{path}, line 1: not a granflow campaign CSV")
-                    header = json.loads(first[len(_HEADER) :])
-                    frame = pd.read_csv(stream, dtype={"control": str}, low_memory=False)
-        except (OSError, KeyError, ValueError) as exc:
-            if isinstance(exc, FileFormatError):
-                raise
-            raise FileFormatError(f"{path}: not a granflow campaign file ({exc})") from None
-        runs = []
-        groups = frame.groupby("run", sort=True)
-        for index, description in enumerate(header["runs"]):
-            rows = groups.get_group(index) if index in groups.groups else frame.iloc[:0]
-            runs.append(
-                Run(
-                    t=rows["t"].to_numpy(dtype=float),
-                    slip=rows["slip"].to_numpy(dtype=float),
-                    velocity=rows["velocity"].to_numpy(dtype=float),
-                    force=rows["force"].to_numpy(dtype=float),
-                    control=description["control"],
-                    meta=description["meta"],
-                    problems=description.get("problems", ()),
-                )
-            )
-        return cls(runs, header.get("problems", ()))
+        table = read_tidy(path)
+        return cls(table.runs, table.problems)
 
     def summary(self):
         """A pandas DataFrame with one row per run: name, points, control and metadata."""
@@ -369,8 +326,14 @@ class Campaign:
         """JSON-safe description (metadata and problems, no arrays)."""
         return {
             "runs": [
-                {"name": run.name, "points": len(run), **desc}
-                for run, desc in zip(self.runs, self._header()["runs"], strict=True)
+                {
+                    "name": run.name,
+                    "points": len(run),
+                    "control": run.control,
+                    "meta": json_safe(dict(run.meta)),
+                    "problems": list(run.problems),
+                }
+                for run in self.runs
             ],
             "problems": list(self.problems),
         }
