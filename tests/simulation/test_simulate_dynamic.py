@@ -193,7 +193,7 @@ def test_failure_time_matches_a_tight_radau_reference(blue, damping):
     result = gf.simulate(blue, protocol, method="dynamic", damping=damping)
     assert [event.kind for event in result.events] == ["failure"]  # no stick on the way
     c, m, v_fail = result.options["damping"], result.options["mass"], result.options["v_fail"]
-    x_s = blue.x0 + V * switch
+    x_s = V * switch  # the one clock: slip V t since shearing started at t = 0
     F_s = gf.friction_slip(x_s, blue)
 
     def rhs(t, y):
