@@ -37,6 +37,8 @@ def real_scalar(value, name, unit=""):
 
     ``value`` may be a number in ``unit``, a string with a unit or a pint quantity.
     """
+    if type(value) is float and math.isfinite(value):  # the common case, checked first
+        return value
     if _typed(value, unit):
         value = _si(value, name, unit)
         if np.ndim(value) != 0:

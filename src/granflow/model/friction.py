@@ -182,7 +182,8 @@ def friction_time(t, params, velocity, *, F_init=None, below="raise"):
     Parameters
     ----------
     t : float or array_like
-        Time since preparation [s]; every value must be at least ``params.t0(velocity)``.
+        Time since shearing started [s] (the record's clock, which is the model's t); every
+        value must be at least ``params.t0(velocity)``, where the model takes over.
     params : Params
         Model parameters in SI units.
     velocity : float
