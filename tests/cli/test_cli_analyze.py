@@ -288,6 +288,8 @@ def test_demo_end_to_end_recovers_the_constants_it_was_made_with(demo):
     # the observed stress-controlled behaviour agrees with the predictions from the fits
     assert results["analyses"]["switch"][0]["agree"] is True
     assert results["analyses"]["stress_ramp"][0]["consistent"] is True
+    # the running forecast of the ramp closes in on its observed failure
+    assert results["forecasts"][0]["converged"] is True
 
 
 def test_demo_report_opens_in_chromium_with_every_figure(demo, browser):  # noqa: F811
@@ -302,6 +304,7 @@ def test_demo_report_opens_in_chromium_with_every_figure(demo, browser):  # noqa
         "collapse",
         "amontons",
         "stress_ramp",
+        "forecast_1",
         "creep",
         "switch",
         "stability_map",

@@ -85,6 +85,8 @@ from granflow.analysis.files import (
     read_json,
     write_json,
 )
+from granflow.analysis.forecasts import CUT_FRACTIONS
+from granflow.analysis.forecasts import LEVEL as FORECAST_LEVEL
 from granflow.analysis.inputs import (
     ANALYSIS_VERSION,
     campaign_summary,
@@ -470,6 +472,7 @@ def _assemble(items, entries, manifest, inputs, joint, options):
             "runaway_factor": RUNAWAY_FACTOR,
             "reference_velocity": options["reference"],
             "elastic_ramp_tolerance": ELASTIC_RAMP_TOLERANCE,
+            "forecast": {"cut_fractions": list(CUT_FRACTIONS), "level": FORECAST_LEVEL},
             "stability_map": {
                 "switch_points": MAP_POINTS,
                 "stress_ratios": MAP_RATIOS,
@@ -485,6 +488,7 @@ def _assemble(items, entries, manifest, inputs, joint, options):
         material=joint.material,
         analyses=joint.analyses,
         predictions=joint.predictions,
+        forecasts=joint.forecasts,
         warnings=tuple(warnings_list + list(joint.warnings)),
         provenance=FrozenMap(provenance),
     )

@@ -10,7 +10,10 @@ from granflow._files import write_atomic
 from granflow.analysis.files import FIGURES_DIR, TABLES_DIR
 from granflow.model.units import display_unit, si_unit, to_display
 
-__all__ = ["make_figures", "write_report", "write_tables"]
+__all__ = ["FORECAST_FIGURE", "make_figures", "write_report", "write_tables"]
+
+#: Name of the running forecast's figure (the report shows it in its forecast section).
+FORECAST_FIGURE = "forecast"
 
 
 # --------------------------------------------------------------------------- tables
@@ -228,6 +231,7 @@ def _figure_specs(result, joint):
                 ),
             )
         )
+    specs += _forecast_specs(result.forecasts)
     creeps = _ok_entries(result, "creep")
     if creeps:
         specs.append(
@@ -282,6 +286,34 @@ def _figure_specs(result, joint):
                     plotting.plot_corner(analyses.mcmc.result),
                     f"Posterior of the Eq. 3 fit of {joint.representative.name} "
                     "(emcee), the least-squares values marked.",
+                ),
+            )
+        )
+    return specs
+
+
+def _forecast_specs(forecasts):
+    """The running forecast of each run with a dated forecast, named "forecast_<k>" after its
+    place k (from 1) in ``results["forecasts"]``."""
+    from granflow.plotting import plot_forecast
+
+    specs = []
+    for number, forecast in enumerate(forecasts, start=1):
+        if not forecast.dated:
+            continue
+        name = f"{FORECAST_FIGURE}_{number}"
+        observed = "" if forecast.observed is None else " and the observed failure (dashed)"
+        caption = (
+            f"{forecast.run}: the failure time forecast from the slip before each cut time, "
+            f"with its {forecast.level:.0%} band{observed}; prior: {forecast.prior_from}."
+        )
+        specs.append(
+            (
+                name,
+                "Forecasting the failure",
+                lambda forecast=forecast, caption=caption: (
+                    plot_forecast(forecast.running()),
+                    caption,
                 ),
             )
         )

@@ -22,6 +22,8 @@ Accepted shapes beyond the plain ``to_dict()`` of granflow's results:
   imposed ``"force"`` (or ``"stress"``, ``"imposed_force"``) [N] and a ``"fit"`` (the
   ``to_dict()`` of :class:`granflow.CurveFitResult`); runs whose own fit is a creep fit are
   listed too;
+* ``forecasts``: a list of :meth:`granflow.analysis.forecasts.RunForecast.to_dict`, shown
+  with the figures named ``forecast_<k>`` (k from 1, its place in the list);
 * ``predictions["stability_map"]``: the ``to_dict()`` of :class:`granflow.StabilityMap` (or a
   summary with ``"counts"``), or a list of them.
 
@@ -56,6 +58,7 @@ from granflow.analysis.report_views import (
     campaign_view,
     collapse_view,
     comparison_view,
+    forecast_view,
     labelled,
     material_view,
     quality_view,
@@ -356,6 +359,7 @@ def _context(results, output_dir, report_dir):
         "switch": _experiment_view(analyses.get("switch")),
     }
     figures = _figures_view(results, output_dir, report_dir, problems)
+    forecasts, figures = forecast_view(as_list(results.get("forecasts")), figures)
     return {
         "synthetic": bool(results.get("synthetic")),
         "title": str(campaign.get("name") or campaign.get("title") or "campaign"),
@@ -372,6 +376,7 @@ def _context(results, output_dir, report_dir):
         "other": other,
         "prediction": prediction,
         "any_prediction": any(v is not None for v in prediction.values()),
+        "forecasts": forecasts,
         "figures": figures,
         "warnings": _warnings_view(results, runs, analyses, problems),
         "provenance": _provenance_view(results),

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from granflow.analysis.formatting import (
     DASH,
     display_unit,
+    format_number,
     header_label,
     quantity_text,
     real_number,
@@ -21,6 +22,7 @@ __all__ = [
     "campaign_view",
     "collapse_view",
     "comparison_view",
+    "forecast_view",
     "labelled",
     "material_view",
     "quality_view",
@@ -408,3 +410,70 @@ def comparison_view(comparison):
             }
         )
     return {"reason": None, "groups": groups}
+
+
+def _bounds(pair, scale):
+    """An interval for display, an unbounded end as ∞."""
+    low, high = ("∞" if value == float("inf") else format_number(value, scale) for value in pair)
+    return f"[{low}, {high}]"
+
+
+def _observed(window):
+    if window is None:
+        return "none in the record"
+    low, high = (format_number(value) for value in window)
+    return f"between {low} and {high} s (the last point held, the first runaway point)"
+
+
+def _forecast_entry(saved, figure):
+    from granflow.analysis.forecasts import RunForecast
+
+    try:
+        forecast = RunForecast.from_dict(as_mapping(saved))
+    except (KeyError, TypeError, ValueError) as exc:
+        label = str(as_mapping(saved).get("run") or DASH)
+        reason = f"the forecast cannot be read ({type(exc).__name__}: {exc})"
+        return {"label": label, "reason": reason, "rows": [], "details": [], "figure": None}
+    force, _ = display_unit("force")
+    verdict = {True: "yes", False: "no", None: DASH}
+    details = [
+        ("observed failure", _observed(forecast.observed_window)),
+        ("observed F_peak", format_number(forecast.observed_force, force) + " mN"),
+        ("prior", forecast.prior_from),
+        ("converged", verdict[forecast.converged]),
+    ]
+    rows = [
+        {
+            "cut": format_number(cut.cut),
+            "time": format_number(cut.time),
+            "interval": _bounds(cut.time_interval, 1.0) if cut.time is not None else DASH,
+            "force": format_number(cut.force, force),
+            "force_interval": _bounds(cut.force_interval, force) if cut.time is not None else DASH,
+            "holds": verdict[forecast.holds(cut)],
+            "message": cut.message,
+        }
+        for cut in forecast.cuts
+    ]
+    return {
+        "label": forecast.run,
+        "reason": forecast.reason,
+        "level": f"{forecast.level:.0%}",
+        "observed": format_number(forecast.observed),
+        "rows": rows,
+        "details": details,
+        "figure": figure,
+    }
+
+
+def forecast_view(forecasts, figures):
+    """The running forecast of each run and its figure ("forecast_<k>", k from 1), and the
+    other figures; (None, figures) without forecasts."""
+    if not forecasts:
+        return None, figures
+    names = {f"forecast_{k}" for k in range(1, len(forecasts) + 1)}
+    own = {figure["name"]: figure for figure in figures if figure["name"] in names}
+    entries = [
+        _forecast_entry(saved, own.get(f"forecast_{k}"))
+        for k, saved in enumerate(as_list(forecasts), start=1)
+    ]
+    return entries, [figure for figure in figures if figure["name"] not in names]

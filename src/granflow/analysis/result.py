@@ -12,6 +12,7 @@ from pathlib import Path
 
 from granflow._json import json_safe
 from granflow.analysis.files import RESULTS_FILE
+from granflow.analysis.forecasts import RunForecast
 from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Material
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
@@ -167,6 +168,9 @@ class AnalysisResult(Value):
         The material constants (reads as ``results.json``'s mapping too).
     analyses : Analyses
     predictions : Predictions
+    forecasts : tuple of RunForecast
+        The retrospective running forecast of each stress ramp (or staircase): the failure
+        time forecast at a few cut times before the observed failure.
     warnings : tuple of str
     figures : tuple of mapping
         ``name``, ``title``, ``caption``, ``png``, ``svg`` (paths relative to ``output``).
@@ -191,6 +195,7 @@ class AnalysisResult(Value):
     material: Material
     analyses: Analyses
     predictions: Predictions
+    forecasts: tuple = ()
     warnings: tuple = ()
     figures: tuple = ()
     tables: FrozenMap = field(default_factory=FrozenMap)
@@ -220,6 +225,7 @@ class AnalysisResult(Value):
                 "material": self.material.to_dict(),
                 "analyses": self.analyses.to_dict(),
                 "predictions": self.predictions.to_dict(),
+                "forecasts": [forecast.to_dict() for forecast in self.forecasts],
                 "warnings": list(self.warnings),
                 "figures": list(self.figures),
                 "tables": self.tables,
@@ -245,6 +251,7 @@ class AnalysisResult(Value):
             material=Material.from_dict(saved["material"]),
             analyses=Analyses.from_dict(saved["analyses"]),
             predictions=Predictions.from_dict(saved["predictions"]),
+            forecasts=tuple(RunForecast.from_dict(f) for f in saved.get("forecasts", ())),
             warnings=tuple(saved["warnings"]),
             figures=frozen_json(saved["figures"], tuple),
             tables=frozen_json(saved["tables"], tuple),
@@ -293,6 +300,7 @@ class AnalysisResult(Value):
             )
             lines.append(f"  synthetic truth: {inside} the 95 % intervals")
         lines += _prediction_lines(self.predictions, self.analyses)
+        lines += [forecast.summary() for forecast in self.forecasts]
         for name, reason in self.analyses.errors.items():
             lines.append(f"joint analysis failed: {name.replace('_', ' ')}: {reason}")
         lines += _quality_lines(self.runs, self.campaign)

@@ -1,10 +1,12 @@
-"""The joint stage of :func:`granflow.analyze`: the joint analyses then the predictions, one
+"""The joint stage of :func:`granflow.analyze`: the joint analyses, the predictions and the
+retrospective failure forecasts, one
 pure function of the campaign's runs (:func:`joint_stage`) returning one value
 (:class:`JointStage`).
 """
 
 from dataclasses import dataclass, field
 
+from granflow.analysis.forecasts import retrospective_forecasts
 from granflow.analysis.joint import (
     Startup,
     material_constants,
@@ -35,6 +37,8 @@ class JointStage:
     startups : tuple of Startup
         The successful start-ups (for the figures).
     representative : Startup or None
+    forecasts : tuple of granflow.analysis.forecasts.RunForecast
+        The running forecast of each stress ramp (or staircase).
     """
 
     material: Material
@@ -43,6 +47,7 @@ class JointStage:
     warnings: tuple = ()
     startups: tuple = field(default=(), repr=False)
     representative: Startup | None = None
+    forecasts: tuple = ()
 
 
 def joint_stage(entries, executor, *, mcmc, seed):
@@ -78,6 +83,7 @@ def joint_stage(entries, executor, *, mcmc, seed):
         notes += more
     forecast, comparisons, more = predict(entries, startups, chosen, basis, executor)
     notes += more
+    forecasts = retrospective_forecasts(entries, basis.material, executor)
     analyses = Analyses(
         velocity_collapse=collapse,
         **({fitted_as: fitted} if fitted is not None else {}),
@@ -94,4 +100,5 @@ def joint_stage(entries, executor, *, mcmc, seed):
         warnings=notes.warnings,
         startups=startups,
         representative=chosen,
+        forecasts=forecasts,
     )
