@@ -141,8 +141,10 @@ def simulate(
     rtol : float
         Relative tolerance of the integrations.
     solver : str, optional
-        solve_ivp method of the dynamic integration (default "LSODA", with an analytic
-        Jacobian; it handles the stiffness of slow creep and of the direct effect).
+        Kept so that earlier calls still run, and recorded in the result's options; it no
+        longer changes anything: the dynamic method runs on granflow's compiled integrator
+        (:mod:`granflow.simulation.ode`), and the two quasi-static paths that integrate (the
+        time clock under a changing velocity, the direct effect) use LSODA.
     max_evaluations, max_transitions : int
         Bounds on the work, counted: right-hand-side evaluations and stick-slip transitions.
         A run that reaches one returns ``success=False`` with a message; the work done is
