@@ -271,6 +271,20 @@ def test_a_tidy_table_maps_slip_and_force_and_leaves_the_other_columns_alone():
         parse_csv(text)  # recognised by its label, its unit is refused
 
 
+def test_runs_take_mapped_slip_and_force_columns_as_they_are(tmp_path):
+    # a plain table with slip and force (no torque, no angle): the mapped columns are the
+    # run's slip and force, converted by hand from um and mN, whatever the geometry
+    path = tmp_path / "plain.csv"
+    path.write_text("time [s],force [mN],slip [um]\n0,0,0\n1,5,0.86\n2,8,1.72\n")
+    for geometry in (granflow.Annulus.paper(), granflow.Annulus.from_spec("paper")):
+        (run,) = granflow.read_runs(
+            path, geometry=geometry, column_map={"force": "force", "slip": "slip"}
+        )
+        assert run.force.tolist() == [0.0, 5e-3, 8e-3]
+        assert run.slip.tolist() == pytest.approx([0.0, 0.86e-6, 1.72e-6], rel=1e-15)
+        assert run.t.tolist() == [0.0, 1.0, 2.0]
+
+
 def test_slip_and_force_are_never_recognised_by_name_alone():
     interval = parse_csv("slip [um],force [mN]\n1,2\n").intervals[0]
     assert interval.si("slip") is None and interval.si("force") is None

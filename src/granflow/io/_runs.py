@@ -13,7 +13,7 @@ __all__ = ["control_mode", "interval_to_run", "runs_from_file"]
 _RATE = ("speed", "shear_rate", "angle", "strain")
 _STRESS = ("torque", "shear_stress")
 #: Columns a Run is made of: their problems (and the block's) travel with the run.
-_USED = ("interval_time", "time", "torque", "angle", "speed", "normal_force")
+_USED = ("interval_time", "time", "torque", "angle", "speed", "normal_force", "slip", "force")
 
 
 def _spread(values):
@@ -74,16 +74,19 @@ def interval_to_run(interval, geometry, source, ordinal, file_problems=()):
         )
     nothing = np.full(time.shape, np.nan)
     angle = interval.si("angle")
-    if angle is None:
+    slip = interval.si("slip")  # a column mapped as slip [m] wins over the angle
+    if slip is None and angle is None:
         slip = nothing
-    else:
+    elif slip is None:
         finite = np.flatnonzero(np.isfinite(angle))
         start = angle[finite[0]] if finite.size else 0.0
         slip = (angle - start) * geometry.mean_radius
     speed = interval.si("speed")
     velocity = nothing if speed is None else speed * (2.0 * np.pi * geometry.mean_radius)
     torque = interval.si("torque")
-    force = nothing if torque is None else torque / geometry.effective_radius
+    force = interval.si("force")  # a column mapped as force [N] wins over the torque
+    if force is None:
+        force = nothing if torque is None else torque / geometry.effective_radius
     meta = {
         key: value
         for key, value in interval.metadata.items()
