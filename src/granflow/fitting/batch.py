@@ -6,6 +6,7 @@ import warnings
 import numpy as np
 
 from granflow._parallel import Executor, check_jobs
+from granflow._progress import progress_bar, wanted
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
 from granflow.model.run import Run
 
@@ -38,7 +39,7 @@ def _fit_item(item):
         return exc
 
 
-def fit_many(datasets, *, jobs=2, errors="raise", scheduler=None, **options):
+def fit_many(datasets, *, jobs=2, errors="raise", scheduler=None, progress=None, **options):
     """Fit many curves over local processes (or a Dask cluster), in the order given.
 
     Parameters
@@ -74,9 +75,25 @@ def fit_many(datasets, *, jobs=2, errors="raise", scheduler=None, **options):
     jobs = check_jobs(jobs)
     items = [(_portable(data), options) for data in datasets]
     with Executor(jobs, scheduler) as executor:
-        results = executor.map(_fit_item, items, chunksize=max(1, len(items) // (4 * jobs)))
+        if wanted(progress):
+            results = _with_bar(executor, items)
+        else:
+            results = executor.map(_fit_item, items, chunksize=max(1, len(items) // (4 * jobs)))
     if errors == "raise":
         for index, result in enumerate(results):
             if isinstance(result, Exception):
                 raise type(result)(f"dataset {index}: {result}") from result
+    return results
+
+
+def _with_bar(executor, items):
+    """The fits of ``items`` in input order, a bar counting them as they finish."""
+    results = [None] * len(items)
+    bar = progress_bar(len(items), progress=True, desc="fitting", unit="curve")
+    try:
+        for position, result in executor.run(_fit_item, items):
+            results[position] = result
+            bar.update()
+    finally:
+        bar.close()
     return results

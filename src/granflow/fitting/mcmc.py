@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from granflow._progress import progress_bar
 from granflow.errors import ConvergenceWarning, InvalidParameterError
 from granflow.fitting.engine import model_only
 from granflow.fitting.results import (
@@ -215,7 +216,7 @@ def _priors(result, free, priors):
 
 
 def sample_posterior(
-    fit_result, *, priors=None, nwalkers=32, nsteps=2000, burn=None, seed=None, progress=False
+    fit_result, *, priors=None, nwalkers=32, nsteps=2000, burn=None, seed=None, progress=None
 ):
     """Sample the posterior of a single-curve fit with emcee's affine-invariant ensemble.
 
@@ -234,8 +235,9 @@ def sample_posterior(
         Steps discarded at the start; default ``nsteps // 4``.
     seed : int, optional
         Seed of the initial positions and of the sampler: a seeded run is reproducible exactly.
-    progress : bool
-        Show emcee's progress bar.
+    progress : bool or None
+        A progress bar over the steps on stderr (tqdm: a widget in Jupyter): True, False, or
+        None (default) for one when a person watches (a terminal or Jupyter).
 
     Returns
     -------
@@ -302,7 +304,12 @@ def sample_posterior(
     start = np.clip(start, low_u, high_u)
     sampler = emcee.EnsembleSampler(nwalkers, ndim, log_probability)
     sampler.random_state = np.random.RandomState(int(sampler_seed)).get_state()
-    sampler.run_mcmc(start, nsteps, progress=progress)
+    bar = progress_bar(nsteps, progress=progress, desc="sampling", unit="step")
+    try:
+        for _ in sampler.sample(start, iterations=nsteps):  # what run_mcmc does, with a bar
+            bar.update()
+    finally:
+        bar.close()
     chain_u = sampler.get_chain(discard=burn)
     chain = np.where(log_axis, np.exp(chain_u), chain_u)
     chain.flags.writeable = False

@@ -19,6 +19,7 @@ import numpy as np
 
 from granflow import _validate as check
 from granflow._parallel import Executor
+from granflow._progress import progress_bar, wanted
 from granflow.errors import InvalidParameterError
 from granflow.model.params import Params
 from granflow.simulation.driver import simulate
@@ -267,6 +268,23 @@ def map_row(task):
     return switch_slip, switch_force, cells
 
 
+def _rows(pool, tasks, progress):
+    """The rows of ``tasks`` in order; a bar counts the switch points as they finish."""
+    if not wanted(progress):
+        return pool.map(map_row, tasks)
+    rows = [None] * len(tasks)
+    bar = progress_bar(len(tasks), progress=True, desc="stability map", unit="switch point")
+    try:
+        for position, row in pool.run(map_row, tasks):
+            if isinstance(row, Exception):  # a worker that died, as map would raise
+                raise row
+            rows[position] = row
+            bar.update()
+    finally:
+        bar.close()
+    return rows
+
+
 def stability_map(
     params,
     switch_points,
@@ -280,6 +298,7 @@ def stability_map(
     jobs=1,
     executor=None,
     scheduler=None,
+    progress=None,
     **options,
 ):
     """Fail or stop, for each switch point of a start-up and each imposed-to-current ratio.
@@ -312,6 +331,10 @@ def stability_map(
     scheduler : str or distributed.Client, optional
         Runs the switch points on a Dask cluster (an address such as ``"tcp://host:8786"``, or
         a client) instead of ``jobs``; needs the ``dask`` extra.
+    progress : bool or None
+        A progress bar over the switch points on stderr (tqdm: a widget in Jupyter): True,
+        False, or None (default) for one when a person watches (a terminal or Jupyter); none
+        with ``executor``, whose ``map`` returns only at the end.
     **options
         Further keyword arguments of :func:`granflow.simulate` (mass, damping, ...).
 
@@ -368,7 +391,7 @@ def stability_map(
         rows = list(executor.map(map_row, tasks))
     else:
         with Executor(min(jobs, len(tasks)), scheduler) as pool:
-            rows = pool.map(map_row, tasks)
+            rows = _rows(pool, tasks, progress)
     shape = (points.size, ratios.size)
     columns = {name: np.full(shape, np.nan) for name in ("stop", "time", "force")}
     outcome = np.empty(shape, dtype=object)
