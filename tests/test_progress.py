@@ -58,10 +58,14 @@ def test_stability_map_bar(capsys):
     shown = gf.stability_map(*args, velocity=0.86e-6, progress=True)
     err = capsys.readouterr().err
     assert "stability map" in err and "2/2" in err
-    assert shown.outcome.tolist() == quiet.outcome.tolist() == [
-        ["stop", "stop"],
-        ["stop", "failure"],
-    ]
+    assert (
+        shown.outcome.tolist()
+        == quiet.outcome.tolist()
+        == [
+            ["stop", "stop"],
+            ["stop", "failure"],
+        ]
+    )
 
 
 def test_mcmc_bar_leaves_the_chain_unchanged(capsys):

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from granflow._format import DASH, format_number, format_value_error, real_number
 from granflow._json import json_safe
 from granflow.analysis.files import RESULTS_FILE
 from granflow.analysis.forecasts import RunForecast
@@ -316,12 +317,64 @@ class AnalysisResult(Value):
             lines.append(f"output: {self.output.resolve()}")
         return "\n".join(lines)
 
+    def _repr_html_(self):
+        """The summary as HTML (Jupyter): the material constants, what the campaign shows,
+        and every run in a table that opens on a click."""
+        from granflow._html import Html, heading, result_html, table, text
 
-def _number(value, spec):
-    """``value`` formatted with ``spec``, "n/a" for None or NaN (never a crash)."""
-    if value is None or (isinstance(value, float) and math.isnan(value)):
+        counts = self.campaign["counts"]
+        title = (
+            f"AnalysisResult: {counts['runs']} runs"
+            + (" (synthetic data)" if self.synthetic else "")
+            + f", {counts['analysed']} analysed, {counts['failed']} failed"
+        )
+        parts = [heading("Material constants"), _material_html(self.material)]
+        findings = _prediction_lines(self.predictions, self.analyses)
+        findings += [forecast.summary() for forecast in self.forecasts]
+        findings += [
+            f"joint analysis failed: {name.replace('_', ' ')}: {reason}"
+            for name, reason in self.analyses.errors.items()
+        ]
+        findings += _quality_lines(self.runs, self.campaign)
+        if self.warnings:
+            findings.append(f"warnings: {len(self.warnings)} (see results.json or the report)")
+        if findings:
+            items = "".join(f"<li>{text(line.strip())}</li>" for line in findings)
+            parts += [heading("Findings"), Html(f"<ul>{items}</ul>")]
+        rows = [
+            (
+                entry.name,
+                entry.test or "—",
+                _number(_millinewton(entry.normal_load)),
+                _number(None if entry.velocity is None else entry.velocity * 1e6),
+                "ok" if entry.ok else f"failed ({entry.stage}): {entry.reason}",
+                "; ".join(entry.problems),
+            )
+            for entry in self.runs
+        ]
+        header = ("run", "test", "F_N [mN]", "V [µm/s]", "status", "data quality")
+        runs = table(rows, header=header, numeric=(2, 3))
+        parts.append(Html(f"<details><summary>Runs ({len(rows)})</summary>{runs}</details>"))
+        if self.output is not None:
+            where = self.report if self.report is not None else self.output
+            parts.append(Html(f"<p>output: <code>{text(where)}</code></p>"))
+        return result_html(title, parts)
+
+
+def _number(value, significant=4):
+    """``value`` with ``significant`` digits, "n/a" for None or NaN (never a crash)."""
+    text = format_number(value, significant=significant)
+    return "n/a" if text == DASH else text
+
+
+def _value_error(value, error, scale=1.0):
+    """``value ± error`` with the digits the error justifies (:mod:`granflow._format`);
+    "n/a" for a missing value, "± n/a" after a value without an error."""
+    if real_number(value) is None:
         return "n/a"
-    return format(value, spec)
+    if real_number(error) is None:
+        return f"{format_number(value, scale)} ± n/a"
+    return format_value_error(value, error, scale)
 
 
 def _quality_lines(runs, campaign):
@@ -338,6 +391,25 @@ def _quality_lines(runs, campaign):
     return lines
 
 
+def _material_html(material):
+    """The material constants as an HTML table (or why they are missing)."""
+    from granflow._html import Html, table, text
+
+    if not material.determined:
+        return Html(f"<p>not determined: {text(material.reason)}</p>")
+    rows = [
+        (
+            name,
+            _value_error(getattr(material, name).value, getattr(material, name).stderr),
+            "[" + ", ".join(_number(bound) for bound in getattr(material, name).ci95) + "]",
+            display_unit(name) or "—",
+        )
+        for name in MATERIAL_CONSTANTS
+    ]
+    header = ("constant", "value ± standard error", "95 % interval", "unit")
+    return Html(f"<p>from {text(material.source)}</p>" + table(rows, header=header))
+
+
 def _material_lines(material):
     if not material.determined:
         return [f"material constants: not determined ({material.reason})"]
@@ -347,15 +419,17 @@ def _material_lines(material):
         unit = f" {display_unit(name)}" if display_unit(name) else ""
         low, high = estimate.ci95
         lines.append(
-            f"  {name:<5} = {_number(estimate.value, '.5g')} +/- "
-            f"{_number(estimate.stderr, '.2g')}{unit}   "
-            f"95%: [{_number(low, '.5g')}, {_number(high, '.5g')}]"
+            f"  {name:<5} = {_value_error(estimate.value, estimate.stderr)}{unit}   "
+            f"95%: [{_number(low)}, {_number(high)}]"
         )
     return lines
 
 
+_MILLI = to_display("force", 1.0)  # N -> mN
+
+
 def _millinewton(value):
-    return None if value is None else to_display("force", value)
+    return None if value is None else value * _MILLI
 
 
 def _prediction_lines(predictions, analyses):
@@ -363,9 +437,8 @@ def _prediction_lines(predictions, analyses):
     rows = predictions.static_yield
     if rows:
         text = "; ".join(
-            f"{_number(_millinewton(row.normal_load), '.4g')} mN -> "
-            f"{_number(_millinewton(row.F_peak), '.4g')} "
-            f"+/- {_number(_millinewton(row.stderr), '.2g')} mN"
+            f"{_number(_millinewton(row.normal_load))} mN -> "
+            f"{_value_error(row.F_peak, row.stderr, _MILLI)} mN"
             for row in rows[:6]
         )
         lines.append(f"static yield F_peak: {text}" + (" ..." if len(rows) > 6 else ""))
@@ -375,9 +448,8 @@ def _prediction_lines(predictions, analyses):
             width = None if None in errors else math.hypot(*errors)
             lines.append(
                 f"stress ramp {row.run}: failed at "
-                f"{_number(_millinewton(row.observed.get('failure_force')), '.4g')} mN, "
-                f"predicted F_peak {_number(_millinewton(row.predicted_force), '.4g')} +/- "
-                f"{_number(_millinewton(width), '.2g')} mN"
+                f"{_number(_millinewton(row.observed.get('failure_force')))} mN, "
+                f"predicted F_peak {_value_error(row.predicted_force, width, _MILLI)} mN"
                 + (" (consistent)" if row.consistent else " (NOT consistent)")
             )
     for row in analyses.switch:

@@ -47,6 +47,43 @@ class ModelComparison(ValueEquality):
     best_aic: str
     best_bic: str
 
+    def __repr__(self):
+        ranked = ", ".join(
+            f"{row['model']} dAIC={row['delta_aic']:.3g}"
+            if row["aic"] is not None
+            else f"{row['model']} not fitted"
+            for row in self.rows
+        )
+        return f"ModelComparison(best_aic={self.best_aic!r}, best_bic={self.best_bic!r}: {ranked})"
+
+    def _repr_html_(self):
+        """The table as HTML (Jupyter)."""
+        from granflow._format import DASH, format_number
+        from granflow._html import result_html, table
+
+        def number(value, significant=6):
+            return DASH if value is None else format_number(value, significant=significant)
+
+        rows = [
+            (
+                row["model"],
+                row["formula"],
+                row["nfree"],
+                number(row["chisqr"], 5),
+                number(row["aic"]),
+                number(row["delta_aic"], 3),
+                number(row["bic"]),
+                number(row["delta_bic"], 3),
+                "fitted" if row["aic"] is not None else f"not fitted: {row['message']}",
+            )
+            for row in self.rows
+        ]
+        header = ("model", "formula", "k", "chi-square", "AIC", "ΔAIC", "BIC", "ΔBIC", "")
+        return result_html(
+            f"ModelComparison: best by AIC {self.best_aic}, by BIC {self.best_bic}",
+            [table(rows, header=header, numeric=(2, 3, 4, 5, 6, 7))],
+        )
+
     def report(self):
         """The table as text."""
         lines = [f"{'model':<12} {'k':>2} {'chi-square':>12} {'AIC':>12} {'dAIC':>9} {'dBIC':>9}"]

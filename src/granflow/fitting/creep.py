@@ -102,6 +102,12 @@ class CurveFitResult(FitOutcome):
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(self, title=f"Fit of {self.formula}")
 
+    def _repr_html_(self):
+        """The report as HTML tables (Jupyter), in the manner of lmfit's."""
+        from granflow._html import fit_html
+
+        return fit_html(self, title=f"CurveFitResult: {self.formula}")
+
     def to_dict(self, include_arrays=True):
         """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
 

@@ -21,6 +21,7 @@ from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
 from scipy.stats import t as student
 
+from granflow._html import HtmlReport
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import (
     FrozenMap,
@@ -58,7 +59,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class CollapseResult(ValueEquality):
+class CollapseResult(HtmlReport, ValueEquality):
     """Velocity collapse (Fig. 2b): shared fit, per-velocity fit and a likelihood-ratio test.
 
     Attributes
@@ -87,6 +88,10 @@ class CollapseResult(ValueEquality):
     df: int
     p_value: float
     collapses: bool
+
+    def __repr__(self):
+        verdict = "collapses" if self.collapses else "does not collapse"
+        return f"CollapseResult({len(self.velocities)} velocities, {verdict}, p={self.p_value:.3g})"
 
     def report(self):
         """Summary of the test, then the per-velocity values."""
@@ -206,7 +211,7 @@ def velocity_collapse(datasets, velocities=None, *, sigma=None, window=None):
 
 
 @dataclass(frozen=True, eq=False)
-class AmontonsResult(ValueEquality):
+class AmontonsResult(HtmlReport, ValueEquality):
     """Amontons' law over normal loads (Fig. 2c).
 
     Attributes
@@ -236,6 +241,10 @@ class AmontonsResult(ValueEquality):
     per_load: tuple
     lines: FrozenMap
     lines_ci95: FrozenMap = field(default_factory=FrozenMap)
+
+    def __repr__(self):
+        slopes = ", ".join(f"{key}={slope:.4g}*F_N" for key, (slope, _) in self.lines.items())
+        return f"AmontonsResult({len(self.per_load)} loads, {slopes})"
 
     def report(self):
         """The per-load table and the lines through the origin."""
@@ -400,7 +409,7 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
 
 
 @dataclass(frozen=True, eq=False)
-class PreparationSpread(ValueEquality):
+class PreparationSpread(HtmlReport, ValueEquality):
     """How repeats with nominally identical preparation differ.
 
     Attributes
@@ -427,6 +436,13 @@ class PreparationSpread(ValueEquality):
     peak_force: tuple
     correlation: float
     p_value: float
+
+    def __repr__(self):
+        name = "x0" if self.domain == "slip" else "t0"
+        return (
+            f"PreparationSpread({self.repeats} repeats, {name} std/mean = "
+            f"{self.start['relative']:.3g}, corr({name}, peak force) = {self.correlation:+.3f})"
+        )
 
     def report(self):
         """A short text summary."""

@@ -122,6 +122,31 @@ class PosteriorResult(ValueEquality):
             )
         return "\n".join(lines)
 
+    def _repr_html_(self):
+        """Medians, intervals and autocorrelation times as an HTML table (Jupyter)."""
+        from granflow._format import format_interval, format_number
+        from granflow._html import result_html, table
+
+        steps, walkers, _ = self.shape
+        state = "converged" if self.converged else "chains too short"
+        rows = [
+            (
+                name,
+                format_number(self.medians[name], significant=5),
+                format_interval(self.ci68[name], significant=5),
+                format_interval(self.ci95[name], significant=5),
+                f"{self.autocorr[name]:.1f}",
+                format_number(self.least_squares[name], significant=5),
+            )
+            for name in self.names
+        ]
+        header = ("name", "median", "68 % interval", "95 % interval", "tau", "least squares")
+        return result_html(
+            f"PosteriorResult: {steps} steps × {walkers} walkers, acceptance "
+            f"{self.acceptance_fraction:.2f}, {state}",
+            [table(rows, header=header, numeric=(1, 4, 5))],
+        )
+
     def to_dict(self, include_arrays=True):
         """JSON-safe mapping with the chain as nested lists; :meth:`from_dict` inverts it.
 

@@ -204,18 +204,28 @@ class FitResult(FitOutcome):
         z = check.real_array(x, "x", ABSCISSA[self.domain][1]).ravel()
         return model_only(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
 
-    def report(self):
-        """A text report in the manner of lmfit's ``fit_report``."""
+    def _report_rows(self):
+        """The rows of :meth:`report` beside the statistics every fit shows."""
         unit = ABSCISSA[self.domain][1]
-        return fit_report(
-            self,
-            title="Fit Statistics",
-            extra=(("domain", self.domain), ("# function evals", self.nfev)),
-            after=(
+        return {
+            "extra": (("domain", self.domain), ("# function evals", self.nfev)),
+            "after": (
                 ("window", f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {unit}"),
                 *((("dropped", _dropped_text(self.dropped)),) if self.dropped else ()),
             ),
-        )
+        }
+
+    def report(self):
+        """A text report in the manner of lmfit's ``fit_report``."""
+        return fit_report(self, title="Fit Statistics", **self._report_rows())
+
+    def _repr_html_(self):
+        """The report as HTML tables (Jupyter), in the manner of lmfit's."""
+        from granflow._html import fit_html
+
+        name = f" of {self.name}" if self.name else ""
+        title = f"FitResult: Eq. 3 in {self.domain}{name}"
+        return fit_html(self, title=title, **self._report_rows())
 
     def to_dict(self, include_arrays=True):
         """JSON-safe mapping of the result; :meth:`from_dict` inverts it.

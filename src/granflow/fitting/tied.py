@@ -97,6 +97,16 @@ class JointFitResult(FitOutcome):
             extra=(("domain", self.domain), ("runs", len(self.run_names))),
         )
 
+    def _repr_html_(self):
+        """The report as HTML tables (Jupyter), in the manner of lmfit's."""
+        from granflow._html import fit_html
+
+        return fit_html(
+            self,
+            title=f"JointFitResult: Eq. 3 in {self.domain} over {len(self.run_names)} runs",
+            extra=(("domain", self.domain), ("runs", ", ".join(self.run_names))),
+        )
+
     def to_dict(self, include_arrays=True):
         """JSON-safe mapping of the result (with the separate fits); :meth:`from_dict` inverts
         it.

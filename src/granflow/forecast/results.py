@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from granflow._html import HtmlReport
 from granflow.fitting.results import decode, encode
 from granflow.forecast.loading import Loading
 
@@ -40,7 +41,7 @@ def _fmt_interval(pair, scale, unit):
     return f"[{_fmt(pair[0], scale, '')}, {_fmt(pair[1], scale, '')}] {unit}"
 
 
-class _Codec:
+class _Codec(HtmlReport):
     """to_dict/from_dict of a flat frozen dataclass of floats, pairs, strings and dicts."""
 
     def to_dict(self):
@@ -306,6 +307,27 @@ class RunningForecast:
                     }
                 )
         return rows
+
+    def _repr_html_(self):
+        """The table as HTML (Jupyter), times in s."""
+        from granflow._format import format_number
+        from granflow._html import result_html, table
+
+        observed = "unknown" if self.observed is None else f"{self.observed:.4g} s"
+        rows = [
+            (
+                format_number(row["cut"]),
+                row["method"],
+                format_number(row["time"]),
+                f"[{format_number(row['low'])}, {format_number(row['high'])}]",
+            )
+            for row in self.rows()
+        ]
+        header = ("cut [s]", "method", "t_f [s]", f"{self.level:.0%} interval [s]")
+        return result_html(
+            f"RunningForecast: observed failure {observed}",
+            [table(rows, header=header, numeric=(0, 2))],
+        )
 
     def report(self):
         """The table as text, times in s."""

@@ -408,6 +408,54 @@ class SimulationResult:
             work=mapping.get("work", {}),
         )
 
+    def _repr_html_(self):
+        """The report as HTML (Jupyter): the run, its events and its segments as tables
+        (display units)."""
+        from granflow._html import heading, report_parts, result_html, table
+
+        summary = self.report().split("[[Events]]")[0]
+        events = [
+            (
+                event.kind,
+                f"{event.time:.6g}",
+                f"{event.slip * 1e6:.6g}",
+                f"{event.force * 1e3:.6g}",
+                event.segment + 1,
+                event.message,
+            )
+            for event in self.events
+        ]
+        segments = [
+            (
+                record.index + 1,
+                record.kind,
+                record.control,
+                f"{record.start_time:.6g} – {record.end_time:.6g}",
+                f"{record.start_force * 1e3:.6g} → {record.end_force * 1e3:.6g}",
+                record.outcome,
+            )
+            for record in self.segments
+        ]
+        outcome = "failed" if self.failed else ("ok" if self.success else "aborted")
+        return result_html(
+            f"SimulationResult: {self.options['method']}, {len(self.t)} points, {outcome}",
+            [
+                *report_parts(summary),
+                heading(f"Events ({len(events)})"),
+                table(
+                    events,
+                    header=("event", "t [s]", "slip [µm]", "force [mN]", "segment", ""),
+                    numeric=(1, 2, 3, 4),
+                ),
+                heading("Segments"),
+                table(
+                    segments,
+                    header=("", "segment", "control", "t [s]", "force [mN]", "outcome"),
+                    numeric=(0,),
+                ),
+            ],
+        )
+
     def report(self):
         """A plain-text summary in the manner of lmfit's fit report (display units)."""
         opts = self.options

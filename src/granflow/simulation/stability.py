@@ -18,6 +18,7 @@ from types import MappingProxyType
 import numpy as np
 
 from granflow import _validate as check
+from granflow._html import HtmlReport
 from granflow._parallel import Executor
 from granflow._progress import progress_bar, wanted
 from granflow.errors import InvalidParameterError
@@ -32,7 +33,7 @@ OUTCOMES = ("failure", "stop", "creep", "error")
 
 
 @dataclass(frozen=True, eq=False)
-class StabilityMap:
+class StabilityMap(HtmlReport):
     """The result of :func:`stability_map`; 2-D arrays are (switch point, stress ratio).
 
     Attributes

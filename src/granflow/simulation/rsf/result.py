@@ -6,6 +6,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from granflow._html import HtmlReport
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.results import Event
 from granflow.simulation.rsf.model import RateState
@@ -25,7 +26,7 @@ def _array(values):
 
 
 @dataclass(frozen=True, eq=False)
-class RateStateResult:
+class RateStateResult(HtmlReport):
     """The outcome of :func:`granflow.rsf.simulate`, shaped like ``SimulationResult``.
 
     Attributes
