@@ -65,10 +65,9 @@ def _read_value_error(cell):
     assert match, cell
     value, error, exponent = match.groups()
     power = 10.0 ** int(exponent.translate(_SUPERSCRIPT)) if exponent else 1.0
-    if "." in error:
-        place = 10.0 ** -len(error.split(".")[1])
-    else:  # an integer error keeps two significant digits: "170" ends at the tens
-        place = 10.0 ** max(len(error) - 2, 0)
+    # an integer error keeps two significant digits: "170" ends at the tens
+    decimals = len(error.split(".")[1]) if "." in error else -max(len(error) - 2, 0)
+    place = 10.0**-decimals
     return float(value) * power, float(error) * power, place * power
 
 

@@ -6,15 +6,19 @@ readers and campaign reports. Every quantity is in SI units (N, m, s, 1/m).
 The subpackages follow the flow of data: :mod:`granflow.model` (the ground floor),
 :mod:`granflow.simulation`, :mod:`granflow.fitting` and :mod:`granflow.io` on it,
 :mod:`granflow.analysis` (the campaign pipeline) on those, :mod:`granflow.cli` on top;
-:mod:`granflow.plotting` is a leaf. The public names below resolve on first use, so
-``import granflow`` loads neither SciPy nor Numba.
+:mod:`granflow.plotting` is a leaf. The public names below and the subpackages
+(``granflow.plotting`` after ``import granflow``) resolve on first use, so ``import granflow``
+loads neither SciPy nor Numba nor matplotlib.
 """
 
 from granflow._lazy import attach
 
 __version__ = "0.1.0"
 
-__getattr__, __dir__, _names = attach(
+#: The subpackages, reachable as attributes (``granflow.plotting``) and imported on first use.
+SUBPACKAGES = ("analysis", "cli", "fitting", "forecast", "io", "model", "plotting", "simulation")
+
+__getattr__, _dir, _names = attach(
     __name__,
     {
         "granflow.analysis": ["AnalysisResult", "analyze"],
@@ -99,3 +103,7 @@ __getattr__, __dir__, _names = attach(
     },
 )
 __all__ = [*_names, "__version__"]
+
+
+def __dir__():
+    return sorted({*_dir(), *SUBPACKAGES, "rsf"})
