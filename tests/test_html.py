@@ -156,3 +156,34 @@ def test_reprs_do_not_dump_mappings():
         assert "FrozenMap" not in text and "{" not in text and len(text) < 200, text
     assert repr(spread).startswith("PreparationSpread(3 repeats")
     assert f"best_aic={comparison.best_aic!r}" in repr(comparison)
+
+
+def test_material_constants_typed_and_as_results_json():
+    from granflow.analysis.joint_results import Estimate, Material
+
+    saved = {
+        "mu_a": {"value": 0.0612, "stderr": 0.0011, "ci95": [0.059, 0.0634]},
+        "mu_d": {"value": 0.2003, "stderr": 0.00041, "ci95": [0.1995, 0.2011]},
+        "alpha": {"value": 50123.0, "stderr": 870.0, "ci95": [48400.0, 51800.0]},
+        "source": "Amontons joint fit",
+        "reason": None,
+        "runs": 9,
+        "normal_loads": [0.03, 0.06, 0.09],
+        "velocity": 8.6e-7,
+    }
+    material = Material.from_dict(saved)
+    assert material.to_dict() == saved  # results.json's layout, unchanged
+    assert material["alpha"]["value"] == 50123.0 and material.alpha.ci95 == (48400.0, 51800.0)
+    assert isinstance(material.mu_a, Estimate) and str(material.mu_a) == "0.0612 ± 0.0011"
+    constants = material.constants
+    assert constants == gf.MaterialConstants(mu_a=0.0612, mu_d=0.2003, alpha=50123.0)
+    params = constants.params_at(0.05, x0=2e-7)
+    assert (params.a, params.Fd) == pytest.approx((0.0612 * 0.05, 0.2003 * 0.05))
+    cells = parsed(material._repr_html_()).cells
+    assert cells[cells.index("alpha") + 1 : cells.index("alpha") + 4] == [
+        "50120 ± 870",
+        "[48400, 51800]",
+        "1/m",
+    ]
+    missing = Material(reason="no start-ups")
+    assert missing.constants is None and "no start-ups" in missing._repr_html_()

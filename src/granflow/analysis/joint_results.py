@@ -58,7 +58,13 @@ class Estimate(Value):
 
     value: float | None = None
     stderr: float | None = None
-    ci95: tuple = (None, None)
+    ci95: tuple[float | None, float | None] = (None, None)
+
+    def __str__(self) -> str:
+        """``value ± stderr`` with the digits the error justifies."""
+        from granflow._format import format_value_error
+
+        return format_value_error(self.value, self.stderr)
 
     def to_dict(self):
         """``{"value", "stderr", "ci95": [low, high]}``."""
@@ -105,9 +111,40 @@ class Material(Value, Mapping):
     velocity: float | None = None
 
     @property
-    def determined(self):
+    def determined(self) -> bool:
         """Whether the constants have values."""
         return self.mu_a.value is not None
+
+    @property
+    def constants(self):
+        """The best values as a :class:`granflow.MaterialConstants` (None when not
+        determined): ``material.constants.params_at(normal_load, x0)`` gives the model at a
+        load."""
+        from granflow.model.params import MaterialConstants
+
+        if not self.determined:
+            return None
+        return MaterialConstants(**{name: getattr(self, name).value for name in MATERIAL_CONSTANTS})
+
+    def _repr_html_(self) -> str:
+        """The constants with their errors and intervals as an HTML table (Jupyter)."""
+        from granflow._format import format_interval
+        from granflow._html import result_html, table
+        from granflow.model.units import display_unit
+
+        if not self.determined:
+            return result_html("Material constants: not determined", [str(self.reason)])
+        rows = [
+            (
+                name,
+                str(getattr(self, name)),
+                format_interval(getattr(self, name).ci95),
+                display_unit(name) or "—",
+            )
+            for name in MATERIAL_CONSTANTS
+        ]
+        header = ("constant", "value ± standard error", "95 % interval", "unit")
+        return result_html(f"Material constants ({self.source})", [table(rows, header=header)])
 
     def to_dict(self):
         """The ``material`` entry of ``results.json``."""

@@ -328,7 +328,7 @@ class AnalysisResult(Value):
             + (" (synthetic data)" if self.synthetic else "")
             + f", {counts['analysed']} analysed, {counts['failed']} failed"
         )
-        parts = [heading("Material constants"), _material_html(self.material)]
+        parts = [Html(self.material._repr_html_())]
         findings = _prediction_lines(self.predictions, self.analyses)
         findings += [forecast.summary() for forecast in self.forecasts]
         findings += [
@@ -389,25 +389,6 @@ def _quality_lines(runs, campaign):
         if len(flagged) > 10:
             lines.append(f"  ... and {len(flagged) - 10} more in results.json")
     return lines
-
-
-def _material_html(material):
-    """The material constants as an HTML table (or why they are missing)."""
-    from granflow._html import Html, table, text
-
-    if not material.determined:
-        return Html(f"<p>not determined: {text(material.reason)}</p>")
-    rows = [
-        (
-            name,
-            _value_error(getattr(material, name).value, getattr(material, name).stderr),
-            "[" + ", ".join(_number(bound) for bound in getattr(material, name).ci95) + "]",
-            display_unit(name) or "—",
-        )
-        for name in MATERIAL_CONSTANTS
-    ]
-    header = ("constant", "value ± standard error", "95 % interval", "unit")
-    return Html(f"<p>from {text(material.source)}</p>" + table(rows, header=header))
 
 
 def _material_lines(material):
