@@ -1,6 +1,8 @@
 """Progress bars: one per long loop when asked (or when a person watches), none when not."""
 
 import io
+import sys
+import types
 import warnings
 
 import numpy as np
@@ -23,12 +25,27 @@ class _Terminal(io.StringIO):
         return True
 
 
+def test_jupyter_is_told_by_its_shell(monkeypatch):
+    class ZMQInteractiveShell:  # the name of IPython's shell in a Jupyter kernel
+        pass
+
+    class TerminalInteractiveShell:
+        pass
+
+    for shell, expected in ((ZMQInteractiveShell(), True), (TerminalInteractiveShell(), False)):
+        fake = types.SimpleNamespace(get_ipython=lambda shell=shell: shell)
+        monkeypatch.setitem(sys.modules, "IPython", fake)
+        assert _progress.in_jupyter() is expected
+    monkeypatch.delitem(sys.modules, "IPython")
+    assert not _progress.in_jupyter()
+
+
 def test_automatic_mode_follows_the_session(monkeypatch):
     # under pytest stderr is captured (not a terminal) and no Jupyter kernel runs
     assert not _progress.interactive()
     assert not _progress.wanted(None)
     assert _progress.interactive(_Terminal())
-    monkeypatch.setitem(__import__("sys").modules, "ipykernel", object())
+    monkeypatch.setattr(_progress, "in_jupyter", lambda: True)
     assert _progress.wanted(None)
     with _progress.silenced():
         assert not _progress.wanted(None) and not _progress.wanted(True)

@@ -19,7 +19,7 @@ from typing import IO, Any, Protocol
 
 from granflow.errors import InvalidParameterError
 
-__all__ = ["Bar", "RunProgress", "interactive", "progress_bar", "silenced", "wanted"]
+__all__ = ["Bar", "RunProgress", "in_jupyter", "interactive", "progress_bar", "silenced", "wanted"]
 
 _SILENCED: contextvars.ContextVar[bool] = contextvars.ContextVar(
     "granflow_progress_silenced", default=False
@@ -49,10 +49,20 @@ class _NoBar:
         return None
 
 
+def in_jupyter() -> bool:
+    """Whether this code runs in a Jupyter kernel (IPython's shell over ZeroMQ); IPython is
+    not imported to find out."""
+    ipython = sys.modules.get("IPython")
+    if ipython is None:
+        return False
+    shell = ipython.get_ipython()
+    return type(shell).__name__ == "ZMQInteractiveShell"
+
+
 def interactive(stream: IO[str] | None = None) -> bool:
     """Whether a person is watching: a Jupyter kernel runs this code, or ``stream`` (default
     stderr) is a terminal."""
-    if "ipykernel" in sys.modules:
+    if in_jupyter():
         return True
     stream = sys.stderr if stream is None else stream
     try:
