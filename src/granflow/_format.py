@@ -25,7 +25,7 @@ DASH = "—"
 # --------------------------------------------------------------------------- numbers
 
 
-def real_number(value):
+def real_number(value: object) -> float | None:
     """``value`` as a finite float, or None (bools, text and non-finite numbers give None)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         return None
@@ -33,16 +33,16 @@ def real_number(value):
     return value if math.isfinite(value) else None
 
 
-def _exponent(value, significant):
+def _exponent(value: float, significant: int) -> int:
     """Decimal exponent of ``value`` once rounded to ``significant`` digits."""
     return int(f"{abs(value):.{significant - 1}e}".split("e")[1])
 
 
-def _times_ten(exponent):
+def _times_ten(exponent: int) -> str:
     return "×10" + str(exponent).translate(_SUPERSCRIPT)
 
 
-def _fixed(value, place):
+def _fixed(value: float, place: int) -> str:
     """``value`` rounded at the decimal ``place`` (10**place is the last digit kept)."""
     if place >= 0:
         text = f"{round(value / 10**place) * 10**place:.0f}"
@@ -51,7 +51,7 @@ def _fixed(value, place):
     return text[1:] if text.startswith("-") and float(text) == 0 else text
 
 
-def format_number(value, scale=1.0, significant=4):
+def format_number(value: object, scale: float = 1.0, significant: int = 4) -> str:
     """A number for display: ``significant`` digits, plain between 1e-3 and 1e5, else with a
     power of ten (``1.968×10⁻⁷``).
 
@@ -88,7 +88,7 @@ def format_number(value, scale=1.0, significant=4):
     return f"{mantissa:.{significant - 1}f}{_times_ten(exponent)}"
 
 
-def format_value_error(value, error, scale=1.0, digits=2):
+def format_value_error(value: object, error: object, scale: float = 1.0, digits: int = 2) -> str:
     """``value ± error`` with the value rounded at the last digit of the error.
 
     Parameters
@@ -134,7 +134,7 @@ def format_value_error(value, error, scale=1.0, digits=2):
     )
 
 
-def format_interval(bounds, scale=1.0, significant=4):
+def format_interval(bounds: object, scale: float = 1.0, significant: int = 4) -> str:
     """A 95 % interval ``[low, high]`` for display ("—" when it is missing)."""
     if not isinstance(bounds, list | tuple) or len(bounds) != 2:
         return DASH

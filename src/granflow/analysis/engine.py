@@ -64,12 +64,16 @@ equivalent analyses (dates, durations, jobs, scheduler, runs fitted now or reuse
 ``results["timing"]`` only.
 """
 
+from __future__ import annotations
+
 import contextlib
 import datetime
 import os
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -111,6 +115,10 @@ from granflow.analysis.runs import (
 from granflow.analysis.stage import joint_stage
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.io.campaign import Campaign
 
 __all__ = [
     "ANALYSIS_VERSION",
@@ -168,19 +176,19 @@ def _remove_leftovers(output):
 
 
 def analyze(
-    source,
-    output,
+    source: PathLike | Campaign,
+    output: PathLike,
     *,
-    jobs=None,
-    scheduler=None,
-    resume=False,
-    quiet=False,
-    mcmc=False,
-    seed=0,
-    progress=None,
-    geometry=None,
-    strict=False,
-):
+    jobs: int | None = None,
+    scheduler: Any = None,
+    resume: bool = False,
+    quiet: bool = False,
+    mcmc: bool = False,
+    seed: int = 0,
+    progress: Callable[[int, int, str], object] | None = None,
+    geometry: Any = None,
+    strict: bool = False,
+) -> AnalysisResult:
     """Analyse a whole campaign and write results, tables, figures and a report.
 
     The rules (what a run is, the fit window, the joint analyses, the predictions) are in the

@@ -5,10 +5,14 @@
 :mod:`granflow.analysis.run_results` or :mod:`granflow.analysis.joint_results`.
 """
 
+from __future__ import annotations
+
 import functools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from granflow._format import DASH, format_number, format_value_error, real_number
 from granflow._json import json_safe
@@ -18,8 +22,12 @@ from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Materi
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.values import Value, frozen_json
+from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 from granflow.model.units import display_unit, to_display
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
 
 __all__ = ["AnalysisResult", "RunEntry"]
 
@@ -84,7 +92,7 @@ class RunEntry(Value):
     velocity: float | None
     preparation: object
     points: int
-    result: object
+    result: Any
     key: str | None = None
     stage: str | None = None
     problems: tuple = ()
@@ -92,16 +100,16 @@ class RunEntry(Value):
     run: object = field(default=None, repr=False)
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         """Whether the run was analysed."""
         return not isinstance(self.result, FailedRun)
 
     @property
-    def reason(self):
+    def reason(self) -> str | None:
         """Why the run failed (None when it did not)."""
         return None if self.ok else self.result.reason
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """The run's entry in ``results["runs"]``."""
         out = {name: getattr(self, name) for name in _DESCRIPTION}
         if self.key is not None:
@@ -113,7 +121,7 @@ class RunEntry(Value):
         out["geometry"] = self.geometry
         return json_safe(out)
 
-    def failure(self):
+    def failure(self) -> dict[str, Any] | None:
         """The run's entry in ``results["failed_runs"]`` (None when it did not fail)."""
         if self.ok:
             return None
@@ -126,12 +134,12 @@ class RunEntry(Value):
         }
 
     @property
-    def flagged(self):
+    def flagged(self) -> bool:
         """Whether the run has data-quality problems."""
         return bool(self.problems)
 
     @classmethod
-    def from_dict(cls, saved):
+    def from_dict(cls, saved: Mapping[str, Any]) -> RunEntry:
         """The entry of :meth:`to_dict`."""
         own = (*_DESCRIPTION, "key", "stage", "problems", "geometry")
         rest = {k: v for k, v in saved.items() if k not in own}
@@ -214,7 +222,7 @@ class AnalysisResult(Value):
             f"output={output!r})"
         )
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """The content of ``results.json`` apart from ``timing`` (JSON-safe)."""
         return json_safe(
             {
@@ -235,7 +243,9 @@ class AnalysisResult(Value):
         )
 
     @classmethod
-    def from_dict(cls, saved, *, output=None):
+    def from_dict(
+        cls, saved: Mapping[str, Any], *, output: PathLike | None = None
+    ) -> AnalysisResult:
         """The result of :meth:`to_dict` (or of ``results.json``, its ``timing`` kept).
 
         Parameters
@@ -262,28 +272,30 @@ class AnalysisResult(Value):
         )
 
     @functools.cached_property
-    def results(self):
+    def results(self) -> dict[str, Any]:
         """The content of ``results.json``: :meth:`to_dict` plus ``timing``."""
         return {**self.to_dict(), "timing": json_safe(self.timing)}
 
     @property
-    def results_path(self):
+    def results_path(self) -> Path:
         """``OUTPUT/results.json``."""
+        if self.output is None:
+            raise InvalidParameterError("this result was not written to a folder (output is None)")
         return self.output / RESULTS_FILE
 
     @property
-    def failed_runs(self):
+    def failed_runs(self) -> list[dict[str, Any]]:
         """The runs that could not be analysed: ``name``, ``source``, ``interval``, ``stage``,
         ``reason``."""
         return [entry.failure() for entry in self.runs if not entry.ok]
 
     @property
-    def exit_code(self):
+    def exit_code(self) -> int:
         """0 when every run and every joint analysis succeeded, 1 when some failed (the
         command's exit code)."""
         return 1 if self.failed_runs or self.analyses.errors else 0
 
-    def summary(self):
+    def summary(self) -> str:
         """A one-screen summary: counts, material constants with intervals, predictions,
         failed runs, and where the output is (display units)."""
         counts = self.campaign["counts"]
@@ -317,7 +329,7 @@ class AnalysisResult(Value):
             lines.append(f"output: {self.output.resolve()}")
         return "\n".join(lines)
 
-    def _repr_html_(self):
+    def _repr_html_(self) -> str:
         """The summary as HTML (Jupyter): the material constants, what the campaign shows,
         and every run in a table that opens on a click."""
         from granflow._html import Html, heading, result_html, table, text

@@ -1,7 +1,11 @@
 """Fits of many curves at once, over local processes or a Dask cluster
 (:class:`granflow._parallel.Executor`)."""
 
+from __future__ import annotations
+
 import warnings
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -9,6 +13,9 @@ from granflow._parallel import Executor, check_jobs
 from granflow._progress import progress_bar, wanted
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
 
 __all__ = ["fit_many"]
 
@@ -39,7 +46,15 @@ def _fit_item(item):
         return exc
 
 
-def fit_many(datasets, *, jobs=2, errors="raise", scheduler=None, progress=None, **options):
+def fit_many(
+    datasets: Iterable[Run | tuple[ArrayLike, ArrayLike]],
+    *,
+    jobs: int = 2,
+    errors: str = "raise",
+    scheduler: Any = None,
+    progress: bool | None = None,
+    **options: Any,
+) -> list[Any]:
     """Fit many curves over local processes (or a Dask cluster), in the order given.
 
     Parameters

@@ -6,9 +6,13 @@ or t0) get log-uniform priors by default, Fd a uniform one; walkers move in log 
 for log-uniform parameters, so the prior is flat there.
 """
 
+from __future__ import annotations
+
 import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +31,11 @@ from granflow.fitting.results import (
     read_arrays,
 )
 from granflow.fitting.single import FitResult
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from granflow._typing import FloatArray
 
 __all__ = ["PosteriorResult", "sample_posterior"]
 
@@ -88,7 +97,7 @@ class PosteriorResult(ValueEquality):
     least_squares: FrozenMap
     priors: FrozenMap
     seed: int | None
-    shape: tuple | None = None
+    shape: tuple[int, ...] = None  # type: ignore[assignment]  # __post_init__ fills it in
 
     #: The samples, which the compact ``to_dict(include_arrays=False)`` leaves out.
     ARRAYS = ("chain",)
@@ -98,7 +107,7 @@ class PosteriorResult(ValueEquality):
             object.__setattr__(self, "shape", tuple(self.chain.shape))
 
     @property
-    def samples(self):
+    def samples(self) -> FloatArray:
         """The chain flattened over walkers, shape (steps * walkers, parameters)."""
         return self.chain.reshape(-1, len(self.names))
 
@@ -107,7 +116,7 @@ class PosteriorResult(ValueEquality):
         steps, walkers, _ = self.shape
         return f"PosteriorResult({steps} steps x {walkers} walkers, {values})"
 
-    def report(self):
+    def report(self) -> str:
         """Medians with 68 % and 95 % intervals, autocorrelation times."""
         lines = [
             f"[[Posterior]] {self.shape[0]} steps x {self.shape[1]} walkers, "
@@ -122,7 +131,7 @@ class PosteriorResult(ValueEquality):
             )
         return "\n".join(lines)
 
-    def _repr_html_(self):
+    def _repr_html_(self) -> str:
         """Medians, intervals and autocorrelation times as an HTML table (Jupyter)."""
         from granflow._format import format_interval, format_number
         from granflow._html import result_html, table
@@ -147,7 +156,7 @@ class PosteriorResult(ValueEquality):
             [table(rows, header=header, numeric=(1, 4, 5))],
         )
 
-    def to_dict(self, include_arrays=True):
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping with the chain as nested lists; :meth:`from_dict` inverts it.
 
         Parameters
@@ -175,7 +184,7 @@ class PosteriorResult(ValueEquality):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> PosteriorResult:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         shape = tuple(int(size) for size in d["shape"])
@@ -201,7 +210,7 @@ class PosteriorResult(ValueEquality):
             shape=shape,
         )
 
-    def plot_corner(self, **kwargs):
+    def plot_corner(self, **kwargs: Any) -> Figure:
         """Corner plot of the samples; see :func:`granflow.plotting.plot_corner`."""
         from granflow.plotting.fits import plot_corner
 
@@ -241,8 +250,15 @@ def _priors(result, free, priors):
 
 
 def sample_posterior(
-    fit_result, *, priors=None, nwalkers=32, nsteps=2000, burn=None, seed=None, progress=None
-):
+    fit_result: FitResult,
+    *,
+    priors: Mapping[str, tuple[str, float, float]] | None = None,
+    nwalkers: int = 32,
+    nsteps: int = 2000,
+    burn: int | None = None,
+    seed: int | None = None,
+    progress: bool | None = None,
+) -> PosteriorResult:
     """Sample the posterior of a single-curve fit with emcee's affine-invariant ensemble.
 
     Parameters

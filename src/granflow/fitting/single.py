@@ -19,9 +19,13 @@ In the time domain (``domain="time"``) the same mathematics applies with x -> t,
 alpha -> k = alpha v, x0 -> t0 = x0 / v; the parameters are called ``a, k, Fd, t0``.
 """
 
+from __future__ import annotations
+
 import math
 import warnings
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -71,6 +75,13 @@ from granflow.fitting.statistics import (
 )
 from granflow.model.params import Params
 from granflow.model.units import si_unit
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from granflow._typing import ArrayLike, FloatArray
+    from granflow.fitting.parameters import Parameter, Parameters
+    from granflow.model.run import Run
 
 __all__ = ["FitResult", "fit", "parameter_names"]
 
@@ -174,11 +185,11 @@ class FitResult(FitOutcome):
         )
 
     @property
-    def units(self):
+    def units(self) -> Mapping[str, str]:
         """Mapping of parameter name to its SI unit."""
         return _UNITS[self.domain]
 
-    def to_params(self, velocity=None):
+    def to_params(self, velocity: float | None = None) -> Params:
         """The fitted values as :class:`granflow.Params` (slip domain, SI).
 
         Parameters
@@ -199,7 +210,7 @@ class FitResult(FitOutcome):
             a=p["a"], k=p["k"], t0=p["t0"], Fd=p["Fd"], velocity=velocity
         )
 
-    def model(self, x):
+    def model(self, x: ArrayLike) -> FloatArray:
         """The fitted curve at abscissae ``x`` [m or s] (held at the initial force below x0)."""
         z = check.real_array(x, "x", ABSCISSA[self.domain][1]).ravel()
         return model_only(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
@@ -215,11 +226,11 @@ class FitResult(FitOutcome):
             ),
         }
 
-    def report(self):
+    def report(self) -> str:
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(self, title="Fit Statistics", **self._report_rows())
 
-    def _repr_html_(self):
+    def _repr_html_(self) -> str:
         """The report as HTML tables (Jupyter), in the manner of lmfit's."""
         from granflow._html import fit_html
 
@@ -227,7 +238,7 @@ class FitResult(FitOutcome):
         title = f"FitResult: Eq. 3 in {self.domain}{name}"
         return fit_html(self, title=title, **self._report_rows())
 
-    def to_dict(self, include_arrays=True):
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
 
         Parameters
@@ -257,7 +268,7 @@ class FitResult(FitOutcome):
         return encode(out)
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> FitResult:
         """The result a :meth:`to_dict` output (or its JSON) describes.
 
         Examples
@@ -288,7 +299,7 @@ class FitResult(FitOutcome):
             dropped=FrozenMap({k: int(v) for k, v in d.get("dropped", {}).items()}),
         )
 
-    def plot(self, ax=None, *, residual_ax=None):
+    def plot(self, ax: Axes | None = None, *, residual_ax: Axes | None = None) -> Axes:
         """Data, fit and residuals; see :func:`granflow.plotting.plot_fit`."""
         from granflow.plotting.fits import plot_fit
 
@@ -403,18 +414,18 @@ def _require_overshoot(features, fixed, names):
 
 
 def fit(
-    data,
+    data: Run | tuple[ArrayLike, ArrayLike],
     *,
-    domain="slip",
-    velocity=None,
-    fixed=None,
-    bounds=None,
-    weights=None,
-    sigma=None,
-    window=None,
-    profile=True,
-    params=None,
-):
+    domain: str = "slip",
+    velocity: float | None = None,
+    fixed: Mapping[str, float] | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    weights: ArrayLike | None = None,
+    sigma: float | ArrayLike | None = None,
+    window: tuple[float, float] | None = None,
+    profile: bool = True,
+    params: Parameters | Iterable[Parameter] | None = None,
+) -> FitResult:
     """Fit Eq. 3 to one friction curve, with no initial guess.
 
     Parameters

@@ -10,10 +10,14 @@ local processes, or a Dask cluster with ``scheduler=``); the work of one switch 
 top-level function :func:`map_row`, so any executor that pickles functions can run it.
 """
 
+from __future__ import annotations
+
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,6 +29,12 @@ from granflow.errors import InvalidParameterError
 from granflow.model.params import Params
 from granflow.simulation.driver import simulate
 from granflow.simulation.protocol import Protocol, SwitchToForce, Velocity
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from numpy.typing import NDArray
+
+    from granflow._typing import ArrayLike
 
 __all__ = ["OUTCOMES", "StabilityMap", "map_row", "stability_map"]
 
@@ -76,22 +86,22 @@ class StabilityMap(HtmlReport):
     method: str
     clock: str
     params: Params
-    options: MappingProxyType = field(default_factory=dict)
+    options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
 
     @property
-    def shape(self):
+    def shape(self) -> tuple[int, int]:
         return self.outcome.shape
 
     @property
-    def failed(self):
+    def failed(self) -> NDArray[np.bool_]:
         """Boolean array: where the layer failed."""
         return self.outcome == "failure"
 
     @property
-    def stopped(self):
+    def stopped(self) -> NDArray[np.bool_]:
         """Boolean array: where the layer came to rest."""
         return self.outcome == "stop"
 
@@ -102,7 +112,7 @@ class StabilityMap(HtmlReport):
             f"clock={self.clock!r}, {int(self.failed.sum())} failures)"
         )
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """One row per cell (SI units), with the map's settings in ``attrs``."""
         import pandas as pd
 
@@ -132,7 +142,7 @@ class StabilityMap(HtmlReport):
             "options": {key: _plain(value) for key, value in self.options.items()},
         }
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe mapping (NaN becomes None)."""
 
         def listed(array):
@@ -155,7 +165,7 @@ class StabilityMap(HtmlReport):
         }
 
     @classmethod
-    def from_dict(cls, saved):
+    def from_dict(cls, saved: Mapping[str, Any]) -> StabilityMap:
         """The map of :meth:`to_dict` (None read back as NaN); inverts ``to_dict``."""
         from granflow.simulation.options import DirectEffect
 
@@ -186,7 +196,7 @@ class StabilityMap(HtmlReport):
             options=options,
         )
 
-    def report(self):
+    def report(self) -> str:
         """A plain-text summary (display units)."""
         n, m = self.shape
         counts = {kind: int((self.outcome == kind).sum()) for kind in OUTCOMES}
@@ -287,21 +297,21 @@ def _rows(pool, tasks, progress):
 
 
 def stability_map(
-    params,
-    switch_points,
-    stress_ratios,
+    params: Params,
+    switch_points: ArrayLike,
+    stress_ratios: ArrayLike,
     *,
-    velocity,
-    hold=60.0,
-    ramp=0.0,
-    method="quasistatic",
-    clock="slip",
-    jobs=1,
-    executor=None,
-    scheduler=None,
-    progress=None,
-    **options,
-):
+    velocity: float,
+    hold: float = 60.0,
+    ramp: float = 0.0,
+    method: str = "quasistatic",
+    clock: str = "slip",
+    jobs: int | None = 1,
+    executor: Any = None,
+    scheduler: Any = None,
+    progress: bool | None = None,
+    **options: Any,
+) -> StabilityMap:
     """Fail or stop, for each switch point of a start-up and each imposed-to-current ratio.
 
     Parameters
