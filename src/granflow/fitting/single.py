@@ -103,10 +103,6 @@ def parameter_names(domain="slip"):
 # --------------------------------------------------------------------------- the result
 
 
-def _frozen(mapping):
-    return FrozenMap(dict(mapping))
-
-
 @dataclass(frozen=True, eq=False)
 class FitResult(FitOutcome):
     """The outcome of :func:`fit`: parameters with uncertainties and goodness of fit.
@@ -216,14 +212,13 @@ class FitResult(FitOutcome):
         return model_only(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
 
     def _report_rows(self):
-        """The rows of :meth:`report` beside the statistics every fit shows."""
-        unit = ABSCISSA[self.domain][1]
+        """The rows of :meth:`report` beside the statistics every fit shows; ``dropped``
+        counts the points left out by reason ("3 non finite, 1 not positive")."""
+        window = f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {ABSCISSA[self.domain][1]}"
+        dropped = ", ".join(f"{n} {why.replace('_', ' ')}" for why, n in self.dropped.items())
         return {
             "extra": (("domain", self.domain), ("# function evals", self.nfev)),
-            "after": (
-                ("window", f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {unit}"),
-                *((("dropped", _dropped_text(self.dropped)),) if self.dropped else ()),
-            ),
+            "after": (("window", window), *((("dropped", dropped),) if dropped else ())),
         }
 
     def report(self) -> str:
@@ -234,8 +229,7 @@ class FitResult(FitOutcome):
         """The report as HTML tables (Jupyter), in the manner of lmfit's."""
         from granflow._html import fit_html
 
-        name = f" of {self.name}" if self.name else ""
-        title = f"FitResult: Eq. 3 in {self.domain}{name}"
+        title = f"FitResult: Eq. 3 in {self.domain}" + (f" of {self.name}" if self.name else "")
         return fit_html(self, title=title, **self._report_rows())
 
     def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
@@ -304,11 +298,6 @@ class FitResult(FitOutcome):
         from granflow.plotting.fits import plot_fit
 
         return plot_fit(self, ax=ax, residual_ax=residual_ax)
-
-
-def _dropped_text(dropped):
-    """``"3 non-finite, 1 not positive"``: the points left out, by reason."""
-    return ", ".join(f"{count} {reason.replace('_', ' ')}" for reason, count in dropped.items())
 
 
 # --------------------------------------------------------------------------- the fit
@@ -586,15 +575,15 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
-        **stats.summary(ci95=_frozen({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})),
+        **stats.summary(ci95=FrozenMap({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})),
         success=success,
         message="; ".join(messages),
         domain=domain,
         names=names,
-        ci_method=_frozen(ci_method),
+        ci_method=FrozenMap(ci_method),
         correl=stats.correl,
         fixed=tuple(n_ for n_ in names if n_ in fixed),
-        at_bound=_frozen(at_bound),
+        at_bound=FrozenMap(at_bound),
         nfev=int(solution.nfev),
         rsquared=stats.rsquared,
         x=read_only(prepared.z),
@@ -606,5 +595,5 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         window=prepared.window,
         sigma_known=prepared.sigma_known,
         name=prepared.name,
-        dropped=_frozen(prepared.dropped),
+        dropped=FrozenMap(prepared.dropped),
     )
