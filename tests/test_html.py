@@ -129,7 +129,8 @@ def test_every_result_renders_as_balanced_html():
     spread = gf.preparation_spread(fits)
     creep = gf.fit_creep(np.linspace(1.0, 100.0, 50), 1e-6 * np.log1p(np.linspace(1, 100, 50)))
     simulation = gf.simulate(P, [gf.Velocity(1e-6, 100.0), gf.SwitchToForce(60.0, factor=1.01)])
-    results = [fits[0], comparison, spread, creep, simulation]
+    campaign = gf.Campaign([simulation.to_run()])
+    results = [fits[0], comparison, spread, creep, simulation, campaign]
     for result in results:
         markup = result._repr_html_()
         assert markup.startswith('<div class="granflow-result">')

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from granflow._html import HtmlReport
 from granflow._json import json_safe
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
 from granflow.io.manifest import MANIFEST_FIELDS, TEST_KINDS, BadEntry, read_manifest
@@ -160,7 +161,7 @@ def manifest_runs(path, geometry=None):
 
 
 @dataclass(frozen=True, eq=False)
-class Campaign:
+class Campaign(HtmlReport):
     """Runs with metadata: the unit of analysis of a measurement campaign.
 
     Parameters
@@ -312,7 +313,7 @@ class Campaign:
         table = read_tidy(path)
         return cls(table.runs, table.problems)
 
-    def summary(self) -> str:
+    def summary(self) -> pd.DataFrame:
         """A pandas DataFrame with one row per run: name, points, control and metadata."""
         import pandas as pd
 
