@@ -62,7 +62,8 @@ def _resolve(module, node):
 
 def module_imports(module):
     """Every name imported at module level by ``module`` (top-level statements, including
-    those under ``if`` and ``try``; not inside functions or classes)."""
+    those under ``if`` and ``try``; not inside functions or classes, nor under ``if
+    TYPE_CHECKING:``, which never runs)."""
     tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
     names = set()
     pending = list(tree.body)
@@ -79,6 +80,8 @@ def module_imports(module):
                 for alias in node.names
                 if f"{source}.{alias.name}" in MODULES
             )
+        elif isinstance(node, ast.If) and ast.unparse(node.test).endswith("TYPE_CHECKING"):
+            pending.extend(node.orelse)  # imports for type checkers only never run
         elif isinstance(node, ast.If | ast.Try | ast.With):
             for field in ("body", "orelse", "finalbody", "handlers"):
                 for child in getattr(node, field, []):
@@ -254,6 +257,7 @@ def test_module_imports_reads_module_level_imports_only(tmp_path, monkeypatch):
             "granflow/model/low.py": (
                 "import numpy\n"
                 "try:\n    import matplotlib\nexcept ImportError:\n    pass\n"
+                "if TYPE_CHECKING:\n    import pandas\n"
                 "def late():\n    from granflow.plotting import figure\n"
             ),
             "granflow/plotting/__init__.py": "from ..model.low import late\n",

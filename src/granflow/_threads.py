@@ -15,7 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 MIN_CHUNK = 1 << 16
 
 _state = {"threads": max(1, int(os.environ.get("GRANFLOW_NUM_THREADS", os.cpu_count() or 1)))}
-_pool = {}
+_pool: dict[int, ThreadPoolExecutor] = {}
 
 
 def set_num_threads(threads):

@@ -5,12 +5,18 @@ quantity and converts it to that SI unit (:func:`granflow.model.units.as_si`); a
 is taken as already in SI units. A pure number (no unit) must be given as a number.
 """
 
+from __future__ import annotations
+
 import math
 import numbers
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow.errors import InvalidParameterError
+
+if TYPE_CHECKING:
+    from granflow._typing import FloatArray
 
 
 def _fmt_unit(unit):
@@ -32,7 +38,7 @@ def _typed(value, unit):
     )
 
 
-def real_scalar(value, name, unit=""):
+def real_scalar(value: Any, name: str, unit: str = "") -> float:
     """Return ``value`` as a finite float or raise InvalidParameterError naming ``name``.
 
     ``value`` may be a number in ``unit``, a string with a unit or a pint quantity.
@@ -54,14 +60,14 @@ def real_scalar(value, name, unit=""):
     return number
 
 
-def positive(value, name, unit=""):
+def positive(value: Any, name: str, unit: str = "") -> float:
     number = real_scalar(value, name, unit)
     if number <= 0:
         raise InvalidParameterError(f"{name} must be positive, got {number:g}{_fmt_unit(unit)}")
     return number
 
 
-def non_negative(value, name, unit=""):
+def non_negative(value: Any, name: str, unit: str = "") -> float:
     number = real_scalar(value, name, unit)
     if number < 0:
         raise InvalidParameterError(f"{name} must be non-negative, got {number:g}{_fmt_unit(unit)}")
@@ -75,7 +81,7 @@ def _converted_array(value, name, unit):
     return value
 
 
-def float_array(value, name, unit=""):
+def float_array(value: Any, name: str, unit: str = "") -> FloatArray:
     """``value`` as a float64 array (no copy when it already is one; never modified here).
 
     ``value`` may also be a pint array quantity or a list of strings with units.
@@ -101,7 +107,7 @@ def index_text(index):
     return str(index[0]) if len(index) == 1 else str(index)
 
 
-def real_array(value, name, unit=""):
+def real_array(value: Any, name: str, unit: str = "") -> FloatArray:
     """Return ``value`` as a float64 array of finite numbers (a new array, never a view).
 
     ``value`` may also be a pint array quantity or a list of strings with units.

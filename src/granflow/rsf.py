@@ -10,7 +10,16 @@ Examples
 0.588487
 """
 
+from typing import TYPE_CHECKING
+
 from granflow._lazy import attach
+
+if TYPE_CHECKING:  # the public names as type checkers and editors see them
+    from granflow.simulation.rsf.model import LAWS as LAWS
+    from granflow.simulation.rsf.model import RateState as RateState
+    from granflow.simulation.rsf.model import State as State
+    from granflow.simulation.rsf.result import RateStateResult as RateStateResult
+    from granflow.simulation.rsf.simulate import simulate as simulate
 
 __getattr__, __dir__, __all__ = attach(
     __name__,

@@ -174,7 +174,7 @@ def test_the_summary_never_crashes_on_missing_numbers(damaged):
     for row in saved["predictions"]["static_yield"]:
         row.update(F_peak=None, stderr=None)
     text = AnalysisResult.from_dict(saved).summary()
-    assert "+/- n/a" in text and "95%: [n/a, n/a]" in text and "-> n/a +/- n/a mN" in text
+    assert "± n/a" in text and "95%: [n/a, n/a]" in text and "-> n/a mN" in text
 
 
 def test_failing_fits_still_write_the_report_and_exit_1(tmp_path):

@@ -40,11 +40,14 @@ file is left alone. Otherwise :class:`~granflow.errors.InvalidParameterError` is
 nothing is written.
 """
 
+from __future__ import annotations
+
 import json
 import math
 import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
@@ -59,6 +62,9 @@ from granflow.model.params import Params
 from granflow.model.run import Run
 from granflow.simulation.driver import DirectEffect, simulate
 from granflow.simulation.protocol import Force, ForceRamp, Protocol, SwitchToForce, Velocity
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
 
 __all__ = [
     "ALPHA",
@@ -497,7 +503,7 @@ _MANIFEST_HEADER = """\
 """
 
 
-def make_demo_campaign(directory, *, seed=0):
+def make_demo_campaign(directory: PathLike, *, seed: int = 0) -> Path:
     """Write a synthetic campaign that mirrors the paper as instrument exports + a manifest.
 
     The runs, the files and the overwriting rule are described in :mod:`granflow.demo`. The

@@ -64,17 +64,21 @@ equivalent analyses (dates, durations, jobs, scheduler, runs fitted now or reuse
 ``results["timing"]`` only.
 """
 
+from __future__ import annotations
+
 import contextlib
 import datetime
 import os
-import sys
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow._parallel import Executor
+from granflow._progress import RunProgress, silenced
 from granflow.analysis.files import (
     FIGURES_DIR,
     REPORT_FILE,
@@ -112,6 +116,10 @@ from granflow.analysis.stage import joint_stage
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.io.campaign import Campaign
+
 __all__ = [
     "ANALYSIS_VERSION",
     "RUNAWAY_FACTOR",
@@ -123,52 +131,6 @@ __all__ = [
 ]
 
 _DEFAULT_REFERENCE_VELOCITY = 1e-6  # m/s, as granflow.simulate
-
-
-# --------------------------------------------------------------------------- progress
-
-
-class _Progress:
-    """Reports finished runs on stderr: a bar on a terminal, plain lines otherwise."""
-
-    def __init__(self, quiet, callback, stream=None):
-        self.quiet = quiet
-        self.callback = callback
-        self.stream = stream or sys.stderr
-        self.terminal = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.total = 0
-        self.done = 0
-
-    def line(self, text):
-        if not self.quiet:
-            print(text, file=self.stream, flush=True)
-
-    def start(self, total):
-        self.total, self.done = total, 0
-
-    def finish(self):
-        """End an unfinished bar (after an interruption), so that what follows starts a line."""
-        if self.terminal and not self.quiet and 0 < self.done < self.total:
-            self.stream.write("\n")
-            self.stream.flush()
-
-    def step(self, name):
-        self.done += 1
-        if self.callback is not None:
-            self.callback(self.done, self.total, name)
-        if self.quiet:
-            return
-        if self.terminal:
-            width = 30
-            filled = int(width * self.done / max(self.total, 1))
-            bar = "#" * filled + "-" * (width - filled)
-            text = f"\r[{bar}] {self.done}/{self.total} {name[-40:]:<40}"
-            self.stream.write(text)
-            if self.done == self.total:
-                self.stream.write("\n")
-            self.stream.flush()
-        else:
-            print(f"fitted {self.done}/{self.total}: {name}", file=self.stream, flush=True)
 
 
 # --------------------------------------------------------------------------- analyze
@@ -214,19 +176,19 @@ def _remove_leftovers(output):
 
 
 def analyze(
-    source,
-    output,
+    source: PathLike | Campaign,
+    output: PathLike,
     *,
-    jobs=None,
-    scheduler=None,
-    resume=False,
-    quiet=False,
-    mcmc=False,
-    seed=0,
-    progress=None,
-    geometry=None,
-    strict=False,
-):
+    jobs: int | None = None,
+    scheduler: Any = None,
+    resume: bool = False,
+    quiet: bool = False,
+    mcmc: bool = False,
+    seed: int = 0,
+    progress: Callable[[int, int, str], object] | None = None,
+    geometry: Any = None,
+    strict: bool = False,
+) -> AnalysisResult:
     """Analyse a whole campaign and write results, tables, figures and a report.
 
     The rules (what a run is, the fit window, the joint analyses, the predictions) are in the
@@ -251,7 +213,8 @@ def analyze(
         Reuse the saved result of every run whose data and options still match (after an
         interrupted analysis); False starts clean.
     quiet : bool
-        No progress output on stderr.
+        No progress output on stderr. Otherwise one progress bar over the runs where a person
+        watches (a terminal, or Jupyter: tqdm's auto mode), one line per run in a log.
     mcmc : bool
         Also sample the posterior of the representative start-up fit (needs
         ``granflow[mcmc]``).
@@ -298,7 +261,7 @@ def analyze(
     if mcmc:
         _require_emcee()  # a missing extra is an error now, not after the fits
     output = Path(output)
-    reporter = _Progress(quiet, progress)
+    reporter = RunProgress(quiet, progress)
     stages = {}
     items, manifest, inputs = load_campaign(source, geometry)
     stages["read_s"] = time.perf_counter() - clock
@@ -321,7 +284,8 @@ def analyze(
         reporter.line("joint analyses and predictions")
         clock_stage = time.perf_counter()
         entries = tuple(run_entry(item, index, strict) for index, item in enumerate(items))
-        joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
+        with silenced():  # one bar per campaign: none from the stability map or MCMC
+            joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         stages["joint_s"] = time.perf_counter() - clock_stage
         description = executor.description
     finally:

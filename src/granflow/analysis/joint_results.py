@@ -9,8 +9,11 @@ result, and the comparisons of the stress-controlled runs with the model, from
 through their own ``from_dict``; equality compares ``to_dict()``.
 """
 
+from __future__ import annotations
+
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from granflow._json import json_safe
 from granflow.analysis.prediction_results import (
@@ -28,6 +31,9 @@ from granflow.fitting.joint import (
 )
 from granflow.fitting.mcmc import PosteriorResult
 from granflow.fitting.results import FrozenMap
+
+if TYPE_CHECKING:
+    from granflow.model.params import MaterialConstants
 
 __all__ = [
     "MATERIAL_CONSTANTS",
@@ -58,14 +64,20 @@ class Estimate(Value):
 
     value: float | None = None
     stderr: float | None = None
-    ci95: tuple = (None, None)
+    ci95: tuple[float | None, float | None] = (None, None)
 
-    def to_dict(self):
+    def __str__(self) -> str:
+        """``value ± stderr`` with the digits the error justifies."""
+        from granflow._format import format_value_error
+
+        return format_value_error(self.value, self.stderr)
+
+    def to_dict(self) -> dict[str, Any]:
         """``{"value", "stderr", "ci95": [low, high]}``."""
         return json_safe({"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)})
 
     @classmethod
-    def from_dict(cls, saved):
+    def from_dict(cls, saved: Mapping[str, Any]) -> Estimate:
         """The estimate of :meth:`to_dict`."""
         low, high = saved.get("ci95") or (None, None)
         return cls(value=saved.get("value"), stderr=saved.get("stderr"), ci95=(low, high))
@@ -105,20 +117,53 @@ class Material(Value, Mapping):
     velocity: float | None = None
 
     @property
-    def determined(self):
+    def determined(self) -> bool:
         """Whether the constants have values."""
         return self.mu_a.value is not None
 
-    def to_dict(self):
+    @property
+    def constants(self) -> MaterialConstants | None:
+        """The best values as a :class:`granflow.MaterialConstants` (None when not
+        determined): ``material.constants.params_at(normal_load, x0)`` gives the model at a
+        load."""
+        from granflow.model.params import MaterialConstants
+
+        if not self.determined:
+            return None
+        return MaterialConstants(**{name: getattr(self, name).value for name in MATERIAL_CONSTANTS})
+
+    def _repr_html_(self) -> str:
+        """The constants with their errors and intervals as an HTML table (Jupyter)."""
+        from granflow._format import format_interval
+        from granflow._html import result_html, table
+        from granflow.model.units import display_unit
+
+        if not self.determined:
+            return result_html("Material constants: not determined", [str(self.reason)])
+        rows = [
+            (
+                name,
+                str(getattr(self, name)),
+                format_interval(getattr(self, name).ci95),
+                display_unit(name) or "—",
+            )
+            for name in MATERIAL_CONSTANTS
+        ]
+        header = ("constant", "value ± standard error", "95 % interval", "unit")
+        return result_html(f"Material constants ({self.source})", [table(rows, header=header)])
+
+    def to_dict(self) -> dict[str, Any]:
         """The ``material`` entry of ``results.json``."""
         out = {name: getattr(self, name).to_dict() for name in MATERIAL_CONSTANTS}
         out.update(source=self.source, reason=self.reason)
         if self.runs is not None:
-            out.update(runs=self.runs, normal_loads=list(self.normal_loads), velocity=self.velocity)
+            out.update(
+                runs=self.runs, normal_loads=list(self.normal_loads or ()), velocity=self.velocity
+            )
         return json_safe(out)
 
     @classmethod
-    def from_dict(cls, saved):
+    def from_dict(cls, saved: Mapping[str, Any]) -> Material:
         """The constants of :meth:`to_dict`."""
         loads = saved.get("normal_loads")
         return cls(

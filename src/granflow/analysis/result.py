@@ -5,11 +5,16 @@
 :mod:`granflow.analysis.run_results` or :mod:`granflow.analysis.joint_results`.
 """
 
+from __future__ import annotations
+
 import functools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from granflow._format import DASH, format_number, format_value_error, real_number
 from granflow._json import json_safe
 from granflow.analysis.files import RESULTS_FILE
 from granflow.analysis.forecasts import RunForecast
@@ -17,8 +22,12 @@ from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Materi
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.values import Value, frozen_json
+from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 from granflow.model.units import display_unit, to_display
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
 
 __all__ = ["AnalysisResult", "RunEntry"]
 
@@ -83,7 +92,7 @@ class RunEntry(Value):
     velocity: float | None
     preparation: object
     points: int
-    result: object
+    result: Any
     key: str | None = None
     stage: str | None = None
     problems: tuple = ()
@@ -91,16 +100,16 @@ class RunEntry(Value):
     run: object = field(default=None, repr=False)
 
     @property
-    def ok(self):
+    def ok(self) -> bool:
         """Whether the run was analysed."""
         return not isinstance(self.result, FailedRun)
 
     @property
-    def reason(self):
+    def reason(self) -> str | None:
         """Why the run failed (None when it did not)."""
         return None if self.ok else self.result.reason
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """The run's entry in ``results["runs"]``."""
         out = {name: getattr(self, name) for name in _DESCRIPTION}
         if self.key is not None:
@@ -112,7 +121,7 @@ class RunEntry(Value):
         out["geometry"] = self.geometry
         return json_safe(out)
 
-    def failure(self):
+    def failure(self) -> dict[str, Any] | None:
         """The run's entry in ``results["failed_runs"]`` (None when it did not fail)."""
         if self.ok:
             return None
@@ -125,12 +134,12 @@ class RunEntry(Value):
         }
 
     @property
-    def flagged(self):
+    def flagged(self) -> bool:
         """Whether the run has data-quality problems."""
         return bool(self.problems)
 
     @classmethod
-    def from_dict(cls, saved):
+    def from_dict(cls, saved: Mapping[str, Any]) -> RunEntry:
         """The entry of :meth:`to_dict`."""
         own = (*_DESCRIPTION, "key", "stage", "problems", "geometry")
         rest = {k: v for k, v in saved.items() if k not in own}
@@ -213,7 +222,7 @@ class AnalysisResult(Value):
             f"output={output!r})"
         )
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """The content of ``results.json`` apart from ``timing`` (JSON-safe)."""
         return json_safe(
             {
@@ -234,7 +243,9 @@ class AnalysisResult(Value):
         )
 
     @classmethod
-    def from_dict(cls, saved, *, output=None):
+    def from_dict(
+        cls, saved: Mapping[str, Any], *, output: PathLike | None = None
+    ) -> AnalysisResult:
         """The result of :meth:`to_dict` (or of ``results.json``, its ``timing`` kept).
 
         Parameters
@@ -261,28 +272,30 @@ class AnalysisResult(Value):
         )
 
     @functools.cached_property
-    def results(self):
+    def results(self) -> dict[str, Any]:
         """The content of ``results.json``: :meth:`to_dict` plus ``timing``."""
         return {**self.to_dict(), "timing": json_safe(self.timing)}
 
     @property
-    def results_path(self):
+    def results_path(self) -> Path:
         """``OUTPUT/results.json``."""
+        if self.output is None:
+            raise InvalidParameterError("this result was not written to a folder (output is None)")
         return self.output / RESULTS_FILE
 
     @property
-    def failed_runs(self):
+    def failed_runs(self) -> list[dict[str, Any]]:
         """The runs that could not be analysed: ``name``, ``source``, ``interval``, ``stage``,
         ``reason``."""
         return [entry.failure() for entry in self.runs if not entry.ok]
 
     @property
-    def exit_code(self):
+    def exit_code(self) -> int:
         """0 when every run and every joint analysis succeeded, 1 when some failed (the
         command's exit code)."""
         return 1 if self.failed_runs or self.analyses.errors else 0
 
-    def summary(self):
+    def summary(self) -> str:
         """A one-screen summary: counts, material constants with intervals, predictions,
         failed runs, and where the output is (display units)."""
         counts = self.campaign["counts"]
@@ -316,12 +329,64 @@ class AnalysisResult(Value):
             lines.append(f"output: {self.output.resolve()}")
         return "\n".join(lines)
 
+    def _repr_html_(self) -> str:
+        """The summary as HTML (Jupyter): the material constants, what the campaign shows,
+        and every run in a table that opens on a click."""
+        from granflow._html import Html, heading, result_html, table, text
 
-def _number(value, spec):
-    """``value`` formatted with ``spec``, "n/a" for None or NaN (never a crash)."""
-    if value is None or (isinstance(value, float) and math.isnan(value)):
+        counts = self.campaign["counts"]
+        title = (
+            f"AnalysisResult: {counts['runs']} runs"
+            + (" (synthetic data)" if self.synthetic else "")
+            + f", {counts['analysed']} analysed, {counts['failed']} failed"
+        )
+        parts = [Html(self.material._repr_html_())]
+        findings = _prediction_lines(self.predictions, self.analyses)
+        findings += [forecast.summary() for forecast in self.forecasts]
+        findings += [
+            f"joint analysis failed: {name.replace('_', ' ')}: {reason}"
+            for name, reason in self.analyses.errors.items()
+        ]
+        findings += _quality_lines(self.runs, self.campaign)
+        if self.warnings:
+            findings.append(f"warnings: {len(self.warnings)} (see results.json or the report)")
+        if findings:
+            items = "".join(f"<li>{text(line.strip())}</li>" for line in findings)
+            parts += [heading("Findings"), Html(f"<ul>{items}</ul>")]
+        rows = [
+            (
+                entry.name,
+                entry.test or "—",
+                _number(_millinewton(entry.normal_load)),
+                _number(None if entry.velocity is None else entry.velocity * 1e6),
+                "ok" if entry.ok else f"failed ({entry.stage}): {entry.reason}",
+                "; ".join(entry.problems),
+            )
+            for entry in self.runs
+        ]
+        header = ("run", "test", "F_N [mN]", "V [µm/s]", "status", "data quality")
+        runs = table(rows, header=header, numeric=(2, 3))
+        parts.append(Html(f"<details><summary>Runs ({len(rows)})</summary>{runs}</details>"))
+        if self.output is not None:
+            where = self.report if self.report is not None else self.output
+            parts.append(Html(f"<p>output: <code>{text(where)}</code></p>"))
+        return result_html(title, parts)
+
+
+def _number(value, significant=4):
+    """``value`` with ``significant`` digits, "n/a" for None or NaN (never a crash)."""
+    text = format_number(value, significant=significant)
+    return "n/a" if text == DASH else text
+
+
+def _value_error(value, error, scale=1.0):
+    """``value ± error`` with the digits the error justifies (:mod:`granflow._format`);
+    "n/a" for a missing value, "± n/a" after a value without an error."""
+    if real_number(value) is None:
         return "n/a"
-    return format(value, spec)
+    if real_number(error) is None:
+        return f"{format_number(value, scale)} ± n/a"
+    return format_value_error(value, error, scale)
 
 
 def _quality_lines(runs, campaign):
@@ -347,15 +412,17 @@ def _material_lines(material):
         unit = f" {display_unit(name)}" if display_unit(name) else ""
         low, high = estimate.ci95
         lines.append(
-            f"  {name:<5} = {_number(estimate.value, '.5g')} +/- "
-            f"{_number(estimate.stderr, '.2g')}{unit}   "
-            f"95%: [{_number(low, '.5g')}, {_number(high, '.5g')}]"
+            f"  {name:<5} = {_value_error(estimate.value, estimate.stderr)}{unit}   "
+            f"95%: [{_number(low)}, {_number(high)}]"
         )
     return lines
 
 
+_MILLI = to_display("force", 1.0)  # N -> mN
+
+
 def _millinewton(value):
-    return None if value is None else to_display("force", value)
+    return None if value is None else value * _MILLI
 
 
 def _prediction_lines(predictions, analyses):
@@ -363,9 +430,8 @@ def _prediction_lines(predictions, analyses):
     rows = predictions.static_yield
     if rows:
         text = "; ".join(
-            f"{_number(_millinewton(row.normal_load), '.4g')} mN -> "
-            f"{_number(_millinewton(row.F_peak), '.4g')} "
-            f"+/- {_number(_millinewton(row.stderr), '.2g')} mN"
+            f"{_number(_millinewton(row.normal_load))} mN -> "
+            f"{_value_error(row.F_peak, row.stderr, _MILLI)} mN"
             for row in rows[:6]
         )
         lines.append(f"static yield F_peak: {text}" + (" ..." if len(rows) > 6 else ""))
@@ -375,9 +441,8 @@ def _prediction_lines(predictions, analyses):
             width = None if None in errors else math.hypot(*errors)
             lines.append(
                 f"stress ramp {row.run}: failed at "
-                f"{_number(_millinewton(row.observed.get('failure_force')), '.4g')} mN, "
-                f"predicted F_peak {_number(_millinewton(row.predicted_force), '.4g')} +/- "
-                f"{_number(_millinewton(width), '.2g')} mN"
+                f"{_number(_millinewton(row.observed.get('failure_force')))} mN, "
+                f"predicted F_peak {_value_error(row.predicted_force, width, _MILLI)} mN"
                 + (" (consistent)" if row.consistent else " (NOT consistent)")
             )
     for row in analyses.switch:

@@ -6,9 +6,12 @@ stress ramp or switch. A run's result is one of the frozen types of
 worker process (local or Dask) as in the calling one.
 """
 
+from __future__ import annotations
+
 import math
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +28,9 @@ from granflow.analysis.run_results import (
 )
 from granflow.errors import ConvergenceWarning, FitError, GranflowError, InvalidDataError
 from granflow.fitting.results import FrozenMap
+
+if TYPE_CHECKING:
+    from granflow.model.run import Run
 
 __all__ = [
     "ANALYSES",
@@ -49,7 +55,7 @@ _LEVEL_POINTS = 10  # points at one velocity that make a stress-controlled run a
 # --------------------------------------------------------------------------- what a run is
 
 
-def classify(run):
+def classify(run: Run) -> str:
     """The kind of test a run is: ``"startup"``, ``"ramp"``, ``"creep"`` or ``"switch"``.
 
     The metadata's ``test`` (from the manifest) wins; otherwise the rule documented in
@@ -154,7 +160,7 @@ def _elastic_ramp_end(x, force):
     return end
 
 
-def startup_data(run):
+def startup_data(run: Run) -> StartupData:
     """The slip and force of a start-up run inside the fit window (rule: module doc).
 
     Parameters

@@ -22,7 +22,7 @@ class Value:
             return NotImplemented
         return self.to_dict() == other.to_dict()
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # equal by value: unhashable
 
 
 def as_json(result, **options):

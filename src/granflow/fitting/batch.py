@@ -1,13 +1,21 @@
 """Fits of many curves at once, over local processes or a Dask cluster
 (:class:`granflow._parallel.Executor`)."""
 
+from __future__ import annotations
+
 import warnings
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow._parallel import Executor, check_jobs
+from granflow._progress import progress_bar, wanted
 from granflow.errors import ConvergenceWarning, GranflowError, InvalidParameterError
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
 
 __all__ = ["fit_many"]
 
@@ -38,7 +46,15 @@ def _fit_item(item):
         return exc
 
 
-def fit_many(datasets, *, jobs=2, errors="raise", scheduler=None, **options):
+def fit_many(
+    datasets: Iterable[Run | tuple[ArrayLike, ArrayLike]],
+    *,
+    jobs: int = 2,
+    errors: str = "raise",
+    scheduler: Any = None,
+    progress: bool | None = None,
+    **options: Any,
+) -> list[Any]:
     """Fit many curves over local processes (or a Dask cluster), in the order given.
 
     Parameters
@@ -74,9 +90,25 @@ def fit_many(datasets, *, jobs=2, errors="raise", scheduler=None, **options):
     jobs = check_jobs(jobs)
     items = [(_portable(data), options) for data in datasets]
     with Executor(jobs, scheduler) as executor:
-        results = executor.map(_fit_item, items, chunksize=max(1, len(items) // (4 * jobs)))
+        if wanted(progress):
+            results = _with_bar(executor, items)
+        else:
+            results = executor.map(_fit_item, items, chunksize=max(1, len(items) // (4 * jobs)))
     if errors == "raise":
         for index, result in enumerate(results):
             if isinstance(result, Exception):
                 raise type(result)(f"dataset {index}: {result}") from result
+    return results
+
+
+def _with_bar(executor, items):
+    """The fits of ``items`` in input order, a bar counting them as they finish."""
+    results = [None] * len(items)
+    bar = progress_bar(len(items), progress=True, desc="fitting", unit="curve")
+    try:
+        for position, result in executor.run(_fit_item, items):
+            results[position] = result
+            bar.update()
+    finally:
+        bar.close()
     return results

@@ -5,7 +5,11 @@ BIC (lmfit's definitions, ``n ln(chi2/n) + 2 k`` and ``n ln(chi2/n) + k ln n``).
 cannot be fitted (Eq. 3 on a curve without overshoot) stays in the table with its reason.
 """
 
+from __future__ import annotations
+
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -16,6 +20,12 @@ from granflow.fitting.engine import Model
 from granflow.fitting.results import FrozenMap, ValueEquality, decode, encode
 from granflow.fitting.single import FitResult, fit
 from granflow.model.units import si_unit
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from granflow._typing import ArrayLike
+    from granflow.model.run import Run
 
 __all__ = ["ModelComparison", "compare_models"]
 
@@ -47,7 +57,44 @@ class ModelComparison(ValueEquality):
     best_aic: str
     best_bic: str
 
-    def report(self):
+    def __repr__(self):
+        ranked = ", ".join(
+            f"{row['model']} dAIC={row['delta_aic']:.3g}"
+            if row["aic"] is not None
+            else f"{row['model']} not fitted"
+            for row in self.rows
+        )
+        return f"ModelComparison(best_aic={self.best_aic!r}, best_bic={self.best_bic!r}: {ranked})"
+
+    def _repr_html_(self) -> str:
+        """The table as HTML (Jupyter)."""
+        from granflow._format import DASH, format_number
+        from granflow._html import result_html, table
+
+        def number(value, significant=6):
+            return DASH if value is None else format_number(value, significant=significant)
+
+        rows = [
+            (
+                row["model"],
+                row["formula"],
+                row["nfree"],
+                number(row["chisqr"], 5),
+                number(row["aic"]),
+                number(row["delta_aic"], 3),
+                number(row["bic"]),
+                number(row["delta_bic"], 3),
+                "fitted" if row["aic"] is not None else f"not fitted: {row['message']}",
+            )
+            for row in self.rows
+        ]
+        header = ("model", "formula", "k", "chi-square", "AIC", "ΔAIC", "BIC", "ΔBIC", "")
+        return result_html(
+            f"ModelComparison: best by AIC {self.best_aic}, by BIC {self.best_bic}",
+            [table(rows, header=header, numeric=(2, 3, 4, 5, 6, 7))],
+        )
+
+    def report(self) -> str:
         """The table as text."""
         lines = [f"{'model':<12} {'k':>2} {'chi-square':>12} {'AIC':>12} {'dAIC':>9} {'dBIC':>9}"]
         for row in self.rows:
@@ -61,7 +108,7 @@ class ModelComparison(ValueEquality):
         lines.append(f"best by AIC: {self.best_aic}; by BIC: {self.best_bic}")
         return "\n".join(lines)
 
-    def to_dict(self, include_arrays=True):
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping: the rows, the winners and each model's fit; :meth:`from_dict`
         inverts it.
 
@@ -84,7 +131,7 @@ class ModelComparison(ValueEquality):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> ModelComparison:
         """The comparison a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         fits = {}
@@ -98,7 +145,7 @@ class ModelComparison(ValueEquality):
             best_bic=d["best_bic"],
         )
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """The table as a pandas DataFrame."""
         import pandas as pd
 
@@ -172,7 +219,14 @@ def _fit_exponential(z, y, sigma):
     )
 
 
-def compare_models(data, *, domain="slip", velocity=None, window=None, sigma=None):
+def compare_models(
+    data: Run | tuple[ArrayLike, ArrayLike],
+    *,
+    domain: str = "slip",
+    velocity: float | None = None,
+    window: tuple[float, float] | None = None,
+    sigma: float | None = None,
+) -> ModelComparison:
     """Compare Eq. 3 with pure logarithmic aging and a single-exponential approach.
 
     Parameters

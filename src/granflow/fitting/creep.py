@@ -5,8 +5,12 @@
 :func:`granflow.compare_models`.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,6 +38,13 @@ from granflow.fitting.statistics import (
     statistics,
 )
 from granflow.model.units import si_unit
+
+if TYPE_CHECKING:
+    from granflow._typing import FloatArray
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+    from granflow.fitting.parameters import Parameter, Parameters
 
 __all__ = ["CurveFitResult", "fit_creep"]
 
@@ -80,7 +91,7 @@ class CurveFitResult(FitOutcome):
         return f"CurveFitResult({self.model}, success={self.success}, {values})"
 
     @property
-    def correl(self):
+    def correl(self) -> FrozenMap:
         """Correlation of the free parameters, by name (from the covariance)."""
         free = [name for name in self.names if name in self.covar]
         scale = {name: math.sqrt(self.covar[name][name]) for name in free}
@@ -98,11 +109,17 @@ class CurveFitResult(FitOutcome):
             }
         )
 
-    def report(self):
+    def report(self) -> str:
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(self, title=f"Fit of {self.formula}")
 
-    def to_dict(self, include_arrays=True):
+    def _repr_html_(self) -> str:
+        """The report as HTML tables (Jupyter), in the manner of lmfit's."""
+        from granflow._html import fit_html
+
+        return fit_html(self, title=f"CurveFitResult: {self.formula}")
+
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
 
         Parameters
@@ -125,7 +142,7 @@ class CurveFitResult(FitOutcome):
         return encode(out)
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> CurveFitResult:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         return cls(
@@ -139,7 +156,7 @@ class CurveFitResult(FitOutcome):
         )
 
 
-def check_xy(x, y, names, minimum):
+def check_xy(x: Any, y: Any, names: tuple[str, str], minimum: int) -> tuple[FloatArray, FloatArray]:
     """Finite 1-d float arrays of one length, x strictly increasing; at least ``minimum``."""
     x, y = (real_column(values, name) for values, name in zip((x, y), names, strict=True))
     if x.shape != y.shape:
@@ -224,7 +241,13 @@ def _creep_jacobian(t, B, tau_c):
 CREEP = Model(slots=("B", "tau_c"), function=_creep, jacobian=_creep_jacobian, log=(False, True))
 
 
-def fit_creep(t, slip, *, sigma=None, params=None):
+def fit_creep(
+    t: ArrayLike,
+    slip: ArrayLike,
+    *,
+    sigma: float | None = None,
+    params: Parameters | Iterable[Parameter] | None = None,
+) -> CurveFitResult:
     """Fit logarithmic creep ``delta(t) = B ln(1 + t / tau_c)`` (Fig. 3b).
 
     Parameters

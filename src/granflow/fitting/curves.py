@@ -6,8 +6,11 @@ rise, from which :func:`start_candidates` builds starting values of Eq. 3 (no in
 needed).
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -15,6 +18,9 @@ from granflow import _validate as check
 from granflow.errors import InvalidDataError, InvalidParameterError
 from granflow.model.run import Run
 from granflow.model.special import scaled_ei_diff
+
+if TYPE_CHECKING:
+    from granflow._typing import FloatArray
 
 __all__ = [
     "DROP_REASONS",
@@ -91,7 +97,7 @@ def _as_curve_arrays(data, domain):
     return arrays[0], arrays[1], None, None, 0
 
 
-def real_column(values, name, unit=""):
+def real_column(values: Any, name: str, unit: str = "") -> FloatArray:
     """``values`` as a new one-dimensional float array of finite numbers [``unit``].
 
     Raises

@@ -13,14 +13,19 @@ Every run is fitted alone first (no initial guess needed); those fits start the 
 (:mod:`granflow.fitting.tied`).
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.stats import chi2 as chi2_distribution
 from scipy.stats import pearsonr
 from scipy.stats import t as student
 
+from granflow._html import HtmlReport
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import (
     FrozenMap,
@@ -43,6 +48,9 @@ from granflow.fitting.tied import (
 from granflow.model.friction import peak
 from granflow.model.run import Run
 
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+
 __all__ = [
     "AmontonsResult",
     "CollapseResult",
@@ -58,7 +66,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class CollapseResult(ValueEquality):
+class CollapseResult(HtmlReport, ValueEquality):
     """Velocity collapse (Fig. 2b): shared fit, per-velocity fit and a likelihood-ratio test.
 
     Attributes
@@ -88,7 +96,11 @@ class CollapseResult(ValueEquality):
     p_value: float
     collapses: bool
 
-    def report(self):
+    def __repr__(self):
+        verdict = "collapses" if self.collapses else "does not collapse"
+        return f"CollapseResult({len(self.velocities)} velocities, {verdict}, p={self.p_value:.3g})"
+
+    def report(self) -> str:
         """Summary of the test, then the per-velocity values."""
         lines = [
             "[[Velocity collapse]]",
@@ -105,7 +117,7 @@ class CollapseResult(ValueEquality):
             )
         return "\n".join(lines)
 
-    def to_dict(self, include_arrays=True):
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping; :meth:`from_dict` inverts it.
 
         Parameters
@@ -127,7 +139,7 @@ class CollapseResult(ValueEquality):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> CollapseResult:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         return cls(
@@ -147,7 +159,13 @@ def _likelihood_ratio(null, alternative):
     return max(null.ndata * math.log(null.chisqr / alternative.chisqr), 0.0)
 
 
-def velocity_collapse(datasets, velocities=None, *, sigma=None, window=None):
+def velocity_collapse(
+    datasets: Sequence[Any],
+    velocities: Sequence[float] | None = None,
+    *,
+    sigma: float | None = None,
+    window: tuple[float, float] | None = None,
+) -> CollapseResult:
     """Test whether runs at several velocities follow one curve in slip (Fig. 2b).
 
     Parameters
@@ -206,7 +224,7 @@ def velocity_collapse(datasets, velocities=None, *, sigma=None, window=None):
 
 
 @dataclass(frozen=True, eq=False)
-class AmontonsResult(ValueEquality):
+class AmontonsResult(HtmlReport, ValueEquality):
     """Amontons' law over normal loads (Fig. 2c).
 
     Attributes
@@ -237,7 +255,11 @@ class AmontonsResult(ValueEquality):
     lines: FrozenMap
     lines_ci95: FrozenMap = field(default_factory=FrozenMap)
 
-    def report(self):
+    def __repr__(self):
+        slopes = ", ".join(f"{key}={slope:.4g}*F_N" for key, (slope, _) in self.lines.items())
+        return f"AmontonsResult({len(self.per_load)} loads, {slopes})"
+
+    def report(self) -> str:
         """The per-load table and the lines through the origin."""
         lines = ["[[Amontons]]", self.joint.report(), "[[Per load: mean +/- standard error]]"]
         for row in self.per_load:
@@ -254,7 +276,7 @@ class AmontonsResult(ValueEquality):
             )
         return "\n".join(lines)
 
-    def to_dict(self, include_arrays=True):
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping; :meth:`from_dict` inverts it.
 
         Parameters
@@ -273,7 +295,7 @@ class AmontonsResult(ValueEquality):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> AmontonsResult:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         per_load = []
@@ -319,7 +341,14 @@ def _line_through_origin(loads, values):
     return (slope, error), (slope - half, slope + half)
 
 
-def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, window=None):
+def fit_amontons(
+    datasets: Sequence[Any],
+    normal_loads: Sequence[float] | None = None,
+    *,
+    velocities: Sequence[float] | None = None,
+    sigma: float | None = None,
+    window: tuple[float, float] | None = None,
+) -> AmontonsResult:
     """Joint fit with a = mu_a F_N and Fd = mu_d F_N, alpha shared, x0 per run (Fig. 2c).
 
     Parameters
@@ -400,7 +429,7 @@ def fit_amontons(datasets, normal_loads=None, *, velocities=None, sigma=None, wi
 
 
 @dataclass(frozen=True, eq=False)
-class PreparationSpread(ValueEquality):
+class PreparationSpread(HtmlReport, ValueEquality):
     """How repeats with nominally identical preparation differ.
 
     Attributes
@@ -428,7 +457,14 @@ class PreparationSpread(ValueEquality):
     correlation: float
     p_value: float
 
-    def report(self):
+    def __repr__(self):
+        name = "x0" if self.domain == "slip" else "t0"
+        return (
+            f"PreparationSpread({self.repeats} repeats, {name} std/mean = "
+            f"{self.start['relative']:.3g}, corr({name}, peak force) = {self.correlation:+.3f})"
+        )
+
+    def report(self) -> str:
         """A short text summary."""
         name = "x0" if self.domain == "slip" else "t0"
         return "\n".join(
@@ -443,7 +479,7 @@ class PreparationSpread(ValueEquality):
             ]
         )
 
-    def to_dict(self, include_arrays=True):
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping; :meth:`from_dict` inverts it.
 
         Parameters
@@ -465,7 +501,7 @@ class PreparationSpread(ValueEquality):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> PreparationSpread:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         return cls(
@@ -494,7 +530,9 @@ def _spread(values):
     )
 
 
-def preparation_spread(results, *, domain="slip"):
+def preparation_spread(
+    results: Sequence[FitResult | Run | tuple[ArrayLike, ArrayLike]], *, domain: str = "slip"
+) -> PreparationSpread:
     """Spread of x0 (t0) and Fd over repeats, and how x0 correlates with the peak force.
 
     Parameters

@@ -6,12 +6,17 @@ or t0) get log-uniform priors by default, Fd a uniform one; walkers move in log 
 for log-uniform parameters, so the prior is flat there.
 """
 
+from __future__ import annotations
+
 import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from granflow._progress import progress_bar
 from granflow.errors import ConvergenceWarning, InvalidParameterError
 from granflow.fitting.engine import model_only
 from granflow.fitting.results import (
@@ -26,6 +31,11 @@ from granflow.fitting.results import (
     read_arrays,
 )
 from granflow.fitting.single import FitResult
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from granflow._typing import FloatArray
 
 __all__ = ["PosteriorResult", "sample_posterior"]
 
@@ -87,7 +97,7 @@ class PosteriorResult(ValueEquality):
     least_squares: FrozenMap
     priors: FrozenMap
     seed: int | None
-    shape: tuple | None = None
+    shape: tuple[int, ...] = None  # type: ignore[assignment]  # __post_init__ fills it in
 
     #: The samples, which the compact ``to_dict(include_arrays=False)`` leaves out.
     ARRAYS = ("chain",)
@@ -97,7 +107,7 @@ class PosteriorResult(ValueEquality):
             object.__setattr__(self, "shape", tuple(self.chain.shape))
 
     @property
-    def samples(self):
+    def samples(self) -> FloatArray:
         """The chain flattened over walkers, shape (steps * walkers, parameters)."""
         return self.chain.reshape(-1, len(self.names))
 
@@ -106,7 +116,7 @@ class PosteriorResult(ValueEquality):
         steps, walkers, _ = self.shape
         return f"PosteriorResult({steps} steps x {walkers} walkers, {values})"
 
-    def report(self):
+    def report(self) -> str:
         """Medians with 68 % and 95 % intervals, autocorrelation times."""
         lines = [
             f"[[Posterior]] {self.shape[0]} steps x {self.shape[1]} walkers, "
@@ -121,7 +131,32 @@ class PosteriorResult(ValueEquality):
             )
         return "\n".join(lines)
 
-    def to_dict(self, include_arrays=True):
+    def _repr_html_(self) -> str:
+        """Medians, intervals and autocorrelation times as an HTML table (Jupyter)."""
+        from granflow._format import format_interval, format_number
+        from granflow._html import result_html, table
+
+        steps, walkers, _ = self.shape
+        state = "converged" if self.converged else "chains too short"
+        rows = [
+            (
+                name,
+                format_number(self.medians[name], significant=5),
+                format_interval(self.ci68[name], significant=5),
+                format_interval(self.ci95[name], significant=5),
+                f"{self.autocorr[name]:.1f}",
+                format_number(self.least_squares[name], significant=5),
+            )
+            for name in self.names
+        ]
+        header = ("name", "median", "68 % interval", "95 % interval", "tau", "least squares")
+        return result_html(
+            f"PosteriorResult: {steps} steps × {walkers} walkers, acceptance "
+            f"{self.acceptance_fraction:.2f}, {state}",
+            [table(rows, header=header, numeric=(1, 4, 5))],
+        )
+
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping with the chain as nested lists; :meth:`from_dict` inverts it.
 
         Parameters
@@ -149,7 +184,7 @@ class PosteriorResult(ValueEquality):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> PosteriorResult:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         shape = tuple(int(size) for size in d["shape"])
@@ -175,7 +210,7 @@ class PosteriorResult(ValueEquality):
             shape=shape,
         )
 
-    def plot_corner(self, **kwargs):
+    def plot_corner(self, **kwargs: Any) -> Figure:
         """Corner plot of the samples; see :func:`granflow.plotting.plot_corner`."""
         from granflow.plotting.fits import plot_corner
 
@@ -215,8 +250,15 @@ def _priors(result, free, priors):
 
 
 def sample_posterior(
-    fit_result, *, priors=None, nwalkers=32, nsteps=2000, burn=None, seed=None, progress=False
-):
+    fit_result: FitResult,
+    *,
+    priors: Mapping[str, tuple[str, float, float]] | None = None,
+    nwalkers: int = 32,
+    nsteps: int = 2000,
+    burn: int | None = None,
+    seed: int | None = None,
+    progress: bool | None = None,
+) -> PosteriorResult:
     """Sample the posterior of a single-curve fit with emcee's affine-invariant ensemble.
 
     Parameters
@@ -234,8 +276,9 @@ def sample_posterior(
         Steps discarded at the start; default ``nsteps // 4``.
     seed : int, optional
         Seed of the initial positions and of the sampler: a seeded run is reproducible exactly.
-    progress : bool
-        Show emcee's progress bar.
+    progress : bool or None
+        A progress bar over the steps on stderr (tqdm: a widget in Jupyter): True, False, or
+        None (default) for one when a person watches (a terminal or Jupyter).
 
     Returns
     -------
@@ -302,7 +345,12 @@ def sample_posterior(
     start = np.clip(start, low_u, high_u)
     sampler = emcee.EnsembleSampler(nwalkers, ndim, log_probability)
     sampler.random_state = np.random.RandomState(int(sampler_seed)).get_state()
-    sampler.run_mcmc(start, nsteps, progress=progress)
+    bar = progress_bar(nsteps, progress=progress, desc="sampling", unit="step")
+    try:
+        for _ in sampler.sample(start, iterations=nsteps):  # what run_mcmc does, with a bar
+            bar.update()
+    finally:
+        bar.close()
     chain_u = sampler.get_chain(discard=burn)
     chain = np.where(log_axis, np.exp(chain_u), chain_u)
     chain.flags.writeable = False

@@ -166,7 +166,7 @@ class Parameters(FrozenMap):
 
     __slots__ = ()
 
-    def __init__(self, parameters=()):
+    def __init__(self, parameters: Iterable[Parameter] = ()) -> None:
         if isinstance(parameters, Parameter | str) or not isinstance(parameters, Iterable):
             raise InvalidParameterError(
                 f"Parameters takes an iterable of Parameter, got {type(parameters).__name__}"
@@ -189,7 +189,7 @@ class Parameters(FrozenMap):
     def __reduce__(self):
         return (Parameters, (list(self.values()),))
 
-    def valuesdict(self):
+    def valuesdict(self) -> dict[str, float]:
         """The values by name [SI]."""
         return {name: parameter.value for name, parameter in self.items()}
 

@@ -87,7 +87,7 @@ def same(first, second):
 class ValueEquality:
     """Mixin for frozen result dataclasses: ``==`` compares every field with :func:`same`."""
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # mutable by value: unhashable
 
     def __eq__(self, other):
         if type(other) is not type(self):

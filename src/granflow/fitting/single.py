@@ -19,9 +19,13 @@ In the time domain (``domain="time"``) the same mathematics applies with x -> t,
 alpha -> k = alpha v, x0 -> t0 = x0 / v; the parameters are called ``a, k, Fd, t0``.
 """
 
+from __future__ import annotations
+
 import math
 import warnings
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -72,6 +76,13 @@ from granflow.fitting.statistics import (
 from granflow.model.params import Params
 from granflow.model.units import si_unit
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from granflow._typing import ArrayLike, FloatArray
+    from granflow.fitting.parameters import Parameter, Parameters
+    from granflow.model.run import Run
+
 __all__ = ["FitResult", "fit", "parameter_names"]
 
 _NAMES = {"slip": ("a", "alpha", "Fd", "x0"), "time": ("a", "k", "Fd", "t0")}
@@ -90,10 +101,6 @@ def parameter_names(domain="slip"):
 
 
 # --------------------------------------------------------------------------- the result
-
-
-def _frozen(mapping):
-    return FrozenMap(dict(mapping))
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,11 +181,11 @@ class FitResult(FitOutcome):
         )
 
     @property
-    def units(self):
+    def units(self) -> Mapping[str, str]:
         """Mapping of parameter name to its SI unit."""
         return _UNITS[self.domain]
 
-    def to_params(self, velocity=None):
+    def to_params(self, velocity: float | None = None) -> Params:
         """The fitted values as :class:`granflow.Params` (slip domain, SI).
 
         Parameters
@@ -199,25 +206,33 @@ class FitResult(FitOutcome):
             a=p["a"], k=p["k"], t0=p["t0"], Fd=p["Fd"], velocity=velocity
         )
 
-    def model(self, x):
+    def model(self, x: ArrayLike) -> FloatArray:
         """The fitted curve at abscissae ``x`` [m or s] (held at the initial force below x0)."""
         z = check.real_array(x, "x", ABSCISSA[self.domain][1]).ravel()
         return model_only(np.ascontiguousarray(z), *(self.params[n] for n in self.names))
 
-    def report(self):
-        """A text report in the manner of lmfit's ``fit_report``."""
-        unit = ABSCISSA[self.domain][1]
-        return fit_report(
-            self,
-            title="Fit Statistics",
-            extra=(("domain", self.domain), ("# function evals", self.nfev)),
-            after=(
-                ("window", f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {unit}"),
-                *((("dropped", _dropped_text(self.dropped)),) if self.dropped else ()),
-            ),
-        )
+    def _report_rows(self):
+        """The rows of :meth:`report` beside the statistics every fit shows; ``dropped``
+        counts the points left out by reason ("3 non finite, 1 not positive")."""
+        window = f"[{self.window[0]:.6g}, {self.window[1]:.6g}] {ABSCISSA[self.domain][1]}"
+        dropped = ", ".join(f"{n} {why.replace('_', ' ')}" for why, n in self.dropped.items())
+        return {
+            "extra": (("domain", self.domain), ("# function evals", self.nfev)),
+            "after": (("window", window), *((("dropped", dropped),) if dropped else ())),
+        }
 
-    def to_dict(self, include_arrays=True):
+    def report(self) -> str:
+        """A text report in the manner of lmfit's ``fit_report``."""
+        return fit_report(self, title="Fit Statistics", **self._report_rows())
+
+    def _repr_html_(self) -> str:
+        """The report as HTML tables (Jupyter), in the manner of lmfit's."""
+        from granflow._html import fit_html
+
+        title = f"FitResult: Eq. 3 in {self.domain}" + (f" of {self.name}" if self.name else "")
+        return fit_html(self, title=title, **self._report_rows())
+
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
 
         Parameters
@@ -247,7 +262,7 @@ class FitResult(FitOutcome):
         return encode(out)
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> FitResult:
         """The result a :meth:`to_dict` output (or its JSON) describes.
 
         Examples
@@ -278,16 +293,11 @@ class FitResult(FitOutcome):
             dropped=FrozenMap({k: int(v) for k, v in d.get("dropped", {}).items()}),
         )
 
-    def plot(self, ax=None, *, residual_ax=None):
+    def plot(self, ax: Axes | None = None, *, residual_ax: Axes | None = None) -> Axes:
         """Data, fit and residuals; see :func:`granflow.plotting.plot_fit`."""
         from granflow.plotting.fits import plot_fit
 
         return plot_fit(self, ax=ax, residual_ax=residual_ax)
-
-
-def _dropped_text(dropped):
-    """``"3 non-finite, 1 not positive"``: the points left out, by reason."""
-    return ", ".join(f"{count} {reason.replace('_', ' ')}" for reason, count in dropped.items())
 
 
 # --------------------------------------------------------------------------- the fit
@@ -393,18 +403,18 @@ def _require_overshoot(features, fixed, names):
 
 
 def fit(
-    data,
+    data: Run | tuple[ArrayLike, ArrayLike],
     *,
-    domain="slip",
-    velocity=None,
-    fixed=None,
-    bounds=None,
-    weights=None,
-    sigma=None,
-    window=None,
-    profile=True,
-    params=None,
-):
+    domain: str = "slip",
+    velocity: float | None = None,
+    fixed: Mapping[str, float] | None = None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    weights: ArrayLike | None = None,
+    sigma: float | ArrayLike | None = None,
+    window: tuple[float, float] | None = None,
+    profile: bool = True,
+    params: Parameters | Iterable[Parameter] | None = None,
+) -> FitResult:
     """Fit Eq. 3 to one friction curve, with no initial guess.
 
     Parameters
@@ -565,15 +575,15 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
-        **stats.summary(ci95=_frozen({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})),
+        **stats.summary(ci95=FrozenMap({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})),
         success=success,
         message="; ".join(messages),
         domain=domain,
         names=names,
-        ci_method=_frozen(ci_method),
+        ci_method=FrozenMap(ci_method),
         correl=stats.correl,
         fixed=tuple(n_ for n_ in names if n_ in fixed),
-        at_bound=_frozen(at_bound),
+        at_bound=FrozenMap(at_bound),
         nfev=int(solution.nfev),
         rsquared=stats.rsquared,
         x=read_only(prepared.z),
@@ -585,5 +595,5 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         window=prepared.window,
         sigma_known=prepared.sigma_known,
         name=prepared.name,
-        dropped=_frozen(prepared.dropped),
+        dropped=FrozenMap(prepared.dropped),
     )

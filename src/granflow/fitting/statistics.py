@@ -9,9 +9,13 @@ fields that the statistics and every result share, :class:`FitOutcome` those of 
 every single, joint and curve fit.
 """
 
+from __future__ import annotations
+
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -210,7 +214,13 @@ def decoded(d):
     }
 
 
-def fit_report(result, *, title, extra=(), after=()):
+def fit_report(
+    result: Any,
+    *,
+    title: str,
+    extra: Sequence[tuple[str, object]] = (),
+    after: Sequence[tuple[str, object]] = (),
+) -> str:
     """The report of a fit result in the manner of lmfit's ``fit_report``.
 
     Parameters

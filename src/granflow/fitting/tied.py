@@ -6,9 +6,13 @@ the joint fit, which the engine solves with a factor per tie (the Amontons fit o
 :mod:`granflow.fitting.joint` uses the normal load as the factor of a and Fd).
 """
 
+from __future__ import annotations
+
 import math
 import warnings
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +31,9 @@ from granflow.fitting.statistics import (
     statistics,
 )
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    from granflow.fitting.parameters import Parameter, Parameters
 
 __all__ = [
     "JointFitResult",
@@ -85,11 +92,11 @@ class JointFitResult(FitOutcome):
         )
 
     @property
-    def units(self):
+    def units(self) -> FrozenMap:
         """Mapping of parameter name to its SI unit (``x0_3`` has the unit of x0)."""
         return FrozenMap({name: unit_of(name) for name in self.names})
 
-    def report(self):
+    def report(self) -> str:
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(
             self,
@@ -97,7 +104,17 @@ class JointFitResult(FitOutcome):
             extra=(("domain", self.domain), ("runs", len(self.run_names))),
         )
 
-    def to_dict(self, include_arrays=True):
+    def _repr_html_(self) -> str:
+        """The report as HTML tables (Jupyter), in the manner of lmfit's."""
+        from granflow._html import fit_html
+
+        return fit_html(
+            self,
+            title=f"JointFitResult: Eq. 3 in {self.domain} over {len(self.run_names)} runs",
+            extra=(("domain", self.domain), ("runs", ", ".join(self.run_names))),
+        )
+
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping of the result (with the separate fits); :meth:`from_dict` inverts
         it.
 
@@ -125,7 +142,7 @@ class JointFitResult(FitOutcome):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> JointFitResult:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         return cls(
@@ -226,18 +243,18 @@ def solve_joint(spec, prepared, fits, domain, fixed, sigma_known, names_order, r
 
 
 def fit_joint(
-    datasets,
+    datasets: Sequence[Any],
     *,
-    domain="slip",
-    shared=("a", "alpha", "Fd"),
-    per_run=("x0",),
-    groups=None,
-    per_group=(),
-    fixed=None,
-    sigma=None,
-    window=None,
-    params=None,
-):
+    domain: str = "slip",
+    shared: Sequence[str] = ("a", "alpha", "Fd"),
+    per_run: Sequence[str] = ("x0",),
+    groups: Sequence[Any] | None = None,
+    per_group: Sequence[str] = (),
+    fixed: Mapping[str, float] | None = None,
+    sigma: float | None = None,
+    window: tuple[float, float] | None = None,
+    params: Parameters | Iterable[Parameter] | None = None,
+) -> JointFitResult:
     """Fit Eq. 3 to several runs at once, with parameters tied by name.
 
     Parameters

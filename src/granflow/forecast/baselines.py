@@ -7,7 +7,10 @@ of the point-to-point rate), and the fit uses the second half of the record, whe
 acceleration shows.
 """
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -15,6 +18,10 @@ from scipy.stats import norm
 
 from granflow.forecast import _inputs
 from granflow.forecast.results import BaselineForecast
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+    from granflow.forecast.results import BaselineForecast
 
 __all__ = ["inverse_velocity_forecast", "smoothed_velocity", "voight_forecast"]
 
@@ -56,7 +63,14 @@ def _none(method, until, level, exponent, count, message):
     )
 
 
-def inverse_velocity_forecast(t, slip, until=None, *, level=0.9, window=None):
+def inverse_velocity_forecast(
+    t: ArrayLike,
+    slip: ArrayLike,
+    until: float | None = None,
+    *,
+    level: float = 0.9,
+    window: int | None = None,
+) -> BaselineForecast:
     """Fukuzono's inverse-velocity method: the time where a straight line through 1/v
     reaches zero.
 
@@ -110,7 +124,14 @@ def inverse_velocity_forecast(t, slip, until=None, *, level=0.9, window=None):
     )
 
 
-def voight_forecast(t, slip, until=None, *, level=0.9, window=None):
+def voight_forecast(
+    t: ArrayLike,
+    slip: ArrayLike,
+    until: float | None = None,
+    *,
+    level: float = 0.9,
+    window: int | None = None,
+) -> BaselineForecast:
     """Voight's rate law with alpha fitted: ``v = C (t_f - t)^(-1/(alpha - 1))``, fitted in
     log v over the second half of the record; the interval from the fit's covariance of
     ln(t_f - until).

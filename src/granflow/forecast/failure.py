@@ -2,7 +2,10 @@
 clock): the slip record before the cut constrains a, alpha, x0 and F_peak on the rising
 branch, and the layer fails when the continued force history reaches F_peak."""
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,6 +17,10 @@ from granflow.forecast.likelihood import Likelihood, fit_and_profile
 from granflow.forecast.loading import fit_loading
 from granflow.forecast.prior import Prior
 from granflow.forecast.results import FailureForecast
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+    from granflow.forecast.results import FailureForecast
 
 __all__ = ["forecast_failure"]
 
@@ -63,7 +70,16 @@ def _check_prior(prior):
     raise InvalidDataError(f"prior must be a granflow.forecast.Prior or a mapping, got {prior!r}")
 
 
-def forecast_failure(t, slip, force, until=None, *, prior=None, level=0.9, noise=None):
+def forecast_failure(
+    t: ArrayLike,
+    slip: ArrayLike,
+    force: ArrayLike,
+    until: float | None = None,
+    *,
+    prior: Any = None,
+    level: float = 0.9,
+    noise: float | None = None,
+) -> FailureForecast:
     """Forecast when a layer under a rising imposed force fails, from its slip before ``until``.
 
     Quasi-static with the slip clock (SPEC §2): the layer creeps up the rising branch of F(x),

@@ -2,7 +2,10 @@
 the record before the cut with F_peak as a parameter, and carry the profile likelihood of
 F_peak to the peak's slip and time."""
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -14,6 +17,11 @@ from granflow.forecast.likelihood import Likelihood, fit_and_profile
 from granflow.forecast.results import PeakForecast
 from granflow.model.friction import friction_time, peak
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+    from granflow.forecast.results import PeakForecast
+    from granflow.model.run import Run
 
 __all__ = ["forecast_peak"]
 
@@ -41,7 +49,15 @@ def _starts(force, scale, span):
     )
 
 
-def forecast_peak(run_or_t, velocity=None, until=None, *, prior=None, level=0.9, noise=None):
+def forecast_peak(
+    run_or_t: Run | tuple[ArrayLike, ArrayLike],
+    velocity: float | None = None,
+    until: float | None = None,
+    *,
+    prior: Any = None,
+    level: float = 0.9,
+    noise: float | None = None,
+) -> PeakForecast:
     """Forecast the peak (static yield) of a rate-controlled start-up from the record before
     ``until``.
 

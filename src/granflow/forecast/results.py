@@ -9,10 +9,13 @@ coordinate is x = x0 + slip).
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from granflow._html import HtmlReport
 from granflow.fitting.results import decode, encode
 from granflow.forecast.loading import Loading
 
@@ -40,10 +43,10 @@ def _fmt_interval(pair, scale, unit):
     return f"[{_fmt(pair[0], scale, '')}, {_fmt(pair[1], scale, '')}] {unit}"
 
 
-class _Codec:
+class _Codec(HtmlReport):
     """to_dict/from_dict of a flat frozen dataclass of floats, pairs, strings and dicts."""
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe mapping (SI units; infinities kept, see granflow.fitting.results)."""
         out = {}
         for item in dataclasses.fields(self):
@@ -56,7 +59,7 @@ class _Codec:
         return encode(out)
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> Any:
         """Inverse of :meth:`to_dict`."""
         d = decode(d, cls)
         values = {}
@@ -126,7 +129,7 @@ class PeakForecast(_Codec):
             f"time={self.time:.4g} s, until={self.until:.4g} s)"
         )
 
-    def report(self):
+    def report(self) -> str:
         """A short text report in display units (mN, um, s)."""
         pct = f"{self.level:.0%}"
         lines = [
@@ -201,7 +204,7 @@ class FailureForecast(_Codec):
         when = "no failure in sight" if self.time is None else f"time={self.time:.5g} s"
         return f"FailureForecast({when}, interval={self.time_interval}, until={self.until:.4g} s)"
 
-    def report(self):
+    def report(self) -> str:
         """A short text report in display units (mN, um, s)."""
         pct = f"{self.level:.0%}"
         lines = [
@@ -260,7 +263,7 @@ class BaselineForecast(_Codec):
     approaching: bool
     message: str = ""
 
-    def report(self):
+    def report(self) -> str:
         """One line."""
         if self.time is None:
             return f"[[{self.method}]] no failure forecast: {self.message}"
@@ -291,7 +294,7 @@ class RunningForecast:
     observed: float | None
     level: float
 
-    def rows(self):
+    def rows(self) -> list[dict[str, Any]]:
         """The table: one dict per cut and method (SI units)."""
         rows = []
         for k, cut in enumerate(self.cuts):
@@ -307,7 +310,28 @@ class RunningForecast:
                 )
         return rows
 
-    def report(self):
+    def _repr_html_(self) -> str:
+        """The table as HTML (Jupyter), times in s."""
+        from granflow._format import format_number
+        from granflow._html import result_html, table
+
+        observed = "unknown" if self.observed is None else f"{self.observed:.4g} s"
+        rows = [
+            (
+                format_number(row["cut"]),
+                row["method"],
+                format_number(row["time"]),
+                f"[{format_number(row['low'])}, {format_number(row['high'])}]",
+            )
+            for row in self.rows()
+        ]
+        header = ("cut [s]", "method", "t_f [s]", f"{self.level:.0%} interval [s]")
+        return result_html(
+            f"RunningForecast: observed failure {observed}",
+            [table(rows, header=header, numeric=(0, 2))],
+        )
+
+    def report(self) -> str:
         """The table as text, times in s."""
         observed = "unknown" if self.observed is None else f"{self.observed:.4g} s"
         lines = [f"[[Running forecast]] observed failure: {observed}"]
@@ -321,7 +345,7 @@ class RunningForecast:
             )
         return "\n".join(lines)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe mapping (SI units)."""
         methods = {
             name: {key: np.asarray(v, dtype=float).tolist() for key, v in values.items()}
@@ -337,7 +361,7 @@ class RunningForecast:
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> "RunningForecast":
         """Inverse of :meth:`to_dict`."""
         d = decode(d, cls)
 

@@ -1,6 +1,9 @@
 """The running forecast: what an observer would have said at each moment of a record."""
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -9,6 +12,10 @@ from granflow.forecast._inputs import column
 from granflow.forecast.baselines import inverse_velocity_forecast, voight_forecast
 from granflow.forecast.failure import forecast_failure
 from granflow.forecast.results import RunningForecast
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+    from granflow.forecast.results import RunningForecast
 
 __all__ = ["running_forecast"]
 
@@ -19,7 +26,16 @@ def _row(forecast):
     return forecast.time, *forecast.time_interval
 
 
-def running_forecast(t, slip, force, cuts=None, *, observed=None, prior=None, level=0.9):
+def running_forecast(
+    t: ArrayLike,
+    slip: ArrayLike,
+    force: ArrayLike,
+    cuts: ArrayLike | None = None,
+    *,
+    observed: float | None = None,
+    prior: Any = None,
+    level: float = 0.9,
+) -> RunningForecast:
     """Failure forecasts of every method at a sequence of cut times.
 
     Parameters

@@ -1,8 +1,10 @@
 """What a reader returns: a parsed file, its intervals and their columns (file units kept)."""
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
@@ -57,7 +59,7 @@ class Interval:
     values: MappingProxyType
     text: MappingProxyType
     rows: int
-    metadata: MappingProxyType = field(default_factory=dict)
+    metadata: Mapping[str, Any] = field(default_factory=dict)
     problems: tuple = ()
     problem_quantities: tuple = ()
 

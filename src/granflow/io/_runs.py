@@ -1,12 +1,18 @@
 """Parsed intervals to :class:`granflow.Run`: torque -> force, angle -> slip, speed -> velocity."""
 
+from __future__ import annotations
+
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from granflow.io import _columns
 from granflow.io._text import fail
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    from granflow.io._file import Interval
 
 __all__ = ["control_mode", "interval_to_run", "runs_from_file"]
 
@@ -25,7 +31,7 @@ def _spread(values):
     return float(finite.std() / scale) if scale > 0 else 0.0
 
 
-def control_mode(interval):
+def control_mode(interval: Interval) -> str:
     """ "rate" or "stress" for one interval.
 
     From the metadata when it says (a "Control Mode" entry or a measuring profile that names

@@ -6,14 +6,23 @@ groups runs by load, velocity and preparation, and saves them as granflow's tidy
 (:mod:`granflow.io.tidy`: CSV with a sidecar JSON, or Parquet) that loads back identically.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from granflow._html import HtmlReport
 from granflow._json import json_safe
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
 from granflow.io.manifest import MANIFEST_FIELDS, TEST_KINDS, BadEntry, read_manifest
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from granflow._typing import PathLike
 
 __all__ = [
     "MANIFEST_FIELDS",
@@ -152,7 +161,7 @@ def manifest_runs(path, geometry=None):
 
 
 @dataclass(frozen=True, eq=False)
-class Campaign:
+class Campaign(HtmlReport):
     """Runs with metadata: the unit of analysis of a measurement campaign.
 
     Parameters
@@ -199,7 +208,9 @@ class Campaign:
         return f"Campaign({len(self.runs)} runs, {len(self.problems)} problems)"
 
     @classmethod
-    def from_manifest(cls, path, geometry=None, errors="collect"):
+    def from_manifest(
+        cls, path: PathLike, geometry: Any = None, errors: str = "collect"
+    ) -> Campaign:
         """Read every file a manifest names and attach the manifest's metadata to its runs.
 
         Parameters
@@ -224,7 +235,7 @@ class Campaign:
             runs += entry.runs
         return cls(runs, problems)
 
-    def select(self, *, rtol=1e-6, **criteria):
+    def select(self, *, rtol: float = 1e-06, **criteria: Any) -> Campaign:
         """The runs whose metadata match every criterion (floats within ``rtol``).
 
         ``velocity`` compares the run's nominal velocity; other keys compare ``meta`` values
@@ -237,7 +248,7 @@ class Campaign:
         ]
         return Campaign(chosen, self.problems)
 
-    def group(self, by):
+    def group(self, by: str | tuple[str, ...]) -> dict[Any, Campaign]:
         """``{key: Campaign}`` grouped by one field or a tuple of fields, in first-seen order.
 
         Floats are grouped after rounding to 6 significant digits (loads and velocities
@@ -250,7 +261,7 @@ class Campaign:
             groups.setdefault(key if len(fields) > 1 else key[0], []).append(run)
         return {key: Campaign(runs, self.problems) for key, runs in groups.items()}
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """The tidy data: one row per point, columns ``run`` (0-based), t, slip, velocity,
         force [SI], control, and each scalar metadata entry as a column."""
         import pandas as pd
@@ -266,7 +277,7 @@ class Campaign:
         tidy.attrs = {}
         return tidy
 
-    def save(self, path, geometry=None):
+    def save(self, path: PathLike, geometry: Any = None) -> Any:
         """Save the runs as granflow's tidy table (:mod:`granflow.io.tidy`).
 
         Parameters
@@ -288,7 +299,7 @@ class Campaign:
         return write_tidy(path, self.runs, problems=self.problems, geometry=geometry)
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: PathLike) -> Campaign:
         """Load a campaign written by :meth:`save`, by ``granflow convert``, or by an earlier
         version of granflow (a CSV whose first line is ``# granflow campaign {...}``).
 
@@ -302,7 +313,7 @@ class Campaign:
         table = read_tidy(path)
         return cls(table.runs, table.problems)
 
-    def summary(self):
+    def summary(self) -> pd.DataFrame:
         """A pandas DataFrame with one row per run: name, points, control and metadata."""
         import pandas as pd
 
@@ -312,7 +323,7 @@ class Campaign:
             rows.append({"name": run.name, "points": len(run), "control": run.control, **scalars})
         return pd.DataFrame(rows)
 
-    def report(self):
+    def report(self) -> str:
         """A readable summary: runs per load, velocity and preparation, and any problems."""
         lines = [f"campaign: {len(self.runs)} runs"]
         for key in ("normal_load", "velocity", "preparation"):
@@ -322,7 +333,7 @@ class Campaign:
         lines += [f"  problem: {problem}" for problem in self.problems]
         return "\n".join(lines)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe description (metadata and problems, no arrays)."""
         return {
             "runs": [

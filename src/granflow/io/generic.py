@@ -1,11 +1,19 @@
 """Generic CSV/TSV: one header row of column names (units in brackets or parentheses, or a
 unit row below), data rows after it; a column map names the columns granflow needs."""
 
+from __future__ import annotations
+
 import re
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 from granflow.io import _buffer, _columns
 from granflow.io._file import BlockSpec, finish, head_lines, read_with
 from granflow.io._text import fail, sniff_delimiter, split
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.io._file import ParsedFile
 
 __all__ = ["parse_csv", "read_csv"]
 
@@ -30,14 +38,14 @@ def _name_and_unit(cell):
 
 
 def parse_csv(
-    text,
-    source="<text>",
-    encoding="str",
-    column_map=None,
-    units=None,
-    only_mapped=False,
-    strict=False,
-):
+    text: str,
+    source: str = "<text>",
+    encoding: str = "str",
+    column_map: Mapping[str, str] | None = None,
+    units: Mapping[str, str] | None = None,
+    only_mapped: bool = False,
+    strict: bool = False,
+) -> ParsedFile:
     """Parse a plain delimited table (comma, semicolon or tab; quoted fields allowed).
 
     Parameters
@@ -119,7 +127,14 @@ def parse_csv(
     return finish(source, "csv", buffer, delimiter, [spec], {}, problems)
 
 
-def read_csv(path, column_map=None, units=None, only_mapped=False, strict=False, max_bytes=None):
+def read_csv(
+    path: PathLike,
+    column_map: Mapping[str, str] | None = None,
+    units: Mapping[str, str] | None = None,
+    only_mapped: bool = False,
+    strict: bool = False,
+    max_bytes: int | None = None,
+) -> ParsedFile:
     """Read a generic CSV/TSV file; see :func:`parse_csv` (``max_bytes``: the size limit,
     see :func:`granflow.io.read`)."""
     return read_with(

@@ -19,11 +19,17 @@ error (a :class:`BadEntry` with ``errors="collect"``), and the other entries sta
 message is one line naming the manifest and the entry.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
 
 __all__ = ["MANIFEST_FIELDS", "MAX_MANIFEST_BYTES", "TEST_KINDS", "BadEntry", "read_manifest"]
 
@@ -323,7 +329,7 @@ def _csv_entries(text, path):
     return entries
 
 
-def read_manifest(path, errors="raise"):
+def read_manifest(path: PathLike, errors: str = "raise") -> Any:
     """Read a manifest into a list of checked entries (see the module's rules).
 
     Parameters

@@ -1,6 +1,9 @@
 """Format detection and the two entry points, :func:`read` and :func:`read_runs`."""
 
+from __future__ import annotations
+
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from granflow.errors import FileFormatError
 from granflow.io import _buffer
@@ -12,6 +15,11 @@ from granflow.io.rheocompass import looks_like_rheocompass, parse_rheocompass
 from granflow.io.rheoplus import looks_like_rheoplus, parse_rheoplus
 from granflow.io.trios import looks_like_trios, parse_trios
 
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.io._file import ParsedFile
+    from granflow.model.run import Run
+
 _PARSERS = {
     "rheocompass": parse_rheocompass,
     "rheoplus": parse_rheoplus,
@@ -21,7 +29,7 @@ _PARSERS = {
 FORMATS = tuple(_PARSERS)
 
 
-def detect_format(text):
+def detect_format(text: str) -> str:
     """ "rheoplus", "rheocompass", "trios" or "csv" from the keywords in the text (its first
     5000 lines)."""
     lines = head_lines(_buffer.from_text(text), 5000, 16 << 20)
@@ -34,7 +42,13 @@ def detect_format(text):
     return "csv"
 
 
-def parse(text, source="<text>", format=None, encoding="str", **options):
+def parse(
+    text: str,
+    source: str = "<text>",
+    format: str | None = None,
+    encoding: str = "str",
+    **options: Any,
+) -> ParsedFile:
     """Parse decoded text in the given (or detected) format; ``options`` go to parse_csv."""
     form = format or detect_format(text)
     if form not in _PARSERS:
@@ -46,7 +60,9 @@ def parse(text, source="<text>", format=None, encoding="str", **options):
     return _PARSERS[form](text, source=source, encoding=encoding)
 
 
-def read(path, format=None, *, max_bytes=None, **options):
+def read(
+    path: PathLike, format: str | None = None, *, max_bytes: int | None = None, **options: Any
+) -> ParsedFile:
     """Read an instrument export, detecting its encoding and format.
 
     Parameters
@@ -91,7 +107,14 @@ def read(path, format=None, *, max_bytes=None, **options):
     return parse(buffer, source=str(path), format=format, encoding=buffer.encoding, **options)
 
 
-def read_runs(path, geometry=None, format=None, *, max_bytes=None, **options):
+def read_runs(
+    path: PathLike,
+    geometry: Any = None,
+    format: str | None = None,
+    *,
+    max_bytes: int | None = None,
+    **options: Any,
+) -> list[Run]:
     """Read an export and turn each interval into a :class:`granflow.Run`.
 
     Parameters

@@ -15,11 +15,18 @@ Other ``Key:<TAB>value`` lines are metadata of the test (before the first interv
 the interval (between its "Interval and data points" and "Interval data" lines).
 """
 
+from __future__ import annotations
+
 import re
+from typing import TYPE_CHECKING
 
 from granflow.io import _columns
 from granflow.io._file import BlockSpec, parse_blocks, read_with
 from granflow.io._text import fail, line_list, split
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.io._file import ParsedFile
 
 __all__ = ["looks_like_rheocompass", "parse_rheocompass", "read_rheocompass"]
 
@@ -190,7 +197,7 @@ def _scan(cursor, delimiter, source, problems):
     return file_metadata, specs
 
 
-def parse_rheocompass(text, source="<text>", encoding="str"):
+def parse_rheocompass(text: str, source: str = "<text>", encoding: str = "str") -> ParsedFile:
     """Parse the text of a RheoCompass export.
 
     Parameters
@@ -220,7 +227,7 @@ def parse_rheocompass(text, source="<text>", encoding="str"):
     return parse_blocks(_scan, "rheocompass", text, source, encoding, EXPECT)
 
 
-def read_rheocompass(path, max_bytes=None):
+def read_rheocompass(path: PathLike, max_bytes: int | None = None) -> ParsedFile:
     """Read a RheoCompass export file (any supported encoding); see :func:`parse_rheocompass`
     (``max_bytes``: the size limit, see :func:`granflow.io.read`)."""
     return read_with(parse_rheocompass, path, max_bytes)

@@ -6,11 +6,18 @@ data points, measuring profile), then a header row starting with "Meas. Pts.", a
 ("[s]", "[µNm]", "[]") and data rows up to a blank line. ``******`` marks a missing value.
 """
 
+from __future__ import annotations
+
 import re
+from typing import TYPE_CHECKING
 
 from granflow.io import _columns
 from granflow.io._file import BlockSpec, parse_blocks, read_with
 from granflow.io._text import split
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.io._file import ParsedFile
 
 __all__ = ["looks_like_rheoplus", "parse_rheoplus", "read_rheoplus"]
 
@@ -89,7 +96,7 @@ def _scan(cursor, delimiter, source, problems):
     return file_metadata, specs
 
 
-def parse_rheoplus(text, source="<text>", encoding="str"):
+def parse_rheoplus(text: str, source: str = "<text>", encoding: str = "str") -> ParsedFile:
     """Parse the text of a Rheoplus export into a :class:`granflow.io.ParsedFile`.
 
     Examples
@@ -103,6 +110,6 @@ def parse_rheoplus(text, source="<text>", encoding="str"):
     return parse_blocks(_scan, "rheoplus", text, source, encoding, EXPECT)
 
 
-def read_rheoplus(path, max_bytes=None):
+def read_rheoplus(path: PathLike, max_bytes: int | None = None) -> ParsedFile:
     """Read a Rheoplus export file; see :func:`parse_rheoplus`."""
     return read_with(parse_rheoplus, path, max_bytes)

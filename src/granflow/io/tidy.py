@@ -26,13 +26,21 @@ Examples
 (array([0.01,  nan]), ('a gap in time',))
 """
 
+from __future__ import annotations
+
 import json
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.model.run import Run
 
 __all__ = [
     "COLUMNS",
@@ -120,7 +128,9 @@ def metadata_location(path):
     return f"{path} (Parquet metadata '{_KEY}')"
 
 
-def write_tidy(path, runs, *, problems=(), geometry=None):
+def write_tidy(
+    path: PathLike, runs: Sequence[Run], *, problems: Sequence[str] = (), geometry: Any = None
+) -> Path:
     """Write runs as a tidy table (.csv with a sidecar .json, or .parquet).
 
     Parameters
@@ -196,7 +206,7 @@ def write_tidy(path, runs, *, problems=(), geometry=None):
     return path
 
 
-def is_tidy_table(path):
+def is_tidy_table(path: PathLike) -> bool:
     """Whether ``path`` is a table granflow wrote (so that :func:`read_tidy` is the reader).
 
     A Parquet file counts (:func:`read_tidy` says when it is not granflow's); a CSV counts when
@@ -225,7 +235,7 @@ def is_tidy_table(path):
     return set(_REQUIRED) <= names
 
 
-def read_tidy(path):
+def read_tidy(path: PathLike) -> TidyTable:
     """Read a table :func:`write_tidy` wrote, or one of an earlier version.
 
     Parameters

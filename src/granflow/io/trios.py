@@ -11,11 +11,18 @@ then one block per step::
     0.5<TAB>12.3<TAB>...          data rows up to a blank line or the next [step]
 """
 
+from __future__ import annotations
+
 import re
+from typing import TYPE_CHECKING
 
 from granflow.io import _columns
 from granflow.io._file import BlockSpec, parse_blocks, read_with
 from granflow.io._text import split
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.io._file import ParsedFile
 
 __all__ = ["looks_like_trios", "parse_trios", "read_trios"]
 
@@ -63,7 +70,7 @@ def _scan(cursor, delimiter, source, problems):
     return file_metadata, specs
 
 
-def parse_trios(text, source="<text>", encoding="str"):
+def parse_trios(text: str, source: str = "<text>", encoding: str = "str") -> ParsedFile:
     """Parse the text of a TRIOS export into a :class:`granflow.io.ParsedFile`.
 
     Examples
@@ -77,6 +84,6 @@ def parse_trios(text, source="<text>", encoding="str"):
     return parse_blocks(_scan, "trios", text, source, encoding, EXPECT)
 
 
-def read_trios(path, max_bytes=None):
+def read_trios(path: PathLike, max_bytes: int | None = None) -> ParsedFile:
     """Read a TRIOS text export; see :func:`parse_trios`."""
     return read_with(parse_trios, path, max_bytes)

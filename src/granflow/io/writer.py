@@ -8,14 +8,22 @@ header lines that the readers map back, so a written run reads back with the sam
 and metadata.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow.errors import InvalidParameterError
 from granflow.io import _columns
 from granflow.model.run import Run
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.model.run import Run
 
 __all__ = ["ENCODINGS", "write_rheocompass", "write_trios"]
 
@@ -44,7 +52,7 @@ def _units(units, form):
     return chosen
 
 
-def _runs(runs):
+def _runs(runs: Run | Sequence[Run]) -> list[Run]:
     runs = [runs] if isinstance(runs, Run) else list(runs)
     if not runs:
         raise InvalidParameterError("runs must hold at least one Run")
@@ -124,19 +132,19 @@ def _save(path, lines, encoding):
 
 
 def write_rheocompass(
-    path,
-    runs,
+    path: PathLike,
+    runs: Run | Sequence[Run],
     *,
-    geometry=None,
-    language="en",
-    encoding="utf-16",
-    decimal=".",
-    units=None,
-    digits=10,
-    missing="",
-    project="granflow simulation",
-    test="simulated start-up",
-):
+    geometry: Any = None,
+    language: str = "en",
+    encoding: str = "utf-16",
+    decimal: str = ".",
+    units: Mapping[str, str] | None = None,
+    digits: int = 10,
+    missing: str = "",
+    project: str = "granflow simulation",
+    test: str = "simulated start-up",
+) -> Path:
     """Write runs as one RheoCompass-style export, one interval per run.
 
     Parameters
@@ -217,17 +225,17 @@ def write_rheocompass(
 
 
 def write_trios(
-    path,
-    runs,
+    path: PathLike,
+    runs: Run | Sequence[Run],
     *,
-    geometry=None,
-    encoding="utf-8",
-    decimal=".",
-    units=None,
-    digits=10,
-    missing="",
-    sample="simulated sample",
-):
+    geometry: Any = None,
+    encoding: str = "utf-8",
+    decimal: str = ".",
+    units: Mapping[str, str] | None = None,
+    digits: int = 10,
+    missing: str = "",
+    sample: str = "simulated sample",
+) -> Path:
     """Write runs as a TRIOS-style text export, one ``[step]`` per run.
 
     Parameters are those of :func:`write_rheocompass` (English labels only, as TRIOS

@@ -19,8 +19,11 @@ initial value F(x0) there, the rule the fits use. Every value comes from the com
 kernel :mod:`granflow.model.kernel`.
 """
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import brentq
@@ -31,6 +34,10 @@ from granflow.errors import GranflowError, InvalidParameterError
 from granflow.model import kernel
 from granflow.model.params import Params
 from granflow.model.special import scaled_ei_diff_scalar, scaled_ei_scalar
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike, FloatArray, FloatOrArray
+    from granflow.model.params import Params
 
 __all__ = [
     "NoPeakError",
@@ -135,7 +142,9 @@ def _like_input(values):
     return float(values) if np.ndim(values) == 0 else values
 
 
-def friction_slip(x, params, *, F_init=None, below="raise"):
+def friction_slip(
+    x: ArrayLike, params: Params, *, F_init: float | None = None, below: str = "raise"
+) -> FloatOrArray:
     """Friction force against slip, Eq. 3 in the slip domain.
 
     Parameters
@@ -173,7 +182,14 @@ def friction_slip(x, params, *, F_init=None, below="raise"):
     return _evaluate(x, params, _check_f_init(F_init), below=below)
 
 
-def friction_time(t, params, velocity, *, F_init=None, below="raise"):
+def friction_time(
+    t: ArrayLike,
+    params: Params,
+    velocity: float,
+    *,
+    F_init: float | None = None,
+    below: str = "raise",
+) -> FloatOrArray:
     """Friction force against time under a constant imposed velocity, Eq. 3.
 
     The same curve as :func:`friction_slip` at slip ``velocity * t``: with k = alpha v and
@@ -212,7 +228,9 @@ def friction_time(t, params, velocity, *, F_init=None, below="raise"):
     )
 
 
-def friction_slip_jacobian(x, params, *, F_init=None, below="raise"):
+def friction_slip_jacobian(
+    x: ArrayLike, params: Params, *, F_init: float | None = None, below: str = "raise"
+) -> dict[str, FloatArray]:
     """Partial derivatives of :func:`friction_slip` with respect to the parameters.
 
     With s = alpha x, h = alpha (x - x0) and D = exp(-s) [Ei(s) - Ei(s0)]:
@@ -256,7 +274,7 @@ def friction_slip_jacobian(x, params, *, F_init=None, below="raise"):
     return {name: J[:, k].reshape(slip.shape) for k, name in enumerate(names)}
 
 
-def initial_force(params, *, F_init=None):
+def initial_force(params: Params, *, F_init: float | None = None) -> float:
     """Friction at the initial state x0 [N]: F_init, or the paper's Fd (1 - exp(-alpha x0))."""
     _check_params(params)
     F_init = _check_f_init(F_init)
@@ -265,13 +283,13 @@ def initial_force(params, *, F_init=None):
     return -params.Fd * math.expm1(-params.alpha * params.x0)
 
 
-def steady_state(params):
+def steady_state(params: Params) -> float:
     """Steady-state friction [N] reached at large slip: Fd, approached as Fd + a/(alpha x)."""
     _check_params(params)
     return params.Fd
 
 
-def friction_asymptote(x, params):
+def friction_asymptote(x: ArrayLike, params: Params) -> FloatOrArray:
     """Large-slip limit ``Fd + a / (alpha x)`` [N]; friction_slip minus it is O(1/x**2).
 
     Parameters
@@ -288,7 +306,7 @@ def friction_asymptote(x, params):
     return _like_input(params.Fd + params.a / (params.alpha * slip))
 
 
-def friction_aging(x, params, *, F_init=None):
+def friction_aging(x: ArrayLike, params: Params, *, F_init: float | None = None) -> FloatOrArray:
     """Pure-aging limit alpha -> 0 of Eq. 3: ``F_init + a ln(x / x0)`` [N] (Eq. 1).
 
     friction_slip approaches this for alpha x << 1 (the relative difference is of order
@@ -310,7 +328,7 @@ def friction_aging(x, params, *, F_init=None):
     return _like_input(start + params.a * np.log(slip / params.x0))
 
 
-def rhs_slip(x, F, params):
+def rhs_slip(x: FloatOrArray, F: FloatOrArray, params: Params) -> FloatOrArray:
     """Right-hand side of Eq. 2 in slip: ``dF/dx = a/x - alpha (F - Fd)`` [N/m].
 
     Parameters
@@ -325,7 +343,7 @@ def rhs_slip(x, F, params):
     return params.a / x - params.alpha * (F - params.Fd)
 
 
-def rhs_time(t, F, params, velocity):
+def rhs_time(t: FloatOrArray, F: FloatOrArray, params: Params, velocity: float) -> FloatOrArray:
     """Right-hand side of Eq. 2 in time: ``dF/dt = a/t - alpha v (F - Fd)`` [N/s].
 
     Parameters
@@ -363,7 +381,7 @@ class Peak:
     time: float | None = None
     velocity: float | None = None
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, float | None]:
         """JSON-safe mapping (SI units)."""
         return {
             "slip": self.slip,
@@ -380,7 +398,7 @@ def _peak_offset(params, F_init):
     return (F_init - params.Fd) / params.a
 
 
-def has_peak(params, *, F_init=None):
+def has_peak(params: Params, *, F_init: float | None = None) -> bool:
     """Whether F(x) has an interior maximum.
 
     It has one exactly when a > 0 and F starts below the nullcline of Eq. 2,
@@ -394,7 +412,7 @@ def has_peak(params, *, F_init=None):
     return _peak_offset(params, F_init) < 1.0 / s0
 
 
-def peak(params, *, F_init=None, velocity=None):
+def peak(params: Params, *, F_init: float | None = None, velocity: float | None = None) -> Peak:
     """The static yield point (stress overshoot): slip and force of the maximum of F.
 
     The peak is the root of ``a/x = alpha (F(x) - Fd)``, found by Brent's method in the

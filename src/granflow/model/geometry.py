@@ -1,13 +1,19 @@
 """Annular contact of a rotating tube on a granular layer: torque, angle and speed to SI."""
 
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow import _validate as check
 from granflow.errors import InvalidParameterError
 from granflow.model.units import si_unit
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
 
 __all__ = ["SPEED_UNITS", "Annulus"]
 
@@ -155,12 +161,12 @@ class Annulus:
         object.__setattr__(self, "wall_thickness", wall)
 
     @classmethod
-    def paper(cls, torque_radius="uniform"):
+    def paper(cls, torque_radius: str = "uniform") -> Annulus:
         """The aluminium tube of Farain & Bonn: outer diameter 29.7 mm, wall 2.3 mm."""
         return cls(outer_diameter=29.7e-3, wall_thickness=2.3e-3, torque_radius=torque_radius)
 
     @classmethod
-    def from_spec(cls, spec):
+    def from_spec(cls, spec: Any) -> Annulus:
         """The annulus a user describes in a manifest, on the command line or in Python.
 
         Parameters
@@ -219,53 +225,53 @@ class Annulus:
         )
 
     @property
-    def outer_radius(self):
+    def outer_radius(self) -> float:
         """R_o [m]."""
         return self.outer_diameter / 2
 
     @property
-    def inner_radius(self):
+    def inner_radius(self) -> float:
         """R_i [m]."""
         return self.outer_radius - self.wall_thickness
 
     @property
-    def mean_radius(self):
+    def mean_radius(self) -> float:
         """Mean radius (R_o + R_i)/2 [m]: the radius at which slip and velocity are measured."""
         return (self.outer_radius + self.inner_radius) / 2
 
     @property
-    def uniform_stress_radius(self):
+    def uniform_stress_radius(self) -> float:
         """(2/3)(R_o^3 - R_i^3)/(R_o^2 - R_i^2) [m]: torque/force for uniform shear stress."""
         ro, ri = self.outer_radius, self.inner_radius
         return 2.0 / 3.0 * (ro**3 - ri**3) / (ro**2 - ri**2)
 
     @property
-    def effective_radius(self):
+    def effective_radius(self) -> float:
         """Radius [m] that converts torque to friction force, as chosen by ``torque_radius``."""
         return self.uniform_stress_radius if self.torque_radius == "uniform" else self.mean_radius
 
     @property
-    def area(self):
+    def area(self) -> float:
         """Contact area pi (R_o^2 - R_i^2) [m^2]."""
         return math.pi * (self.outer_radius**2 - self.inner_radius**2)
 
-    def force_from_torque(self, torque):
+    def force_from_torque(self, torque: ArrayLike) -> Any:
         """Friction force [N] from torque [N m]."""
         return _scale(torque, 1.0 / self.effective_radius, "torque")
 
-    def torque_from_force(self, force):
+    def torque_from_force(self, force: ArrayLike) -> Any:
         """Torque [N m] from friction force [N]."""
         return _scale(force, self.effective_radius, "force")
 
-    def slip_from_angle(self, angle):
+    def slip_from_angle(self, angle: ArrayLike) -> Any:
         """Slip [m] at the mean radius from deflection angle [rad]."""
         return _scale(angle, self.mean_radius, "angle")
 
-    def angle_from_slip(self, slip):
+    def angle_from_slip(self, slip: ArrayLike) -> Any:
         """Deflection angle [rad] from slip at the mean radius [m]."""
         return _scale(slip, 1.0 / self.mean_radius, "slip")
 
-    def velocity_from_speed(self, speed, unit="rev/s"):
+    def velocity_from_speed(self, speed: ArrayLike, unit: str = "rev/s") -> Any:
         """Sliding velocity [m/s] at the mean radius from rotational speed.
 
         Parameters
@@ -277,7 +283,7 @@ class Annulus:
         """
         return _scale(speed, _speed_factor(unit) * 2.0 * math.pi * self.mean_radius, "speed", unit)
 
-    def speed_from_velocity(self, velocity, unit="rev/s"):
+    def speed_from_velocity(self, velocity: ArrayLike, unit: str = "rev/s") -> Any:
         """Rotational speed in ``unit`` from sliding velocity [m/s] at the mean radius."""
         return _scale(
             velocity,

@@ -1,11 +1,18 @@
 """Material parameters of the aging-rejuvenation model, in SI units, validated when made."""
 
+from __future__ import annotations
+
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from granflow import _validate as check
 from granflow.errors import InvalidParameterError
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
 
 #: What a parameter mapping may hold: the slip-domain set (a, alpha, Fd, x0) or the
 #: time-domain set (a, k, t0, Fd, velocity); units from :data:`granflow.model.units.QUANTITIES`.
@@ -52,7 +59,7 @@ class Params:
         object.__setattr__(self, "x0", check.positive(self.x0, "x0", "m"))
 
     @classmethod
-    def from_time_domain(cls, a, k, t0, Fd, velocity):
+    def from_time_domain(cls, a: float, k: float, t0: float, Fd: float, velocity: float) -> Params:
         """Build from the paper's time-domain values at one sliding velocity.
 
         Parameters
@@ -74,7 +81,7 @@ class Params:
         return cls(a=a, alpha=k / velocity, Fd=Fd, x0=t0 * velocity)
 
     @classmethod
-    def from_material(cls, constants, normal_load, x0):
+    def from_material(cls, constants: MaterialConstants, normal_load: float, x0: float) -> Params:
         """Parameters at one normal load from Amontons material constants.
 
         Parameters
@@ -89,7 +96,7 @@ class Params:
         return constants.params_at(normal_load, x0)
 
     @classmethod
-    def from_mapping(cls, values, source="params"):
+    def from_mapping(cls, values: Mapping[str, Any], source: str = "params") -> Params:
         """Build from a mapping of SI numbers or strings with units (as a parameter file holds).
 
         Parameters
@@ -143,7 +150,7 @@ class Params:
         return cls(**{key: parsed[key] for key in _SLIP_KEYS})
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: PathLike) -> Params:
         """Read parameters from a YAML file; see :meth:`from_mapping` for what it holds.
 
         Parameters
@@ -167,29 +174,29 @@ class Params:
             raise InvalidParameterError(f"{path}: not valid YAML ({exc})") from None
         return cls.from_mapping(data, source=str(path))
 
-    def k(self, velocity):
+    def k(self, velocity: float) -> float:
         """Rejuvenation rate ``alpha * velocity`` [1/s] at a sliding velocity [m/s]."""
         return self.alpha * check.positive(velocity, "velocity", "m/s")
 
-    def t0(self, velocity):
+    def t0(self, velocity: float) -> float:
         """Initial-state time ``x0 / velocity`` [s] at a sliding velocity [m/s]."""
         return self.x0 / check.positive(velocity, "velocity", "m/s")
 
     @property
-    def slip_length(self):
+    def slip_length(self) -> float:
         """Rejuvenation slip length ``1 / alpha`` [m]."""
         return 1.0 / self.alpha
 
-    def to_material(self, normal_load):
+    def to_material(self, normal_load: float) -> MaterialConstants:
         """Amontons material constants (mu_a = a/F_N, mu_d = Fd/F_N, alpha) at a load [N]."""
         load = check.positive(normal_load, "normal_load", "N")
         return MaterialConstants(mu_a=self.a / load, mu_d=self.Fd / load, alpha=self.alpha)
 
-    def replace(self, **changes):
+    def replace(self, **changes: Any) -> Params:
         """A copy with some fields changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, float]:
         """JSON-safe mapping of the four parameters in SI units."""
         return {"a": self.a, "alpha": self.alpha, "Fd": self.Fd, "x0": self.x0}
 
@@ -230,11 +237,11 @@ class MaterialConstants:
         object.__setattr__(self, "mu_d", check.non_negative(self.mu_d, "mu_d", ""))
         object.__setattr__(self, "alpha", check.positive(self.alpha, "alpha", "1/m"))
 
-    def params_at(self, normal_load, x0):
+    def params_at(self, normal_load: float, x0: float) -> Params:
         """Model parameters at a normal load [N] and initial state x0 [m]."""
         load = check.positive(normal_load, "normal_load", "N")
         return Params(a=self.mu_a * load, alpha=self.alpha, Fd=self.mu_d * load, x0=x0)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, float]:
         """JSON-safe mapping of the three constants (alpha in 1/m)."""
         return {"mu_a": self.mu_a, "mu_d": self.mu_d, "alpha": self.alpha}

@@ -1,12 +1,21 @@
 """One measured (or simulated) run: time, slip, velocity and friction force in SI units."""
 
+from __future__ import annotations
+
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow.errors import InvalidDataError
 from granflow.model.units import si_unit
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from granflow._typing import ArrayLike
 
 __all__ = ["CONTROL_MODES", "Run"]
 
@@ -61,7 +70,7 @@ class Run:
     velocity: np.ndarray
     force: np.ndarray
     control: str = "rate"
-    meta: MappingProxyType = field(default_factory=dict)
+    meta: Mapping[str, Any] = field(default_factory=dict)
     problems: tuple = ()
 
     def __post_init__(self):
@@ -91,20 +100,20 @@ class Run:
         )
 
     @property
-    def name(self):
+    def name(self) -> str:
         """A short label: ``source#interval`` when known."""
         if "name" in self.meta:
             return str(self.meta["name"])
         return f"{self.meta.get('source', 'run')}#{self.meta.get('interval', 0)}"
 
     @property
-    def normal_load(self):
+    def normal_load(self) -> float | None:
         """Normal load [N] from the metadata, or None."""
         value = self.meta.get("normal_load")
         return None if value is None else float(value)
 
     @property
-    def nominal_velocity(self):
+    def nominal_velocity(self) -> float | None:
         """Imposed velocity [m/s]: the metadata value, else the median measured velocity."""
         value = self.meta.get("velocity")
         if value is not None:
@@ -112,7 +121,7 @@ class Run:
         finite = self.velocity[np.isfinite(self.velocity)]
         return float(np.median(finite)) if finite.size else None
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """A tidy pandas DataFrame: columns t, slip, velocity, force (SI), control, and the
         scalar metadata as constant columns; ``frame.attrs['meta']`` keeps the full metadata."""
         import pandas as pd
@@ -128,7 +137,7 @@ class Run:
         return frame
 
     @classmethod
-    def from_frame(cls, frame, meta=None):
+    def from_frame(cls, frame: pd.DataFrame, meta: Mapping[str, Any] | None = None) -> Run:
         """Build a Run from a frame with columns t, slip, velocity, force (missing -> NaN).
 
         ``meta`` defaults to ``frame.attrs['meta']``; the ``control`` column (if any) gives the
@@ -147,7 +156,7 @@ class Run:
         problems = tuple(frame.attrs.get("problems", ()))
         return cls(control=control, meta=meta, problems=problems, **columns)
 
-    def shifted(self, time=0.0, slip=0.0):
+    def shifted(self, time: float = 0.0, slip: float = 0.0) -> Run:
         """The same run with its clock moved: ``t - time`` and ``slip - slip``.
 
         For a record whose first point is not the start of shear (a delay before the motor
@@ -185,7 +194,7 @@ class Run:
             problems=self.problems,
         )
 
-    def select(self, mask):
+    def select(self, mask: ArrayLike) -> Run:
         """A new Run with only the points where ``mask`` is true (same metadata)."""
         mask = np.asarray(mask, dtype=bool)
         if mask.shape != self.t.shape:

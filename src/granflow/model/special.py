@@ -24,7 +24,10 @@ Compiled API, for kernels built on this one (:mod:`granflow.model.kernel`): the 
 compiled code (and, except the inlined ones, from Python).
 """
 
+from __future__ import annotations
+
 import math
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
@@ -32,6 +35,9 @@ from llvmlite import ir
 from numba.extending import intrinsic
 
 from granflow.model import _ei_tables as _t
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike, FloatOrArray
 
 __all__ = [
     "compiled",
@@ -262,7 +268,7 @@ def _as_float_array(value):
     return np.asarray(value, dtype=np.float64)
 
 
-def scaled_ei(x):
+def scaled_ei(x: ArrayLike) -> FloatOrArray:
     """Scaled exponential integral ``exp(-x) * Ei(x)`` for x > 0.
 
     Parameters
@@ -292,7 +298,7 @@ def scaled_ei(x):
     return float(out) if out.ndim == 0 else out
 
 
-def scaled_ei_diff(x, x0):
+def scaled_ei_diff(x: ArrayLike, x0: ArrayLike) -> FloatOrArray:
     """Scaled difference ``exp(-x) * (Ei(x) - Ei(x0))`` without cancellation or overflow.
 
     Parameters

@@ -12,11 +12,17 @@ check of :mod:`granflow._validate` goes through it, so every public function and
 that takes a physical number accepts all three.
 """
 
+from __future__ import annotations
+
 import functools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from granflow.errors import InvalidParameterError
+
+if TYPE_CHECKING:
+    from granflow._typing import FloatOrArray
 
 __all__ = [
     "QUANTITIES",
@@ -159,7 +165,7 @@ def _clean(text):
     return text.strip().replace("μ", "u").replace("µ", "u").replace("·", "*").replace("⋅", "*")
 
 
-def to_si(magnitude, unit, name="value"):
+def to_si(magnitude: FloatOrArray, unit: str, name: str = "value") -> FloatOrArray:
     """Convert ``magnitude`` in ``unit`` (a pint unit expression) to the SI base-unit value.
 
     Parameters
@@ -184,7 +190,7 @@ def to_si(magnitude, unit, name="value"):
         raise InvalidParameterError(f"{name}: unknown or invalid unit {unit!r} ({exc})") from None
 
 
-def parse_quantity(text, unit, name="value"):
+def parse_quantity(text: str, unit: str, name: str = "value") -> float:
     """Parse a number with an optional unit into a float in the SI unit ``unit``.
 
     Parameters

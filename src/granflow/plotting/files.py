@@ -1,11 +1,19 @@
 """Figures to files: :func:`save_figure` writes PNG and SVG atomically and reproducibly."""
 
+from __future__ import annotations
+
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from granflow.errors import InvalidParameterError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from granflow._typing import PathLike
 
 __all__ = ["save_figure"]
 
@@ -40,7 +48,7 @@ def _atomic_save(figure, path, **options):
     write_atomic(path, lambda temporary: figure.savefig(temporary, **options))
 
 
-def save_figure(figure, directory, stem):
+def save_figure(figure: Figure, directory: PathLike, stem: str) -> dict[str, Path]:
     """Save a figure as ``DIRECTORY/STEM.png`` (150 dpi) and ``DIRECTORY/STEM.svg``.
 
     The files are written atomically and carry no date, so saving the same figure twice

@@ -1,6 +1,10 @@
 """Figures of fits: data, fit and residuals; velocity collapse; Amontons; posterior corners."""
 
+from __future__ import annotations
+
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,10 +25,18 @@ from granflow.plotting._axes import (
     run_colors,
 )
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from granflow.fitting.joint import AmontonsResult, CollapseResult
+    from granflow.fitting.mcmc import PosteriorResult
+    from granflow.fitting.single import FitResult
+
 __all__ = ["plot_amontons", "plot_collapse", "plot_corner", "plot_fit"]
 
 
-def plot_fit(result, ax=None, *, residual_ax=None):
+def plot_fit(result: FitResult, ax: Axes | None = None, *, residual_ax: Axes | None = None) -> Axes:
     """Data, fitted curve and residuals of a fit, in mN against µm (slip) or s (time).
 
     Parameters
@@ -78,7 +90,7 @@ def plot_fit(result, ax=None, *, residual_ax=None):
     return ax
 
 
-def plot_corner(posterior, **kwargs):
+def plot_corner(posterior: PosteriorResult, **kwargs: Any) -> Figure:
     """Corner plot of a :class:`granflow.mcmc.PosteriorResult` (needs ``corner``).
 
     Parameters
@@ -148,7 +160,7 @@ def _short_slip_window(run_params, fallback):
     return 1.5 * max(slips) if slips else fallback
 
 
-def plot_collapse(result, ax=None, *, inset=True):
+def plot_collapse(result: CollapseResult, ax: Axes | None = None, *, inset: bool = True) -> Axes:
     """Velocity collapse (Fig. 2b): every run against slip with the shared curve.
 
     Points are the data, coloured by sliding velocity; lines are the joint fit (a, α and F_d
@@ -291,7 +303,7 @@ def _check_panels(axes):
     return axes
 
 
-def plot_amontons(result, axes=None):
+def plot_amontons(result: AmontonsResult, axes: Sequence[Axes] | None = None) -> Any:
     """Amontons' law (Fig. 2c): a, α v (or α) and F_d against the normal load F_N.
 
     Per-load means over the repeats with their standard errors as error bars; for a and F_d

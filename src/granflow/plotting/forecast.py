@@ -1,14 +1,21 @@
 """The running forecast figure: each method's failure time and band against the cut time,
 with the observed failure."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 __all__ = ["plot_forecast"]
 
 _COLOURS = {"model": "C0", "inverse velocity": "C1", "voight": "C2"}
 
 
-def plot_forecast(result, ax=None):
+def plot_forecast(result: Any, ax: Axes | None = None) -> Axes:
     """Plot a :class:`~granflow.RunningForecast`.
 
     Parameters

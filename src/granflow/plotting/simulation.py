@@ -1,5 +1,10 @@
 """Figures of simulations: force and slip against time (Fig. 3), and stability maps."""
 
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from granflow.plotting._axes import (
@@ -10,6 +15,12 @@ from granflow.plotting._axes import (
     TIME_UNIT,
     new_axes,
 )
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from granflow.simulation.results import SimulationResult
+    from granflow.simulation.stability import StabilityMap
 
 __all__ = [
     "plot_simulation",
@@ -40,7 +51,9 @@ def _mark_events(ax, result, quantity):
         ax.plot(times, values, marker, color=color, linestyle="none", label=kind, zorder=3)
 
 
-def plot_simulation_force(result, ax=None, *, events=True):
+def plot_simulation_force(
+    result: SimulationResult, ax: Axes | None = None, *, events: bool = True
+) -> Axes:
     """Force exerted by the drive and the friction state against time [mN vs s].
 
     Parameters
@@ -67,7 +80,9 @@ def plot_simulation_force(result, ax=None, *, events=True):
     return ax
 
 
-def plot_simulation_slip(result, ax=None, *, events=True):
+def plot_simulation_slip(
+    result: SimulationResult, ax: Axes | None = None, *, events: bool = True
+) -> Axes:
     """Displacement (total slip since the start) against time [µm vs s]."""
     ax = new_axes(ax)
     ax.plot(result.t, result.displacement * SLIP_SCALE, color="C2", label="slip")
@@ -78,7 +93,7 @@ def plot_simulation_slip(result, ax=None, *, events=True):
     return ax
 
 
-def plot_simulation(result, axes=None):
+def plot_simulation(result: SimulationResult, axes: Sequence[Axes] | None = None) -> Any:
     """Force (top) and slip (bottom) against time, as in Fig. 3 of the paper.
 
     Parameters
@@ -105,7 +120,7 @@ def plot_simulation(result, axes=None):
     return np.asarray(axes)
 
 
-def plot_stability_map(stability, ax=None):
+def plot_stability_map(stability: StabilityMap, ax: Axes | None = None) -> Axes:
     """Fail or stop over switch time and force ratio; colour is the stop slip [µm].
 
     Failing cells are hatched grey; the method that made the map is in the title.

@@ -1,6 +1,10 @@
 """The switch from rate to force control (Fig. 3c): slip and force against time, with what
 the model predicts after the switch."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from granflow import _validate as check
@@ -24,6 +28,13 @@ from granflow.plotting._shared import (
     switch_outcome,
     twin_axes,
 )
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from numpy.typing import NDArray
+
+    from granflow.model.params import Params
+    from granflow.model.run import Run
 
 __all__ = ["plot_switch"]
 
@@ -98,7 +109,13 @@ def _rate_velocity(run, switch):
     return None
 
 
-def plot_switch(run, params=None, ax=None, *, switch_time=None):
+def plot_switch(
+    run: Run,
+    params: Params | None = None,
+    ax: Axes | None = None,
+    *,
+    switch_time: float | None = None,
+) -> NDArray[Any]:
     """Switch from rate to force control (Fig. 3c): slip and force against time.
 
     Slip [µm] on the left axis (blue), force [mN] on the right (black: the measured friction

@@ -39,6 +39,11 @@ aging coordinate x of the model (back to x0 after a re-preparation), the displac
 total slip since the start of the protocol. ``SimulationResult.origin`` says which applies.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 from granflow.errors import InvalidParameterError, InvalidProtocolError
 from granflow.model.friction import initial_force
 from granflow.model.params import Params
@@ -61,6 +66,11 @@ from granflow.simulation.results import Event, Origin, SegmentRecord, Simulation
 from granflow.simulation.segments import RatePiece
 from granflow.simulation.state import IntegrationError, RunState, WorkExceededError
 
+if TYPE_CHECKING:
+    from granflow.simulation.options import DirectEffect
+    from granflow.simulation.results import SimulationResult
+    from granflow.simulation.segments import Segment
+
 __all__ = [
     "DEFAULT_DAMPING",
     "DEFAULT_MASS",
@@ -81,25 +91,25 @@ _STOP_FRACTION = 1e-9  # v_stop = this times the velocity scale
 
 
 def simulate(
-    params,
-    protocol,
+    params: Params,
+    protocol: Protocol | Iterable[Segment],
     *,
-    clock="slip",
-    method="quasistatic",
-    F_init=None,
-    t0=None,
-    mass=None,
-    damping=None,
-    stiffness=None,
-    v_fail=None,
-    direct_effect=None,
-    points=200,
-    rtol=1e-9,
-    solver=None,
-    max_evaluations=2_000_000,
-    max_transitions=10_000,
-    max_wall=None,
-):
+    clock: str = "slip",
+    method: str = "quasistatic",
+    F_init: float | None = None,
+    t0: float | None = None,
+    mass: float | None = None,
+    damping: float | None = None,
+    stiffness: float | None = None,
+    v_fail: float | None = None,
+    direct_effect: float | DirectEffect | None = None,
+    points: int = 200,
+    rtol: float = 1e-09,
+    solver: str | None = None,
+    max_evaluations: int = 2000000,
+    max_transitions: int = 10000,
+    max_wall: float | None = None,
+) -> SimulationResult:
     """Run a protocol through the model and report sticking, sliding, stops and failure.
 
     Parameters

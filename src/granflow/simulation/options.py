@@ -11,8 +11,12 @@ keywords of :func:`~granflow.simulate`.
 * :class:`Numerics`: output points, tolerances and bounds on the work.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -189,11 +193,11 @@ class DirectEffect:
         if self.velocity is not None:
             _set(self, "velocity", _positive(self.velocity, "velocity", "m/s"))
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, float | None]:
         return {"amplitude": self.amplitude, "velocity": self.velocity}
 
     @classmethod
-    def from_dict(cls, mapping):
+    def from_dict(cls, mapping: Mapping[str, Any]) -> DirectEffect:
         """Inverse of :meth:`to_dict`."""
         return cls(mapping["amplitude"], mapping.get("velocity"))
 

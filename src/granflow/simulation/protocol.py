@@ -16,9 +16,13 @@ strings with a unit (``"0.86 um/s"``, ``"80 s"``, ``"0.05 mN/s"``):
 Each segment may also be written in the long form ``{type: velocity, velocity: ..., ...}``.
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from granflow.errors import InvalidParameterError, InvalidProtocolError
 from granflow.model.units import parse_quantity, si_unit
@@ -37,6 +41,10 @@ from granflow.simulation.segments import (
     VelocitySteps,
     VelocityTable,
 )
+
+if TYPE_CHECKING:
+    from granflow._typing import PathLike
+    from granflow.simulation.segments import Segment
 
 __all__ = [
     "SEGMENT_TYPES",
@@ -162,7 +170,7 @@ class Protocol:
 
     segments: tuple
 
-    def __init__(self, segments):
+    def __init__(self, segments: Iterable[Segment]) -> None:
         if isinstance(segments, Segment):
             segments = [segments]
         try:
@@ -195,12 +203,12 @@ class Protocol:
         return f"Protocol({len(self)} segments: {kinds}; {self.duration:g} s)"
 
     @property
-    def duration(self):
+    def duration(self) -> float:
         """Total duration [s]."""
         return math.fsum(segment.duration for segment in self.segments)
 
     @property
-    def max_velocity(self):
+    def max_velocity(self) -> float:
         """Largest imposed velocity [m/s] of the rate-controlled segments (0 if none)."""
         return max(
             (
@@ -213,7 +221,7 @@ class Protocol:
         )
 
     @property
-    def first_velocity(self):
+    def first_velocity(self) -> float | None:
         """The first positive imposed velocity [m/s], or None if the protocol imposes none."""
         for segment in self.segments:
             if segment.control == "rate":
@@ -222,12 +230,12 @@ class Protocol:
                         return piece.start if piece.start > 0 else piece.end
         return None
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """``{"segments": [segment.to_dict(), ...]}`` in SI units."""
         return {"segments": [segment.to_dict() for segment in self.segments]}
 
     @classmethod
-    def from_dict(cls, mapping):
+    def from_dict(cls, mapping: Mapping[str, Any]) -> Protocol:
         """Build from ``{"segments": [...]}`` or a bare list of segment mappings.
 
         Values are numbers in SI units or strings with a unit ("0.86 um/s").
@@ -241,14 +249,14 @@ class Protocol:
             )
         return cls([_segment_from_mapping(item, i) for i, item in enumerate(items)])
 
-    def to_yaml(self):
+    def to_yaml(self) -> str:
         """The protocol as YAML text (SI units)."""
         import yaml
 
         return yaml.safe_dump(self.to_dict(), sort_keys=False)
 
     @classmethod
-    def from_yaml(cls, text, source="<string>"):
+    def from_yaml(cls, text: str, source: str = "<string>") -> Protocol:
         """Parse YAML text; errors name ``source``."""
         import yaml
 
@@ -262,7 +270,7 @@ class Protocol:
             raise InvalidProtocolError(f"{source}: {exc}") from None
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: PathLike) -> Protocol:
         """Read a protocol from a YAML file."""
         path = Path(path)
         try:
@@ -271,6 +279,6 @@ class Protocol:
             raise InvalidProtocolError(f"{path}: cannot read the protocol ({exc})") from None
         return cls.from_yaml(text, source=str(path))
 
-    def dump(self, path):
+    def dump(self, path: PathLike) -> None:
         """Write the protocol to a YAML file."""
         Path(path).write_text(self.to_yaml(), encoding="utf-8")

@@ -7,9 +7,13 @@ Every result says which clock its times and slips are on (:class:`Origin`, the o
 rule of :mod:`granflow.simulation`).
 """
 
+from __future__ import annotations
+
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,6 +21,11 @@ from granflow.model.params import Params
 from granflow.model.units import si_unit
 from granflow.simulation.options import DirectEffect, check_choice
 from granflow.simulation.protocol import Protocol
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from granflow.model.run import Run
 
 __all__ = ["ARRAYS", "ORIGINS", "Event", "Origin", "SegmentRecord", "SimulationResult"]
 
@@ -90,11 +99,11 @@ class Event:
     segment: int
     message: str = ""
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         return _fields_of(self)
 
     @classmethod
-    def from_dict(cls, mapping):
+    def from_dict(cls, mapping: Mapping[str, Any]) -> Event:
         """Inverse of :meth:`to_dict` (and of the JSON form in a result's ``to_dict``)."""
         return cls(
             kind=mapping["kind"],
@@ -258,9 +267,9 @@ class SimulationResult:
     message: str
     params: Params
     protocol: Protocol
-    options: MappingProxyType = field(default_factory=dict)
-    origin: Origin | None = None
-    work: MappingProxyType = field(default_factory=dict)
+    options: Mapping[str, Any] = field(default_factory=dict)
+    origin: Origin = None  # type: ignore[assignment]  # __post_init__ sets the default
+    work: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
         for name in ARRAYS:
@@ -277,11 +286,11 @@ class SimulationResult:
             f"{len(self.t)} points, {len(self.events)} events, {outcome})"
         )
 
-    def events_of(self, kind):
+    def events_of(self, kind: str) -> tuple[Event, ...]:
         """The events of one kind, in time order."""
         return tuple(event for event in self.events if event.kind == kind)
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """A pandas DataFrame of the arrays; ``attrs`` holds events, segments and options."""
         import pandas as pd
 
@@ -294,7 +303,7 @@ class SimulationResult:
         }
         return frame
 
-    def to_run(self, origin="record"):
+    def to_run(self, origin: str = "record") -> Run:
         """The simulated data as a :class:`granflow.Run`: what a rheometer would record.
 
         Parameters
@@ -330,7 +339,7 @@ class SimulationResult:
             else:
                 shift = start.model_start - self.options["t0"]
             t, slip = t - shift, slip + start.slip_offset
-            meta.update(origin="model", time_shift=-shift, slip_shift=start.slip_offset)
+            meta.update(origin="model", time_shift=-shift, slip_shift=start.slip_offset)  # type: ignore[operator]
         else:
             meta.update(
                 origin=start.kind, model_start=start.model_start, slip_offset=start.slip_offset
@@ -341,7 +350,7 @@ class SimulationResult:
             t=t, slip=slip, velocity=self.velocity, force=self.force, control=control, meta=meta
         )
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe mapping (non-finite numbers become None)."""
         options = {}
         for key, value in self.options.items():
@@ -374,7 +383,7 @@ class SimulationResult:
         }
 
     @classmethod
-    def from_dict(cls, mapping):
+    def from_dict(cls, mapping: Mapping[str, Any]) -> SimulationResult:
         """Inverse of :meth:`to_dict`: the result, with its params, protocol and options.
 
         A mapping written before results stated their origin (no ``"origin"``) was on the
@@ -404,11 +413,59 @@ class SimulationResult:
             params=Params(**mapping["params"]),
             protocol=Protocol.from_dict(mapping["protocol"]),
             options=options,
-            origin=None if "origin" not in mapping else Origin.from_dict(mapping["origin"]),
+            origin=None if "origin" not in mapping else Origin.from_dict(mapping["origin"]),  # type: ignore[arg-type]
             work=mapping.get("work", {}),
         )
 
-    def report(self):
+    def _repr_html_(self) -> str:
+        """The report as HTML (Jupyter): the run, its events and its segments as tables
+        (display units)."""
+        from granflow._html import heading, report_parts, result_html, table
+
+        summary = self.report().split("[[Events]]")[0]
+        events = [
+            (
+                event.kind,
+                f"{event.time:.6g}",
+                f"{event.slip * 1e6:.6g}",
+                f"{event.force * 1e3:.6g}",
+                event.segment + 1,
+                event.message,
+            )
+            for event in self.events
+        ]
+        segments = [
+            (
+                record.index + 1,
+                record.kind,
+                record.control,
+                f"{record.start_time:.6g} – {record.end_time:.6g}",
+                f"{record.start_force * 1e3:.6g} → {record.end_force * 1e3:.6g}",
+                record.outcome,
+            )
+            for record in self.segments
+        ]
+        outcome = "failed" if self.failed else ("ok" if self.success else "aborted")
+        return result_html(
+            f"SimulationResult: {self.options['method']}, {len(self.t)} points, {outcome}",
+            [
+                *report_parts(summary),
+                heading(f"Events ({len(events)})"),
+                table(
+                    events,
+                    header=("event", "t [s]", "slip [µm]", "force [mN]", "segment", ""),
+                    numeric=(1, 2, 3, 4),
+                ),
+                heading("Segments"),
+                table(
+                    segments,
+                    header=("", "segment", "control", "t [s]", "force [mN]", "outcome"),
+                    numeric=(0,),
+                ),
+            ],
+        )
+
+    def report(self) -> str:
         """A plain-text summary in the manner of lmfit's fit report (display units)."""
         opts = self.options
         lines = [

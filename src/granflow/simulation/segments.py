@@ -173,7 +173,7 @@ class Velocity(Segment):
         object.__setattr__(self, "velocity", _positive(name, self.velocity, "velocity", "m/s"))
         object.__setattr__(self, "duration", _positive(name, self.duration, "duration", "s"))
 
-    def pieces(self):
+    def pieces(self) -> list[RatePiece]:
         return [RatePiece(self.velocity, self.velocity, self.duration)]
 
 
@@ -201,10 +201,10 @@ class VelocitySteps(Segment):
         )
 
     @property
-    def duration(self):
+    def duration(self) -> float:
         return self.step_duration * len(self.velocities)
 
-    def pieces(self):
+    def pieces(self) -> list[RatePiece]:
         return [RatePiece(v, v, self.step_duration) for v in self.velocities]
 
 
@@ -230,10 +230,10 @@ class VelocityTable(Segment):
         object.__setattr__(self, "velocity", levels)
 
     @property
-    def duration(self):
+    def duration(self) -> float:
         return self.time[-1]
 
-    def pieces(self):
+    def pieces(self) -> list[RatePiece]:
         return [
             RatePiece(self.velocity[i], self.velocity[i + 1], self.time[i + 1] - self.time[i])
             for i in range(len(self.time) - 1)
@@ -267,7 +267,7 @@ class Hold(Segment):
             raise InvalidProtocolError(f"Hold: reset must be true or false, got {self.reset!r}")
         object.__setattr__(self, "reset", bool(self.reset))
 
-    def pieces(self):
+    def pieces(self) -> list[RatePiece]:
         return [RatePiece(0.0, 0.0, self.duration, hold=True, reset=self.reset)]
 
 
@@ -296,7 +296,7 @@ class Force(_ForceSegment):
         object.__setattr__(self, "level", _non_negative("Force", self.level, "level", "N"))
         object.__setattr__(self, "duration", _positive("Force", self.duration, "duration", "s"))
 
-    def pieces(self, current):
+    def pieces(self, current: float) -> list[ForcePiece]:
         return [ForcePiece(self.level, self.level, self.duration)]
 
 
@@ -328,7 +328,7 @@ class ForceRamp(_ForceSegment):
             object.__setattr__(self, "start", _non_negative(name, self.start, "start", "N"))
             _check_end(name, self.start, self.rate, self.duration)
 
-    def pieces(self, current):
+    def pieces(self, current: float) -> list[ForcePiece]:
         start = current if self.start is None else self.start
         _check_end("ForceRamp", start, self.rate, self.duration)
         return [ForcePiece(start, start + self.rate * self.duration, self.duration)]
@@ -367,10 +367,10 @@ class ForceSteps(_ForceSegment):
         )
 
     @property
-    def duration(self):
+    def duration(self) -> float:
         return self.step_duration * len(self.levels)
 
-    def pieces(self, current):
+    def pieces(self, current: float) -> list[ForcePiece]:
         return [ForcePiece(level, level, self.step_duration) for level in self.levels]
 
 
@@ -396,10 +396,10 @@ class ForceTable(_ForceSegment):
         object.__setattr__(self, "force", levels)
 
     @property
-    def duration(self):
+    def duration(self) -> float:
         return self.time[-1]
 
-    def pieces(self, current):
+    def pieces(self, current: float) -> list[ForcePiece]:
         return [
             ForcePiece(self.force[i], self.force[i + 1], self.time[i + 1] - self.time[i])
             for i in range(len(self.time) - 1)
@@ -456,11 +456,11 @@ class SwitchToForce(_ForceSegment):
             )
         object.__setattr__(self, "ramp", ramp)
 
-    def target(self, current):
+    def target(self, current: float) -> float:
         """The imposed force [N] after a switch at the force ``current`` [N]."""
         return self.level if self.level is not None else self.factor * current
 
-    def pieces(self, current):
+    def pieces(self, current: float) -> list[ForcePiece]:
         target = self.target(current)
         if self.ramp == 0:
             return [ForcePiece(target, target, self.duration)]

@@ -10,19 +10,31 @@ local processes, or a Dask cluster with ``scheduler=``); the work of one switch 
 top-level function :func:`map_row`, so any executor that pickles functions can run it.
 """
 
+from __future__ import annotations
+
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow import _validate as check
+from granflow._html import HtmlReport
 from granflow._parallel import Executor
+from granflow._progress import progress_bar, wanted
 from granflow.errors import InvalidParameterError
 from granflow.model.params import Params
 from granflow.simulation.driver import simulate
 from granflow.simulation.protocol import Protocol, SwitchToForce, Velocity
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from numpy.typing import NDArray
+
+    from granflow._typing import ArrayLike
 
 __all__ = ["OUTCOMES", "StabilityMap", "map_row", "stability_map"]
 
@@ -31,7 +43,7 @@ OUTCOMES = ("failure", "stop", "creep", "error")
 
 
 @dataclass(frozen=True, eq=False)
-class StabilityMap:
+class StabilityMap(HtmlReport):
     """The result of :func:`stability_map`; 2-D arrays are (switch point, stress ratio).
 
     Attributes
@@ -74,22 +86,22 @@ class StabilityMap:
     method: str
     clock: str
     params: Params
-    options: MappingProxyType = field(default_factory=dict)
+    options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
         object.__setattr__(self, "options", MappingProxyType(dict(self.options)))
 
     @property
-    def shape(self):
+    def shape(self) -> tuple[int, int]:
         return self.outcome.shape
 
     @property
-    def failed(self):
+    def failed(self) -> NDArray[np.bool_]:
         """Boolean array: where the layer failed."""
         return self.outcome == "failure"
 
     @property
-    def stopped(self):
+    def stopped(self) -> NDArray[np.bool_]:
         """Boolean array: where the layer came to rest."""
         return self.outcome == "stop"
 
@@ -100,7 +112,7 @@ class StabilityMap:
             f"clock={self.clock!r}, {int(self.failed.sum())} failures)"
         )
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """One row per cell (SI units), with the map's settings in ``attrs``."""
         import pandas as pd
 
@@ -130,7 +142,7 @@ class StabilityMap:
             "options": {key: _plain(value) for key, value in self.options.items()},
         }
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe mapping (NaN becomes None)."""
 
         def listed(array):
@@ -153,7 +165,7 @@ class StabilityMap:
         }
 
     @classmethod
-    def from_dict(cls, saved):
+    def from_dict(cls, saved: Mapping[str, Any]) -> StabilityMap:
         """The map of :meth:`to_dict` (None read back as NaN); inverts ``to_dict``."""
         from granflow.simulation.options import DirectEffect
 
@@ -184,7 +196,7 @@ class StabilityMap:
             options=options,
         )
 
-    def report(self):
+    def report(self) -> str:
         """A plain-text summary (display units)."""
         n, m = self.shape
         counts = {kind: int((self.outcome == kind).sum()) for kind in OUTCOMES}
@@ -267,21 +279,39 @@ def map_row(task):
     return switch_slip, switch_force, cells
 
 
+def _rows(pool, tasks, progress):
+    """The rows of ``tasks`` in order; a bar counts the switch points as they finish."""
+    if not wanted(progress):
+        return pool.map(map_row, tasks)
+    rows = [None] * len(tasks)
+    bar = progress_bar(len(tasks), progress=True, desc="stability map", unit="switch point")
+    try:
+        for position, row in pool.run(map_row, tasks):
+            if isinstance(row, Exception):  # a worker that died, as map would raise
+                raise row
+            rows[position] = row
+            bar.update()
+    finally:
+        bar.close()
+    return rows
+
+
 def stability_map(
-    params,
-    switch_points,
-    stress_ratios,
+    params: Params,
+    switch_points: ArrayLike,
+    stress_ratios: ArrayLike,
     *,
-    velocity,
-    hold=60.0,
-    ramp=0.0,
-    method="quasistatic",
-    clock="slip",
-    jobs=1,
-    executor=None,
-    scheduler=None,
-    **options,
-):
+    velocity: float,
+    hold: float = 60.0,
+    ramp: float = 0.0,
+    method: str = "quasistatic",
+    clock: str = "slip",
+    jobs: int | None = 1,
+    executor: Any = None,
+    scheduler: Any = None,
+    progress: bool | None = None,
+    **options: Any,
+) -> StabilityMap:
     """Fail or stop, for each switch point of a start-up and each imposed-to-current ratio.
 
     Parameters
@@ -312,6 +342,10 @@ def stability_map(
     scheduler : str or distributed.Client, optional
         Runs the switch points on a Dask cluster (an address such as ``"tcp://host:8786"``, or
         a client) instead of ``jobs``; needs the ``dask`` extra.
+    progress : bool or None
+        A progress bar over the switch points on stderr (tqdm: a widget in Jupyter): True,
+        False, or None (default) for one when a person watches (a terminal or Jupyter); none
+        with ``executor``, whose ``map`` returns only at the end.
     **options
         Further keyword arguments of :func:`granflow.simulate` (mass, damping, ...).
 
@@ -368,7 +402,7 @@ def stability_map(
         rows = list(executor.map(map_row, tasks))
     else:
         with Executor(min(jobs, len(tasks)), scheduler) as pool:
-            rows = pool.map(map_row, tasks)
+            rows = _rows(pool, tasks, progress)
     shape = (points.size, ratios.size)
     columns = {name: np.full(shape, np.nan) for name in ("stop", "time", "force")}
     outcome = np.empty(shape, dtype=object)

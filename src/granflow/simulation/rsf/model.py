@@ -20,13 +20,20 @@ point. ``eta v`` is the optional radiation damping. Every law has the steady sta
 + eta v``. The equations are scale-free: any consistent units work (SI by default).
 """
 
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow import _validate as check
 from granflow.errors import InvalidParameterError
 from granflow.simulation import equations as eq
+
+if TYPE_CHECKING:
+    from granflow._typing import FloatArray, FloatOrArray
 
 __all__ = ["LAWS", "RateState", "State"]
 
@@ -78,15 +85,15 @@ class State:
             raise InvalidParameterError(f"c applies to law='nagata' only, not {self.law!r}")
 
     @property
-    def scale(self):
+    def scale(self) -> float:
         """The slip in the friction term [m]: Dc, or 2 Dc for prz."""
         return 2.0 * self.Dc if self.law == "prz" else self.Dc
 
-    def steady_state(self, velocity):
+    def steady_state(self, velocity: FloatOrArray) -> FloatOrArray:
         """theta at steady sliding at ``velocity`` [s]: Dc / v (2 Dc / v for prz)."""
         return self.scale / np.asarray(velocity, dtype=float)
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         return {"b": self.b, "Dc": self.Dc, "law": self.law, "c": self.c}
 
 
@@ -121,7 +128,7 @@ class RateState:
     a: float
     v_ref: float
     stiffness: float | None = None
-    states: tuple = ()
+    states: Sequence[State] = ()  # stored as a tuple
     radiation_damping: float = 0.0
 
     def __post_init__(self):
@@ -151,21 +158,21 @@ class RateState:
         object.__setattr__(self, "radiation_damping", eta)
 
     @property
-    def b(self):
+    def b(self) -> float:
         """The sum of the state amplitudes [-]."""
         return sum(state.b for state in self.states)
 
-    def steady_state_friction(self, velocity):
+    def steady_state_friction(self, velocity: FloatOrArray) -> FloatOrArray:
         """mu_ss(v) = mu0 + (a - sum b) ln(v / v_ref) + eta v [-]."""
         v = np.asarray(velocity, dtype=float)
         value = self.mu0 + (self.a - self.b) * np.log(v / self.v_ref) + self.radiation_damping * v
         return float(value) if value.ndim == 0 else value
 
-    def steady_state(self, velocity):
+    def steady_state(self, velocity: FloatOrArray) -> FloatArray:
         """The state variables at steady sliding at ``velocity`` [s], one per state."""
         return np.array([state.steady_state(velocity) for state in self.states])
 
-    def friction(self, velocity, thetas):
+    def friction(self, velocity: FloatOrArray, thetas: FloatArray | Sequence[FloatOrArray]) -> Any:
         """The friction at slider ``velocity`` [m/s] and states ``thetas`` [s] (any shape)."""
         v = np.asarray(velocity, dtype=float)
         value = self.mu0 + self.a * np.log(v / self.v_ref) + self.radiation_damping * v
@@ -174,7 +181,7 @@ class RateState:
                 value = value + state.b * np.log(self.v_ref * np.asarray(theta) / state.scale)
         return value
 
-    def parameters(self):
+    def parameters(self) -> FloatArray:
         """The parameter vector of the compiled equations (the piece fields left at 0)."""
         p = np.zeros(eq.STATE_BASE + 4 * len(self.states))
         p[eq.MU0], p[eq.RSF_A], p[eq.RSF_V_REF] = self.mu0, self.a, self.v_ref
@@ -186,7 +193,7 @@ class RateState:
             p[base : base + 4] = (state.b, state.Dc, eq.LAWS[state.law], state.c or 0.0)
         return p
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         return {
             "mu0": self.mu0,
             "a": self.a,
@@ -197,13 +204,13 @@ class RateState:
         }
 
     @classmethod
-    def from_dict(cls, mapping):
+    def from_dict(cls, mapping: Mapping[str, Any]) -> RateState:
         """Inverse of :meth:`to_dict`."""
         return cls(
             mapping["mu0"],
             mapping["a"],
             mapping["v_ref"],
             mapping.get("stiffness"),
-            [State(**item) for item in mapping["states"]],
+            tuple(State(**item) for item in mapping["states"]),
             mapping.get("radiation_damping", 0.0),
         )

@@ -1,14 +1,25 @@
 """What :func:`granflow.rsf.simulate` returns: the recorded arrays, the peaks, the settings."""
 
+from __future__ import annotations
+
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from granflow._html import HtmlReport
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.results import Event
 from granflow.simulation.rsf.model import RateState
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.axes import Axes
+
+    from granflow._typing import FloatArray
 
 __all__ = ["RateStateResult"]
 
@@ -25,7 +36,7 @@ def _array(values):
 
 
 @dataclass(frozen=True, eq=False)
-class RateStateResult:
+class RateStateResult(HtmlReport):
     """The outcome of :func:`granflow.rsf.simulate`, shaped like ``SimulationResult``.
 
     Attributes
@@ -67,7 +78,7 @@ class RateStateResult:
     message: str
     model: RateState
     protocol: Protocol
-    options: MappingProxyType = field(default_factory=dict)
+    options: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
         for name in (*_ARRAYS, "states", "segment"):
@@ -82,15 +93,15 @@ class RateStateResult:
         )
 
     @property
-    def theta(self):
+    def theta(self) -> FloatArray:
         """The first state variable [s]."""
         return self.states[0]
 
-    def events_of(self, kind):
+    def events_of(self, kind: str) -> tuple[Event, ...]:
         """The events of one kind, in time order."""
         return tuple(event for event in self.events if event.kind == kind)
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """A pandas DataFrame: the arrays, then ``theta_1`` .. ``theta_n``; ``attrs`` holds
         the events, the model, the options and the units."""
         import pandas as pd
@@ -109,7 +120,7 @@ class RateStateResult:
         }
         return frame
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, Any]:
         """JSON-safe mapping (non-finite numbers become None)."""
         return {
             "model": self.model.to_dict(),
@@ -124,7 +135,7 @@ class RateStateResult:
         }
 
     @classmethod
-    def from_dict(cls, mapping):
+    def from_dict(cls, mapping: Mapping[str, Any]) -> RateStateResult:
         """Inverse of :meth:`to_dict`."""
         return cls(
             **{name: _array(mapping[name]) for name in _ARRAYS},
@@ -140,7 +151,7 @@ class RateStateResult:
             options=mapping["options"],
         )
 
-    def report(self):
+    def report(self) -> str:
         """A plain-text summary in the manner of lmfit's fit report."""
         model = self.model
         stiffness = "none (rigid)" if model.stiffness is None else f"{model.stiffness:.6g}"
@@ -173,7 +184,7 @@ class RateStateResult:
             )
         return "\n".join(lines)
 
-    def plot(self, ax=None):
+    def plot(self, ax: Axes | None = None) -> Axes:
         """Friction against time, with the steady state of the load-point velocity.
 
         Returns

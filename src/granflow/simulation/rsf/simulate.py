@@ -8,6 +8,11 @@ the analytic Jacobian), so that a fit can call it many times at little cost beyo
 integration itself. Time is the protocol's time, 0 when the protocol starts.
 """
 
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from granflow import _validate as check
@@ -19,6 +24,13 @@ from granflow.simulation.protocol import Protocol
 from granflow.simulation.results import Event
 from granflow.simulation.rsf.model import RateState
 from granflow.simulation.rsf.result import RateStateResult
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+    from granflow.simulation.protocol import Protocol
+    from granflow.simulation.rsf.model import RateState
+    from granflow.simulation.rsf.result import RateStateResult
+    from granflow.simulation.segments import Segment
 
 __all__ = ["run", "simulate"]
 
@@ -159,17 +171,17 @@ def _times(t_eval, pieces, points):
 
 
 def simulate(
-    model,
-    protocol,
+    model: RateState,
+    protocol: Protocol | Iterable[Segment],
     *,
-    t_eval=None,
-    initial_velocity=None,
-    initial_states=None,
-    points=200,
-    rtol=1e-10,
-    max_evaluations=10_000_000,
-    method="rodas4",
-):
+    t_eval: ArrayLike | None = None,
+    initial_velocity: float | None = None,
+    initial_states: Sequence[float] | None = None,
+    points: int = 200,
+    rtol: float = 1e-10,
+    max_evaluations: int = 10000000,
+    method: str = "rodas4",
+) -> RateStateResult:
     """Slide a rate-and-state spring-slider through a load-point velocity history.
 
     Parameters
