@@ -46,5 +46,4 @@ for run, fit in zip(runs, fits, strict=True):
 # ------------
 # Data as points, each fit as a line in the same colour, the residuals below.
 ax = plot_startup(runs, fits)
-ax.set_title("Fig. 2a: three preparations at 0.86 µm/s (synthetic demo)")
 plt.show()

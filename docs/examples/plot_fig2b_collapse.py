@@ -49,5 +49,4 @@ print(
 # Points are the data, lines the shared fit, both coloured by velocity; the inset magnifies
 # the short slips, where the runs differ a little by their initial state ``x0``.
 ax = plot_collapse(collapse)
-ax.set_title("Fig. 2b: five velocities, one curve in slip (synthetic demo)")
 plt.show()

@@ -51,9 +51,11 @@ loads = np.array([row["normal_load"] for row in amontons.per_load]) * 1e3  # mN
 a_mean, a_error = (np.array([row["a"][i] for row in amontons.per_load]) * 1e3 for i in (0, 1))
 k_mean, k_error = (np.array([row["alpha_v"][i] for row in amontons.per_load]) for i in (0, 1))
 fd_mean = np.array([row["Fd"][0] for row in amontons.per_load]) * 1e3
+span = np.array([0.0, loads.max() * 1.05])  # for the lines through the origin [mN]
 
 fig, ax = plt.subplots(figsize=(6.4, 4.4), layout="constrained")
 ax.errorbar(loads, a_mean, a_error, fmt="o", color="tab:blue", capsize=3, label="a")
+ax.plot(span, amontons.lines["a"][0] * span, color="tab:blue", linewidth=0.8)
 ax.set_xlabel("normal load F_N [mN]")
 ax.set_ylabel("a [mN]", color="tab:blue")
 ax.set_ylim(0, 1.25 * a_mean.max())
@@ -63,10 +65,9 @@ twin.set_ylabel("α v [1/s]", color="tab:red")
 twin.set_ylim(0, 2 * k_mean.max())
 inset = ax.inset_axes([0.12, 0.6, 0.32, 0.32])
 inset.plot(loads, fd_mean, "ko", markersize=4)
-span = np.array([0.0, loads.max() * 1.05])
 inset.plot(span, amontons.lines["Fd"][0] * span, "k-", linewidth=0.8)
 inset.set_xlabel("F_N [mN]", fontsize=8)
 inset.set_ylabel("F_d [mN]", fontsize=8)
 inset.tick_params(labelsize=7)
-ax.set_title("Fig. 2c: a ∝ F_N, α v independent of F_N (synthetic demo)")
+ax.set_xlim(0, None)
 plt.show()
