@@ -24,7 +24,7 @@ DOCS = Path(__file__).resolve().parent
 
 project = "granflow"
 author = "granflow developers"
-copyright = "granflow developers"  # noqa: A001 (Sphinx's name)
+copyright = "granflow developers"
 version = release = granflow.__version__
 
 extensions = [
