@@ -66,6 +66,7 @@ sphinx_gallery_conf = {
     "abort_on_example_error": False,  # report every failing example; -W fails the build
     "only_warn_on_example_error": False,
     "show_memory": False,
+    "write_computation_times": False,  # its page loads jQuery and DataTables from a CDN
     "plot_gallery": "True",
     "capture_repr": ("_repr_html_", "__repr__"),
     "matplotlib_animations": False,
@@ -90,6 +91,9 @@ html_theme_options = {
     "footer_start": ["copyright"],
     "footer_end": ["sphinx-version"],
 }
+# the theme follows the reader's light or dark preference (without it, a page opened from
+# disk logs "invalid theme mode" in the console)
+html_context = {"default_mode": "auto"}
 html_sidebars = {"index": [], "getting_started": []}
 html_show_sourcelink = False
 html_copy_source = False
