@@ -46,9 +46,8 @@ nitpicky = False
 # -- API reference (autosummary + numpydoc) ---------------------------------------------------
 autosummary_generate = True
 autosummary_imported_members = True
-autodoc_default_options = {"members": False}
 autodoc_typehints = "none"  # the numpydoc sections carry the types (with units)
-numpydoc_show_class_members = False
+numpydoc_show_class_members = False  # the class template documents the members
 numpydoc_class_members_toctree = False
 numpydoc_validation_checks = set()
 numpydoc_xref_param_type = False
