@@ -221,3 +221,16 @@ def test_examples_of_the_page_run_as_written(page, tmp_path, monkeypatch):
         for command in commands:
             assert main(command) == 0, command
         assert (tmp_path / "granflow-demo" / "report.html").is_file()
+
+
+def test_autodoc_can_ask_granflow_rsf_for_a_submodule():
+    """autodoc imports ``granflow.rsf.simulate`` as a module before it looks for the
+    attribute; granflow.rsf is a plain module with lazy names, and asking it for a submodule
+    once recursed without end (importlib asks the parent for ``__path__``)."""
+    import importlib
+
+    with pytest.raises(ModuleNotFoundError, match="not a package"):
+        importlib.import_module("granflow.rsf.simulate")
+    from granflow import rsf
+
+    assert callable(rsf.simulate)
