@@ -30,11 +30,14 @@ def attach(package, names_by_module):
     def __getattr__(name):  # noqa: N807 (PEP 562)
         target = where.get(name)
         if target is None:
-            try:
-                return importlib.import_module(f"{package}.{name}")
-            except ModuleNotFoundError as exc:
-                if exc.name != f"{package}.{name}":
-                    raise
+            # only a package has submodules; asking a plain module (granflow.rsf) for one
+            # would make importlib ask it for __path__ again, without end
+            if "__path__" in vars(sys.modules[package]):
+                try:
+                    return importlib.import_module(f"{package}.{name}")
+                except ModuleNotFoundError as exc:
+                    if exc.name != f"{package}.{name}":
+                        raise
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
         value = getattr(importlib.import_module(target), name)
         setattr(sys.modules[package], name, value)
