@@ -30,14 +30,16 @@ METHODS = ("model", "inverse velocity", "voight")
 
 @dataclass(frozen=True)
 class Outcome:
-    """One forecast of the study: protocol, lead, method, error [s] and whether the interval
-    covered the truth."""
+    """One forecast of the study: protocol, lead, method, error [s], whether the time interval
+    covered the true failure time, and (model only, else None) whether the force interval
+    covered the true F_peak."""
 
     protocol: str
     lead: float
     method: str
     error: float
     covered: bool
+    force_covered: bool | None = None
 
 
 def _record(seed, protocol):
@@ -60,6 +62,7 @@ def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
     out = []
     for protocol in protocols:
         t, slip, force, truth = _record(seed, protocol)
+        strength = peak(Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])).force
         for lead in leads:
             until = (1.0 - lead) * truth
             forecasts = {
@@ -70,8 +73,14 @@ def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
             for method, fc in forecasts.items():
                 time = math.inf if fc.time is None else fc.time
                 low, high = fc.time_interval
-                covered = bool(low <= truth <= high) if fc.time is not None else False
-                out.append(Outcome(protocol, lead, method, abs(time - truth), covered))
+                covered = bool(low <= truth <= high)  # False where NaN (no interval)
+                force_covered = None
+                if method == "model":
+                    force_low, force_high = fc.force_interval
+                    force_covered = bool(force_low <= strength <= force_high)
+                out.append(
+                    Outcome(protocol, lead, method, abs(time - truth), covered, force_covered)
+                )
     return out
 
 
@@ -82,15 +91,18 @@ def calibrate(seeds, protocols=("ramp", "steps"), leads=LEADS, executor=None):
 
 
 def summarise(outcomes):
-    """{(protocol, lead, method): (median absolute error [s], coverage [-], count)}."""
+    """{(protocol, lead, method): (median absolute error [s], coverage of the time interval
+    [-], count, coverage of the F_peak interval [-] (NaN for the baselines))}."""
     table = {}
     keys = sorted({(o.protocol, o.lead, o.method) for o in outcomes}, key=str)
     for key in keys:
         chosen = [o for o in outcomes if (o.protocol, o.lead, o.method) == key]
         errors = np.array([o.error for o in chosen])
+        forces = [o.force_covered for o in chosen if o.force_covered is not None]
         table[key] = (
             float(np.median(errors)),
             float(np.mean([o.covered for o in chosen])),
             len(chosen),
+            float(np.mean(forces)) if forces else math.nan,
         )
     return table

@@ -5,6 +5,7 @@ branch, and the layer fails when the continued force history reaches F_peak."""
 import math
 
 import numpy as np
+from scipy.stats import norm
 
 from granflow import _validate as check
 from granflow.errors import InvalidDataError
@@ -20,12 +21,14 @@ __all__ = ["forecast_failure"]
 _NAN_PAIR = (math.nan, math.nan)
 
 
-def _no_date(until, level, loading, n_points, message, prior):
+def _no_date(until, level, loading, n_points, message, prior, bound=None):
+    """A forecast without a date; ``bound`` (a force [N]) keeps the lower end the record
+    does give: the layer has held the force so far, so it fails no earlier."""
     return FailureForecast(
         time=None,
-        time_interval=_NAN_PAIR,
+        time_interval=_NAN_PAIR if bound is None else loading.times_at(bound, math.inf),
         force=None,
-        force_interval=_NAN_PAIR,
+        force_interval=_NAN_PAIR if bound is None else (bound, math.inf),
         slip=None,
         slip_interval=_NAN_PAIR,
         until=until,
@@ -53,6 +56,22 @@ def _starts(held, slip, floor):
             for factor in (1.05, 1.3, 2.0):
                 starts.append((a, alpha, x0, floor * factor))
     return tuple(starts), total
+
+
+def _with_loading_error(fit, loading, level):
+    """The F_peak interval [N] with the fitted force history's own error added in quadrature.
+
+    The slip is fitted against the fitted history, so an error e(t) of that history moves the
+    fitted F_peak by about e(t_f) and leaves the failure time alone (the history reaches the
+    moved peak at the same moment): the time interval needs nothing, the force interval
+    needs the history's standard error at the forecast failure time.
+    """
+    low, high = fit.interval
+    spread = norm.ppf(0.5 + 0.5 * level) * loading.force_error(loading.time_at(fit.peak_force))
+    centre = fit.peak_force
+    low = centre - math.hypot(centre - low, spread)
+    high = centre + math.hypot(high - centre, spread) if math.isfinite(high) else high
+    return (float(low), float(high))
 
 
 def _check_prior(prior):
@@ -142,6 +161,7 @@ def forecast_failure(t, slip, force, until=None, *, prior=None, level=0.9, noise
         prior=None if prior is None else prior.residuals,
         prior_size=0 if prior is None else len(prior.names),
         noise=noise,
+        scale=_inputs.rough_noise(slip_cut),
     )
     fit = fit_and_profile(likelihood, level)
     low, high = fit.interval
@@ -149,9 +169,13 @@ def forecast_failure(t, slip, force, until=None, *, prior=None, level=0.9, noise
     if math.isinf(high):
         message = "the record does not yet bound the failure from above"
     if fit.peak_force > 0.99 * 20.0 * floor:
-        message = "the fitted peak lies beyond any plausible load: no sign of approaching failure"
-        return _no_date(until, level, loading, time.size, message, prior)
+        message = (
+            "the fitted peak lies beyond any plausible load: no sign of approaching failure "
+            f"(not before {loading.times_at(low, low)[0]:.4g} s)"
+        )
+        return _no_date(until, level, loading, time.size, message, prior, bound=low)
     params = fit.params
+    force_interval = _with_loading_error(fit, loading, level)
     from granflow.model.friction import peak
 
     def rise(p):
@@ -159,9 +183,9 @@ def forecast_failure(t, slip, force, until=None, *, prior=None, level=0.9, noise
 
     return FailureForecast(
         time=loading.time_at(fit.peak_force),
-        time_interval=(loading.time_at(low), loading.time_at(high)),
+        time_interval=loading.times_at(low, high),
         force=fit.peak_force,
-        force_interval=fit.interval,
+        force_interval=force_interval,
         slip=rise(params),
         slip_interval=fit.along(rise),
         until=until,

@@ -112,6 +112,7 @@ def forecast_peak(run_or_t, velocity=None, until=None, *, prior=None, level=0.9,
         prior=None if prior is None else prior.residuals,
         prior_size=0 if prior is None else len(prior.names),
         noise=noise,
+        scale=_inputs.rough_noise(values),
     )
     fit = fit_and_profile(likelihood, level)
     slip = peak(fit.params).slip
