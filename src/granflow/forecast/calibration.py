@@ -31,8 +31,8 @@ METHODS = ("model", "inverse velocity", "voight")
 @dataclass(frozen=True)
 class Outcome:
     """One forecast of the study: protocol, lead, method, error [s], whether the time interval
-    covered the true failure time, and (model only, else None) whether the force interval
-    covered the true F_peak."""
+    covered the true failure time, (model only, else None) whether the force interval
+    covered the true F_peak, and whether the time interval was open above."""
 
     protocol: str
     lead: float
@@ -40,6 +40,7 @@ class Outcome:
     error: float
     covered: bool
     force_covered: bool | None = None
+    open_above: bool = False
 
 
 def _record(seed, protocol):
@@ -78,8 +79,10 @@ def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
                 if method == "model":
                     force_low, force_high = fc.force_interval
                     force_covered = bool(force_low <= strength <= force_high)
+                error = abs(time - truth)
+                open_above = bool(high == math.inf)
                 out.append(
-                    Outcome(protocol, lead, method, abs(time - truth), covered, force_covered)
+                    Outcome(protocol, lead, method, error, covered, force_covered, open_above)
                 )
     return out
 
@@ -92,7 +95,8 @@ def calibrate(seeds, protocols=("ramp", "steps"), leads=LEADS, executor=None):
 
 def summarise(outcomes):
     """{(protocol, lead, method): (median absolute error [s], coverage of the time interval
-    [-], count, coverage of the F_peak interval [-] (NaN for the baselines))}."""
+    [-], count, coverage of the F_peak interval [-] (NaN for the baselines), fraction of
+    time intervals open above [-])}."""
     table = {}
     keys = sorted({(o.protocol, o.lead, o.method) for o in outcomes}, key=str)
     for key in keys:
@@ -104,5 +108,6 @@ def summarise(outcomes):
             float(np.mean([o.covered for o in chosen])),
             len(chosen),
             float(np.mean(forces)) if forces else math.nan,
+            float(np.mean([o.open_above for o in chosen])),
         )
     return table
