@@ -89,7 +89,12 @@ def forecast_failure(t, slip, force, until=None, *, prior=None, level=0.9, noise
     ``x0 + slip(t) = F^-1(sigma(t))``, and fails when the imposed force sigma reaches F_peak.
     The force history is read from ``force`` (a ramp's line, or a staircase's levels) and
     continued beyond the cut. The interval is the profile likelihood's for F_peak (the other
-    parameters re-fitted at each F_peak), mapped to the failure time through the history.
+    parameters re-fitted at each F_peak, the slip noise estimated from the residuals), mapped
+    to the failure time through the history; the force interval also carries the fitted
+    history's own error. Under a staircase the layer fails at the start of the first step
+    that reaches F_peak: the time interval runs from the earliest start of the step reaching
+    the low end to the latest start of the step reaching the high end, each start bounded by
+    the samples between which the record's steps began.
 
     Parameters
     ----------

@@ -11,8 +11,9 @@ start-up), so every parameter vector respects it.
 
 The interval of F_peak is the profile likelihood's: the set of F_peak whose best fit over the
 other three parameters is within ``chi2_1(level)`` of the best fit, in units of the noise
-variance. Derived quantities (the peak slip, the time of failure) are carried along the
-profile path, not linearised at the best fit.
+variance (``F(1, n - 4)`` when the noise is estimated from the residuals, as by default).
+Derived quantities (the peak slip, the time of failure) are carried along the profile path,
+not linearised at the best fit.
 """
 
 import math
