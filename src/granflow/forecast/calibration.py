@@ -111,3 +111,58 @@ def summarise(outcomes):
             float(np.mean([o.open_above for o in chosen])),
         )
     return table
+
+
+#: The peak study's start-up: the demo's tube at 55 mN, sheared at 0.86 um/s, force noise
+#: 0.03 mN, four points a second from 1 s, cut at 70 % of the peak time.
+PEAK_PARAMS = (3.3e-3, 5.0e4, 11.0e-3, 0.3e-6)
+PEAK_VELOCITY = 0.86e-6  # m/s
+PEAK_LOAD = 0.055  # N
+#: Priors of the peak study: (mu_a, mu_d, alpha) standard errors of an Amontons fit, or a
+#: previous run's Fd [N] alone.
+PEAK_PRIORS = {
+    "none": None,
+    "material, alpha +- 0.2 %": (3.1e-4, 2.2e-4, 83.0),
+    "material, alpha +- 1 %": (3.1e-4, 2.2e-4, 500.0),
+    "previous run's Fd +- 10 uN": 1e-5,
+}
+
+
+def one_peak_seed(seed, fraction=0.7):
+    """{prior name: (covered, interval width [N])} of the peak forecasts of one start-up; each
+    prior's values are drawn about the truth by its standard errors (seeded)."""
+    from granflow.forecast.peak import forecast_peak
+    from granflow.forecast.prior import Prior
+    from granflow.model.friction import friction_time
+
+    params = Params(*PEAK_PARAMS)
+    truth = peak(params, velocity=PEAK_VELOCITY)
+    rng = np.random.default_rng(seed)
+    t = np.arange(1.0, fraction * truth.time, 0.25)
+    force = friction_time(t, params, PEAK_VELOCITY) + FORCE_NOISE * rng.standard_normal(t.size)
+    out = {}
+    for name, errors in PEAK_PRIORS.items():
+        if errors is None:
+            prior = None
+        elif isinstance(errors, float):
+            prior = Prior(Fd=(params.Fd + errors * rng.standard_normal(), errors))
+        else:
+            means = (params.a / PEAK_LOAD, params.Fd / PEAK_LOAD, params.alpha)
+            drawn = [(m + e * rng.standard_normal(), e) for m, e in zip(means, errors, strict=True)]
+            prior = Prior.from_material(*drawn, PEAK_LOAD)
+        low, high = forecast_peak((t, force), velocity=PEAK_VELOCITY, prior=prior).force_interval
+        out[name] = (bool(low <= truth.force <= high), high - low)
+    return out
+
+
+def peak_study(seeds, executor=None):
+    """{prior name: (coverage [-], median width [N], median width without a prior over the
+    median width with it [-])} over ``seeds``."""
+    mapper = map if executor is None else executor.map
+    rows = list(mapper(one_peak_seed, seeds))
+    alone = float(np.median([row["none"][1] for row in rows]))
+    table = {}
+    for name in PEAK_PRIORS:
+        width = float(np.median([row[name][1] for row in rows]))
+        table[name] = (float(np.mean([row[name][0] for row in rows])), width, alone / width)
+    return table
