@@ -1,43 +1,73 @@
 """Calibration study of the failure forecasts (issue 15): >= 200 seeds of simulated ramps and
 staircases, cut at lead times of 50 %, 25 % and 10 % of the time to failure; the median
-absolute error of t_f and the coverage of the 90 % intervals for the model-based forecast,
-the inverse-velocity method (Fukuzono) and Voight's law with alpha fitted; and the time per
-forecast of each method side by side.
+absolute error of t_f and the coverage of the 90 % intervals (of t_f, and of F_peak for the
+model) for the model-based forecast, the inverse-velocity method (Fukuzono) and Voight's law
+with alpha fitted.
 
-Run from the repository root: ``python benchmarks/bench_forecast.py [SEEDS] [PROCESSES]``.
+Run from the repository root:
+``python benchmarks/bench_forecast.py [SEEDS] [PROCESSES] [FIRST_SEED]``; the table is printed
+after every 20 seeds with the machine's load average. ``python benchmarks/bench_forecast.py
+peak [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the peak study instead: start-ups cut at 70 % of
+their peak time, the coverage of the 90 % interval of F_peak and its width with and without
+a prior from the campaign.
 """
 
+import os
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-from granflow.forecast.calibration import METHODS, calibrate, summarise
+from granflow.forecast.calibration import METHODS, calibrate, peak_study, summarise
 
 
 def _table(outcomes, seeds, elapsed, processes):
     table = summarise(outcomes)
-    print(f"{seeds} seeds, {len(outcomes)} forecasts in {elapsed:.0f} s ({processes} processes)")
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     print(
-        f"| protocol | lead | {' | '.join(f'{m}: median error [s], coverage' for m in METHODS)} |"
+        f"{seeds} seeds, {len(outcomes)} forecasts in {elapsed:.0f} s ({processes} processes, "
+        f"load average {load})"
+    )
+    print(
+        "| protocol | lead | model: median error, t_f coverage, F_peak coverage, open above | "
+        + " | ".join(f"{m}: median error, coverage" for m in METHODS[1:])
+        + " |"
     )
     for protocol in ("ramp", "steps"):
         for lead in (0.5, 0.25, 0.1):
-            cells = []
-            for method in METHODS:
-                error, coverage, _ = table[(protocol, lead, method)]
-                cells.append(f"{error:.3g}, {coverage:.0%}")
+            error, coverage, _, force, opened = table[(protocol, lead, "model")]
+            cells = [f"{error:.3g} s, {coverage:.0%}, {force:.0%}, {opened:.0%}"]
+            for method in METHODS[1:]:
+                error, coverage, *_ = table[(protocol, lead, method)]
+                cells.append(f"{error:.3g} s, {coverage:.0%}")
             print(f"| {protocol} | {lead:.0%} | {' | '.join(cells)} |", flush=True)
 
 
-def main(seeds=200, processes=1, chunk=20):
-    """The study over ``seeds`` seeds, its table printed after every ``chunk`` seeds."""
+def main(seeds=200, processes=1, first=1000, chunk=20):
+    """The study over seeds ``first, ..., first + seeds - 1``, its table printed after every
+    ``chunk`` seeds."""
     started, outcomes = time.perf_counter(), []
     with ProcessPoolExecutor(processes) as pool:
-        for first in range(0, seeds, chunk):
-            outcomes += calibrate(range(first, min(first + chunk, seeds)), executor=pool)
-            done = min(first + chunk, seeds)
-            _table(outcomes, done, time.perf_counter() - started, processes)
+        for start in range(first, first + seeds, chunk):
+            stop = min(start + chunk, first + seeds)
+            outcomes += calibrate(range(start, stop), executor=pool)
+            _table(outcomes, stop - first, time.perf_counter() - started, processes)
+
+
+def peak(seeds=200, processes=1, first=2000):
+    """The peak study over seeds ``first, ..., first + seeds - 1``."""
+    started = time.perf_counter()
+    with ProcessPoolExecutor(processes) as pool:
+        table = peak_study(range(first, first + seeds), executor=pool)
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    elapsed = time.perf_counter() - started
+    print(f"{seeds} start-ups in {elapsed:.0f} s ({processes} processes, load average {load})")
+    print("| prior | coverage of the 90 % interval | median width | narrower by |")
+    for name, (coverage, width, ratio) in table.items():
+        print(f"| {name} | {coverage:.1%} | {width * 1e6:.1f} uN | {ratio:.2f}x |")
 
 
 if __name__ == "__main__":
-    main(*(int(arg) for arg in sys.argv[1:3]))
+    if sys.argv[1:2] == ["peak"]:
+        peak(*(int(arg) for arg in sys.argv[2:5]))
+    else:
+        main(*(int(arg) for arg in sys.argv[1:4]))

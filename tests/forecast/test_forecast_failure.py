@@ -103,6 +103,40 @@ def test_a_staircase_fails_at_the_first_step_above_the_peak():
     assert ff.time_interval[0] <= failure <= ff.time_interval[1]
 
 
+def test_the_slip_noise_is_estimated_at_its_true_level(record):
+    """The profile's scale is the residual noise: a noise estimate 50x too large (as a fit
+    stopped at its start gives) makes every interval far too wide."""
+    t, slip, force, failure = record
+    for cut in (0.5, 0.9):
+        ff = gf.forecast_failure(t, slip, force, until=cut * failure)
+        assert 0.75 * 5e-9 < ff.noise < 1.25 * 5e-9
+
+
+def test_a_staircase_between_samples_is_dated_within_the_sampling():
+    """Steps of 17.3 s sampled once a second: each step shows at the first sample after it
+    began, so the failure (the start of the first step above F_peak, 11 x 17.3 s) is known only
+    to within the sampling; the interval must hold it and stay that tight near failure."""
+    strength = gf.peak(PARAMS).force
+    step, duration = strength / 11.5, 17.3
+    failure = 11 * duration
+    t = np.arange(0.0, failure, 1.0)
+    sigma = step * (1 + np.floor(t / duration))
+    x = np.array(
+        [
+            brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, gf.peak(PARAMS).slip)
+            for s in sigma
+        ]
+    )
+    slip = x - PARAMS.x0 + 2e-9 * np.random.default_rng(4).standard_normal(t.size)
+    ff = gf.forecast_failure(t, slip, sigma, until=0.95 * failure)
+    for k, (low, high) in enumerate(ff.loading.windows, start=1):
+        assert low < k * duration <= high
+    low, high = ff.time_interval
+    assert low <= failure <= high
+    assert high - low < 3.0
+    assert ff.force_interval[0] <= strength <= ff.force_interval[1]
+
+
 def test_a_record_without_approaching_failure_says_so():
     t = np.arange(0.0, 100.0)
     constant = np.full(t.size, 5e-3)

@@ -44,3 +44,12 @@ def record(t, columns, until):
         )
     cut = {name: v[keep] for name, v in values.items()}
     return time[keep], cut, float(min(until, time[-1]) if math.isfinite(until) else time[-1])
+
+
+def rough_noise(values):
+    """A robust noise level of a smooth-plus-noise column (in its unit): the median absolute
+    second difference, scaled to a Gaussian standard deviation (second differences remove a
+    local trend and have variance 6 sigma^2; the median ignores jumps). Never zero."""
+    second = np.diff(values, 2)
+    level = 1.4826 * float(np.median(np.abs(second))) / math.sqrt(6.0) if second.size else 0.0
+    return max(level, 1e-9 * float(np.ptp(values)), 1e-300)

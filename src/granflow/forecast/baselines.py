@@ -111,7 +111,11 @@ def inverse_velocity_forecast(
     )
     roots = np.maximum(roots, until)
     tail = 0.5 * (1 - level)
-    interval = tuple(float(v) for v in np.quantile(roots, [tail, 1 - tail]))
+    # Order statistics, not interpolation: the draws include roots at infinity.
+    interval = (
+        float(np.quantile(roots, tail, method="lower")),
+        float(np.quantile(roots, 1 - tail, method="higher")),
+    )
     return BaselineForecast(
         method=method,
         time=max(float(-intercept / slope), until),

@@ -30,14 +30,17 @@ METHODS = ("model", "inverse velocity", "voight")
 
 @dataclass(frozen=True)
 class Outcome:
-    """One forecast of the study: protocol, lead, method, error [s] and whether the interval
-    covered the truth."""
+    """One forecast of the study: protocol, lead, method, error [s], whether the time interval
+    covered the true failure time, (model only, else None) whether the force interval
+    covered the true F_peak, and whether the time interval was open above."""
 
     protocol: str
     lead: float
     method: str
     error: float
     covered: bool
+    force_covered: bool | None = None
+    open_above: bool = False
 
 
 def _record(seed, protocol):
@@ -60,6 +63,7 @@ def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
     out = []
     for protocol in protocols:
         t, slip, force, truth = _record(seed, protocol)
+        strength = peak(Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])).force
         for lead in leads:
             until = (1.0 - lead) * truth
             forecasts = {
@@ -70,8 +74,16 @@ def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
             for method, fc in forecasts.items():
                 time = math.inf if fc.time is None else fc.time
                 low, high = fc.time_interval
-                covered = bool(low <= truth <= high) if fc.time is not None else False
-                out.append(Outcome(protocol, lead, method, abs(time - truth), covered))
+                covered = bool(low <= truth <= high)  # False where NaN (no interval)
+                force_covered = None
+                if method == "model":
+                    force_low, force_high = fc.force_interval
+                    force_covered = bool(force_low <= strength <= force_high)
+                error = abs(time - truth)
+                open_above = bool(high == math.inf)
+                out.append(
+                    Outcome(protocol, lead, method, error, covered, force_covered, open_above)
+                )
     return out
 
 
@@ -82,15 +94,75 @@ def calibrate(seeds, protocols=("ramp", "steps"), leads=LEADS, executor=None):
 
 
 def summarise(outcomes):
-    """{(protocol, lead, method): (median absolute error [s], coverage [-], count)}."""
+    """{(protocol, lead, method): (median absolute error [s], coverage of the time interval
+    [-], count, coverage of the F_peak interval [-] (NaN for the baselines), fraction of
+    time intervals open above [-])}."""
     table = {}
     keys = sorted({(o.protocol, o.lead, o.method) for o in outcomes}, key=str)
     for key in keys:
         chosen = [o for o in outcomes if (o.protocol, o.lead, o.method) == key]
         errors = np.array([o.error for o in chosen])
+        forces = [o.force_covered for o in chosen if o.force_covered is not None]
         table[key] = (
             float(np.median(errors)),
             float(np.mean([o.covered for o in chosen])),
             len(chosen),
+            float(np.mean(forces)) if forces else math.nan,
+            float(np.mean([o.open_above for o in chosen])),
         )
+    return table
+
+
+#: The peak study's start-up: the demo's tube at 55 mN, sheared at 0.86 um/s, force noise
+#: 0.03 mN, four points a second from 1 s, cut at 70 % of the peak time.
+PEAK_PARAMS = (3.3e-3, 5.0e4, 11.0e-3, 0.3e-6)
+PEAK_VELOCITY = 0.86e-6  # m/s
+PEAK_LOAD = 0.055  # N
+#: Priors of the peak study: (mu_a, mu_d, alpha) standard errors of an Amontons fit, or a
+#: previous run's Fd [N] alone.
+PEAK_PRIORS = {
+    "none": None,
+    "material, alpha +- 0.2 %": (3.1e-4, 2.2e-4, 83.0),
+    "material, alpha +- 1 %": (3.1e-4, 2.2e-4, 500.0),
+    "previous run's Fd +- 10 uN": 1e-5,
+}
+
+
+def one_peak_seed(seed, fraction=0.7):
+    """{prior name: (covered, interval width [N])} of the peak forecasts of one start-up; each
+    prior's values are drawn about the truth by its standard errors (seeded)."""
+    from granflow.forecast.peak import forecast_peak
+    from granflow.forecast.prior import Prior
+    from granflow.model.friction import friction_time
+
+    params = Params(*PEAK_PARAMS)
+    truth = peak(params, velocity=PEAK_VELOCITY)
+    rng = np.random.default_rng(seed)
+    t = np.arange(1.0, fraction * truth.time, 0.25)
+    force = friction_time(t, params, PEAK_VELOCITY) + FORCE_NOISE * rng.standard_normal(t.size)
+    out = {}
+    for name, errors in PEAK_PRIORS.items():
+        if errors is None:
+            prior = None
+        elif isinstance(errors, float):
+            prior = Prior(Fd=(params.Fd + errors * rng.standard_normal(), errors))
+        else:
+            means = (params.a / PEAK_LOAD, params.Fd / PEAK_LOAD, params.alpha)
+            drawn = [(m + e * rng.standard_normal(), e) for m, e in zip(means, errors, strict=True)]
+            prior = Prior.from_material(*drawn, PEAK_LOAD)
+        low, high = forecast_peak((t, force), velocity=PEAK_VELOCITY, prior=prior).force_interval
+        out[name] = (bool(low <= truth.force <= high), high - low)
+    return out
+
+
+def peak_study(seeds, executor=None):
+    """{prior name: (coverage [-], median width [N], median width without a prior over the
+    median width with it [-])} over ``seeds``."""
+    mapper = map if executor is None else executor.map
+    rows = list(mapper(one_peak_seed, seeds))
+    alone = float(np.median([row["none"][1] for row in rows]))
+    table = {}
+    for name in PEAK_PRIORS:
+        width = float(np.median([row[name][1] for row in rows]))
+        table[name] = (float(np.mean([row[name][0] for row in rows])), width, alone / width)
     return table

@@ -8,6 +8,7 @@ import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from scipy.stats import norm
 
 from granflow import _validate as check
 from granflow.errors import InvalidDataError
@@ -27,12 +28,14 @@ __all__ = ["forecast_failure"]
 _NAN_PAIR = (math.nan, math.nan)
 
 
-def _no_date(until, level, loading, n_points, message, prior):
+def _no_date(until, level, loading, n_points, message, prior, bound=None):
+    """A forecast without a date; ``bound`` (a force [N]) keeps the lower end the record
+    does give: the layer has held the force so far, so it fails no earlier."""
     return FailureForecast(
         time=None,
-        time_interval=_NAN_PAIR,
+        time_interval=_NAN_PAIR if bound is None else loading.times_at(bound, math.inf),
         force=None,
-        force_interval=_NAN_PAIR,
+        force_interval=_NAN_PAIR if bound is None else (bound, math.inf),
         slip=None,
         slip_interval=_NAN_PAIR,
         until=until,
@@ -62,6 +65,22 @@ def _starts(held, slip, floor):
     return tuple(starts), total
 
 
+def _with_loading_error(fit, loading, level):
+    """The F_peak interval [N] with the fitted force history's own error added in quadrature.
+
+    The slip is fitted against the fitted history, so an error e(t) of that history moves the
+    fitted F_peak by about e(t_f) and leaves the failure time alone (the history reaches the
+    moved peak at the same moment): the time interval needs nothing, the force interval
+    needs the history's standard error at the forecast failure time.
+    """
+    low, high = fit.interval
+    spread = norm.ppf(0.5 + 0.5 * level) * loading.force_error(loading.time_at(fit.peak_force))
+    centre = fit.peak_force
+    low = centre - math.hypot(centre - low, spread)
+    high = centre + math.hypot(high - centre, spread) if math.isfinite(high) else high
+    return (float(low), float(high))
+
+
 def _check_prior(prior):
     if prior is None or isinstance(prior, Prior):
         return prior
@@ -86,7 +105,12 @@ def forecast_failure(
     ``x0 + slip(t) = F^-1(sigma(t))``, and fails when the imposed force sigma reaches F_peak.
     The force history is read from ``force`` (a ramp's line, or a staircase's levels) and
     continued beyond the cut. The interval is the profile likelihood's for F_peak (the other
-    parameters re-fitted at each F_peak), mapped to the failure time through the history.
+    parameters re-fitted at each F_peak, the slip noise estimated from the residuals), mapped
+    to the failure time through the history; the force interval also carries the fitted
+    history's own error. Under a staircase the layer fails at the start of the first step
+    that reaches F_peak: the time interval runs from the earliest start of the step reaching
+    the low end to the latest start of the step reaching the high end, each start bounded by
+    the samples between which the record's steps began.
 
     Parameters
     ----------
@@ -158,6 +182,7 @@ def forecast_failure(
         prior=None if prior is None else prior.residuals,
         prior_size=0 if prior is None else len(prior.names),
         noise=noise,
+        scale=_inputs.rough_noise(slip_cut),
     )
     fit = fit_and_profile(likelihood, level)
     low, high = fit.interval
@@ -165,9 +190,13 @@ def forecast_failure(
     if math.isinf(high):
         message = "the record does not yet bound the failure from above"
     if fit.peak_force > 0.99 * 20.0 * floor:
-        message = "the fitted peak lies beyond any plausible load: no sign of approaching failure"
-        return _no_date(until, level, loading, time.size, message, prior)
+        message = (
+            "the fitted peak lies beyond any plausible load: no sign of approaching failure "
+            f"(not before {loading.times_at(low, low)[0]:.4g} s)"
+        )
+        return _no_date(until, level, loading, time.size, message, prior, bound=low)
     params = fit.params
+    force_interval = _with_loading_error(fit, loading, level)
     from granflow.model.friction import peak
 
     def rise(p):
@@ -175,9 +204,9 @@ def forecast_failure(
 
     return FailureForecast(
         time=loading.time_at(fit.peak_force),
-        time_interval=(loading.time_at(low), loading.time_at(high)),
+        time_interval=loading.times_at(low, high),
         force=fit.peak_force,
-        force_interval=fit.interval,
+        force_interval=force_interval,
         slip=rise(params),
         slip_interval=fit.along(rise),
         until=until,

@@ -11,8 +11,9 @@ start-up), so every parameter vector respects it.
 
 The interval of F_peak is the profile likelihood's: the set of F_peak whose best fit over the
 other three parameters is within ``chi2_1(level)`` of the best fit, in units of the noise
-variance. Derived quantities (the peak slip, the time of failure) are carried along the
-profile path, not linearised at the best fit.
+variance (``F(1, n - 4)`` when the noise is estimated from the residuals, as by default).
+Derived quantities (the peak slip, the time of failure) are carried along the profile path,
+not linearised at the best fit.
 """
 
 import math
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq, least_squares
 from scipy.stats import chi2
+from scipy.stats import f as f_dist
 
 from granflow.errors import FitError
 from granflow.model.params import Params
@@ -97,6 +99,9 @@ class Likelihood:
         Number of prior residuals.
     noise : float, optional
         Noise standard deviation in the data's unit; default estimated from the best fit.
+    scale : float
+        A rough noise level in the data's unit (the unit of the first fit when ``noise`` is
+        estimated, so that the optimiser's tolerances are relative to the noise).
     """
 
     residuals: object
@@ -107,6 +112,7 @@ class Likelihood:
     prior: object = None
     prior_size: int = 0
     noise: float | None = None
+    scale: float = 1.0
 
     def curve(self, u):
         """(Params, s_peak) at internal vector u, or None where infeasible."""
@@ -222,7 +228,7 @@ def _stderr_last(likelihood, u, noise, with_prior):
         jac[:, k] = (likelihood.vector(shifted, noise, with_prior) - base) / step
     try:
         cov = np.linalg.pinv(jac.T @ jac)
-        return float(min(max(math.sqrt(max(cov[-1, -1], 0.0)), 0.02), 0.5))
+        return float(min(max(math.sqrt(max(cov[-1, -1], 0.0)), 1e-6), 0.5))
     except np.linalg.LinAlgError:
         return 0.5
 
@@ -246,7 +252,8 @@ def _side(likelihood, u_best, chisqr, noise, with_prior, direction, step, thresh
 
 def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
     """The internal coordinate where the profile crosses the threshold: bisection between the
-    last point inside and the first outside (warm-started), then linear interpolation."""
+    last point inside and the first outside (warm-started), then linear interpolation of the
+    signed root of the chi-square."""
     inside = (best[3], 0.0, best)
     for point in points:
         if point[1] > threshold:
@@ -262,8 +269,11 @@ def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
             outside = point
         else:
             inside = point
+    # The signed root of the profile's chi-square is close to linear in the parameter where
+    # the chi-square itself is close to quadratic: interpolate the root.
     (u_a, d_a, _), (u_b, d_b, _) = inside, outside
-    return u_a + (threshold - d_a) * (u_b - u_a) / (d_b - d_a)
+    r_a, r_b = math.sqrt(d_a), math.sqrt(d_b)
+    return u_a + (math.sqrt(threshold) - r_a) * (u_b - u_a) / (r_b - r_a)
 
 
 def fit_and_profile(likelihood, level=0.9):
@@ -280,14 +290,25 @@ def fit_and_profile(likelihood, level=0.9):
     -------
     Fit
     """
-    threshold = float(chi2.ppf(level, 1))
     noise = likelihood.noise
-    if noise is None:
-        u, value = _best(likelihood, 1.0, False)
-        dof = max(likelihood.size - 4, 1)
-        noise = max(math.sqrt(value / dof), 1e-300)
     with_prior = likelihood.prior is not None
-    u_best, chisqr = _best(likelihood, noise, with_prior)
+    dof = max(likelihood.size - 4, 1)
+    if noise is None:
+        # Fit in units of a rough noise scale (so the optimiser's tolerances mean something),
+        # then rescale to the residuals' own variance; with an estimated variance the profile
+        # statistic is F(1, dof), not chi2(1) (the least-squares optimum does not depend on
+        # the scale, so no refit is needed without a prior).
+        scale = likelihood.scale
+        u, value = _best(likelihood, scale, False)
+        noise = max(scale * math.sqrt(value / dof), 1e-300)
+        threshold = float(f_dist.ppf(level, 1, dof))
+        if with_prior:
+            u_best, chisqr = _best(likelihood, noise, with_prior)
+        else:
+            u_best, chisqr = u, value * (scale / noise) ** 2
+    else:
+        threshold = float(chi2.ppf(level, 1))
+        u_best, chisqr = _best(likelihood, noise, with_prior)
     curve = likelihood.curve(u_best)
     if curve is None:
         raise FitError("the forecast fit found no curve with a peak above the largest force")

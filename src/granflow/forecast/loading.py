@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.stats import chi2
 
 from granflow.errors import InvalidDataError
 
@@ -39,6 +40,15 @@ class Loading:
         Steps: the height of the steps that continue the staircase [N].
     duration : float
         Steps: the duration of the steps that continue the staircase [s].
+    windows : tuple of (float, float)
+        Steps: for each edge, the samples [s] between which it fell (the record sees a step
+        only at the first sample after it); continued edges are bounded from these.
+    error : tuple of float
+        ``(var0, cov, var1, origin)``: the covariance of the fitted history's offset [N^2]
+        and slope [N^2/s^2 or N^2 per step^2] about ``origin`` (t = 0 for a ramp, the last
+        level's index for steps): :meth:`force_error` reads it.
+    end : float
+        Steps: the record's last time [s]; no step began between the last edge and it.
     """
 
     kind: str
@@ -48,6 +58,9 @@ class Loading:
     levels: tuple = ()
     step: float = 0.0
     duration: float = 0.0
+    windows: tuple = ()
+    error: tuple = (0.0, 0.0, 0.0, 0.0)
+    end: float = -math.inf
 
     def force(self, t):
         """The imposed force [N] at times ``t`` [s] (the continued history after the record)."""
@@ -56,25 +69,65 @@ class Loading:
             return self.start + self.rate * t
         index = np.searchsorted(np.asarray(self.edges), t, side="right")
         known = np.asarray(self.levels)[index]
-        extra = np.floor(np.maximum(t - self.edges[-1], 0.0) / self.duration)
+        first = self.edge_range(self.levels[-1] + 0.5 * self.step)
+        extra = 1.0 + np.floor(np.maximum(t - 0.5 * sum(first), 0.0) / self.duration)
         beyond = self.levels[-1] + self.step * extra
-        return np.where(t >= self.edges[-1], beyond, known)
+        return np.where(t >= max(0.5 * sum(first), self.end), beyond, known)
+
+    def _index(self, level):
+        """Index of the first step whose level reaches ``level`` (levels[0] is index 0)."""
+        for index, value in enumerate(self.levels):
+            if value >= level:
+                return index
+        if self.step <= 0:
+            return None
+        return len(self.levels) - 1 + math.ceil((level - self.levels[-1]) / self.step)
+
+    def edge_range(self, level):
+        """(earliest, latest) time [s] at which the history can first reach ``level`` [N]:
+        for a ramp one time; for steps the range of that step's start allowed by the edges'
+        sampling windows on a regular staircase (or the estimate +- half the sampling interval
+        where the edges are irregular)."""
+        if not math.isfinite(level):
+            return (math.inf, math.inf)
+        if self.kind == "ramp":
+            when = math.inf if self.rate <= 0 else max((level - self.start) / self.rate, 0.0)
+            return (when, when)
+        index = self._index(level)
+        if index is None:
+            return (math.inf, math.inf)
+        if index == 0:
+            return (0.0, 0.0)
+        if index <= len(self.windows):
+            return tuple(float(v) for v in self.windows[index - 1])
+        found = _extrapolated_edge(self.windows, index, self.end)
+        if found is not None:
+            return found
+        middle = max(self.edges[-1], self.end) + (index - len(self.edges)) * self.duration
+        half = 0.5 * max(hi - lo for lo, hi in self.windows)
+        return (middle - half, middle + half)
 
     def time_at(self, level):
-        """The first time [s] the history reaches ``level`` [N] (inf if it never does)."""
-        if not math.isfinite(level):
-            return math.inf
+        """The first time [s] the history reaches ``level`` [N] (inf if it never does): for
+        steps the middle of :meth:`edge_range`."""
+        low, high = self.edge_range(level)
+        return 0.5 * (low + high) if math.isfinite(high) else math.inf
+
+    def times_at(self, low, high):
+        """The interval [s] from the earliest time the history can reach ``low`` to the latest
+        it can first reach ``high`` [N]."""
+        return (self.edge_range(low)[0], self.edge_range(high)[1])
+
+    def force_error(self, t):
+        """Standard error [N] of the fitted history at time ``t`` [s] (continued beyond the
+        record), from the regression of the force column."""
+        var0, cov, var1, origin = self.error
         if self.kind == "ramp":
-            if self.rate <= 0:
-                return math.inf
-            return max((level - self.start) / self.rate, 0.0)
-        for edge, value in zip((0.0, *self.edges), self.levels, strict=True):
-            if value >= level:
-                return float(edge)
-        if self.step <= 0:
-            return math.inf
-        count = math.ceil((level - self.levels[-1]) / self.step)
-        return float(self.edges[-1] + count * self.duration)
+            u = float(t) - origin
+        else:
+            index = self._index(float(self.force(t)) * (1 - 1e-12))
+            u = (index if index is not None else len(self.levels) - 1) - origin
+        return math.sqrt(max(var0 + 2 * u * cov + u * u * var1, 0.0))
 
     def to_dict(self):
         """JSON-safe mapping (SI units)."""
@@ -86,6 +139,9 @@ class Loading:
             "levels": list(self.levels),
             "step": self.step,
             "duration": self.duration,
+            "windows": [list(w) for w in self.windows],
+            "error": list(self.error),
+            "end": self.end,
         }
 
     @classmethod
@@ -99,6 +155,9 @@ class Loading:
             levels=tuple(float(v) for v in d.get("levels", ())),
             step=float(d.get("step", 0.0)),
             duration=float(d.get("duration", 0.0)),
+            windows=tuple(tuple(float(v) for v in w) for w in d.get("windows", ())),
+            error=tuple(float(v) for v in d.get("error", (0.0, 0.0, 0.0, 0.0))),
+            end=-math.inf if d.get("end") is None else float(d["end"]),
         )
 
 
@@ -107,9 +166,91 @@ def _noise(force):
     return 1.4826 * float(np.median(np.abs(np.diff(force)))) / math.sqrt(2.0)
 
 
+def _extrapolated_edge(windows, index, end):
+    """(earliest, latest) start [s] of step ``index`` on a regular staircase e0 + k D whose
+    edges k = 1..m fell inside ``windows`` and whose edge m + 1 comes after ``end``; None
+    where no regular staircase fits them."""
+    from scipy.optimize import linprog
+
+    k = np.arange(1, len(windows) + 1, dtype=float)
+    lows, highs = np.array(windows, dtype=float).T
+    matrix = np.vstack(
+        [np.column_stack([-np.ones_like(k), -k]), np.column_stack([np.ones_like(k), k])]
+    )
+    bound = np.concatenate([-lows, highs])
+    if math.isfinite(end):
+        matrix = np.vstack([matrix, [-1.0, -(k.size + 1.0)]])
+        bound = np.append(bound, -end)
+    out = []
+    for sign in (1.0, -1.0):
+        found = linprog(
+            sign * np.array([1.0, index]), A_ub=matrix, b_ub=bound, bounds=[(None, None)] * 2
+        )
+        if not found.success:
+            return None
+        out.append(sign * found.fun)
+    return (float(out[0]), float(out[1]))
+
+
+def _line(index, values, weights):
+    """Weighted straight line through ``values`` against ``index``: (fitted values,
+    covariance of (offset, slope) with the offset at the last index, misfit chi-square)."""
+    design = np.column_stack([np.ones_like(index), index - index[-1]])
+    root = np.sqrt(weights)
+    coef = np.linalg.lstsq(design * root[:, None], values * root, rcond=None)[0]
+    line = design @ coef
+    cov = np.linalg.inv(design.T @ (design * weights[:, None]))
+    return line, cov, float(np.sum(weights * (values - line) ** 2))
+
+
+def _staircase(t, force, big, noise):
+    """The Loading of a staircase whose steps start at samples ``big + 1``."""
+    bounds = [0, *(big + 1).tolist(), t.size]
+    pieces = [force[lo:hi] for lo, hi in itertools.pairwise(bounds)]
+    levels = np.array([float(np.mean(p)) for p in pieces])
+    counts = np.array([p.size for p in pieces], dtype=float)
+    noise = max(noise, 1e-12 * float(np.max(np.abs(force))), 1e-300)
+    weights = counts / noise**2
+    origin = levels.size - 1
+    # A regular staircase (levels on a line of the step index within their noise, chi-square
+    # at 99.9 %) is known far better from the line than from each step's points, which
+    # matters near the peak, where the slip is most sensitive to the force.
+    error = (1.0 / weights[-1], 0.0, 2.0 / weights[-1], float(origin))
+    step = float(np.median(np.diff(levels)))
+    if levels.size >= 3:
+        line, cov, misfit = _line(np.arange(levels.size, dtype=float), levels, weights)
+        if misfit <= chi2.ppf(0.999, levels.size - 2):
+            levels = line
+            step = float(line[-1] - line[-2])
+            error = (float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1]), float(origin))
+    windows = tuple((float(t[i]), float(t[i + 1])) for i in big)
+    found = np.array([0.5 * (lo + hi) for lo, hi in windows])
+    if found.size > 1:
+        duration = float(np.polyfit(np.arange(found.size, dtype=float), found, 1)[0])
+    else:
+        duration = float(found[0] - t[0])
+    if step <= 0 or duration <= 0:
+        raise InvalidDataError("the force steps do not rise: no failure to forecast")
+    return Loading(
+        kind="steps",
+        rate=step / duration,
+        start=float(levels[0]),
+        edges=tuple(float(v) for v in found),
+        levels=tuple(float(v) for v in levels),
+        step=step,
+        duration=duration,
+        windows=windows,
+        error=error,
+        end=float(t[-1]),
+    )
+
+
 def fit_loading(t, force):
     """The force history of a record: a staircase when the force jumps between flat levels,
     else a straight line.
+
+    A step that shows first at sample i began between samples i - 1 and i: the edge is put
+    half way and the pair kept in ``windows``.
 
     Parameters
     ----------
@@ -126,23 +267,9 @@ def fit_loading(t, force):
     noise = _noise(force)
     big = np.flatnonzero(jumps > max(_JUMP_FACTOR * noise, 1e-12 * np.max(np.abs(force))))
     if 1 <= big.size <= t.size // 4:
-        bounds = [0, *(big + 1).tolist(), t.size]
-        levels = [float(np.median(force[lo:hi])) for lo, hi in itertools.pairwise(bounds)]
-        edges = tuple(float(t[i]) for i in big + 1)
-        heights = np.diff(levels)
-        durations = np.diff(edges) if len(edges) > 1 else np.array([edges[0] - t[0]])
-        step = float(np.median(heights))
-        duration = float(np.median(durations))
-        if step <= 0 or duration <= 0:
-            raise InvalidDataError("the force steps do not rise: no failure to forecast")
-        return Loading(
-            kind="steps",
-            rate=step / duration,
-            start=levels[0],
-            edges=edges,
-            levels=tuple(levels),
-            step=step,
-            duration=duration,
-        )
-    rate, start = np.polyfit(t, force, 1)
-    return Loading(kind="ramp", rate=float(rate), start=float(start))
+        return _staircase(t, force, big, noise)
+    (rate, start), cov = np.polyfit(t, force, 1, cov="unscaled")
+    residual = force - (start + rate * t)
+    variance = float(residual @ residual) / max(t.size - 2, 1)
+    error = (variance * cov[1, 1], variance * cov[0, 1], variance * cov[0, 0], 0.0)
+    return Loading(kind="ramp", rate=float(rate), start=float(start), error=error)

@@ -128,6 +128,7 @@ def forecast_peak(
         prior=None if prior is None else prior.residuals,
         prior_size=0 if prior is None else len(prior.names),
         noise=noise,
+        scale=_inputs.rough_noise(values),
     )
     fit = fit_and_profile(likelihood, level)
     slip = peak(fit.params).slip
