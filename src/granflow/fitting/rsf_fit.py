@@ -385,7 +385,7 @@ def fit(
             )
         )
     problem = Problem(curves, parameters, model)
-    solution = _multistart(problem, starts)
+    solution = _multistart(problem, starts, noise * (1.0 if sigma is None else 1.0 / sigma))
     values = problem.values(solution.x)
     stats = fit_statistics(
         problem, values, names, sigma_known=sigma is not None, hessian=solution.hessian
@@ -444,24 +444,38 @@ def fit(
     )
 
 
-def _multistart(problem, starts):
-    """Levenberg-Marquardt from the best-ranked few starts; the lowest chi-square wins."""
-    ranked = []
-    for start in starts:
-        u = problem.internal(list(start))
-        cost = problem.chisqr(problem.values(u), stride=4)
-        ranked.append((cost if math.isfinite(cost) else math.inf, len(ranked), u))
-    ranked.sort(key=lambda item: (item[0], item[1]))
-    best, nfev = None, len(starts)
-    for _, _, u_start in ranked[:_STARTS_RUN]:
-        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=100, rtol=1e-10)
-        nfev += steps
+def _multistart(problem, starts, noise):
+    """Levenberg-Marquardt from the start read from the data; from the best-ranked few of
+    the others while chi-square exceeds what the record's scatter ``noise`` allows (5
+    standard deviations of chi-square, or more). The lowest chi-square wins."""
+    dof = max(problem.ndata - len(problem.free), 1)
+    plausible = (1.0 + 10.0 / math.sqrt(dof)) * dof * noise**2
+    best, nfev, tried = None, 0, 0
+
+    def run(u_start):
+        nonlocal best, nfev, tried
+        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=100, rtol=1e-9)
+        nfev, tried = nfev + steps, tried + 1
         if math.isfinite(cost) and (best is None or cost < best[1]):
             best = (u, cost, converged, hessian)
+        return best is not None and best[2] and best[1] <= plausible
+
+    if not run(problem.internal(list(starts[0]))):
+        ranked = []
+        for start in starts[1:]:
+            u = problem.internal(list(start))
+            cost = problem.chisqr(problem.values(u), stride=4)
+            ranked.append((cost if math.isfinite(cost) else math.inf, len(ranked), u))
+        nfev += len(ranked)
+        ranked.sort(key=lambda item: (item[0], item[1]))
+        for _, _, u_start in ranked[:_STARTS_RUN]:
+            if run(u_start):
+                break  # the residuals are the noise: no other start can do better than chance
     if best is None:
-        return Solution(ranked[0][2], 0, "the model could not be evaluated at any start", nfev)
+        u = problem.internal(list(starts[0]))
+        return Solution(u, 0, "the model could not be evaluated at any start", nfev)
     u, cost, converged, hessian = best
     if converged:
-        message = f"converged (Levenberg-Marquardt, best of {_STARTS_RUN} of {len(starts)} starts)"
+        message = f"converged (Levenberg-Marquardt from {tried} of {len(starts)} starts)"
         return Solution(u, 1, message, nfev, hessian)
     return Solution(u, 0, "Levenberg-Marquardt did not converge in 100 steps", nfev, hessian)
