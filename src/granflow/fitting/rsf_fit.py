@@ -32,12 +32,19 @@ from granflow.fitting.statistics import WALD_Z, fit_statistics
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.rsf.model import LAWS
 
-__all__ = ["fit"]
+__all__ = ["correlation_time", "fit"]
 
 _GRID_A = (1.0, 0.5, 2.0)
 _GRID_DC = (1.0, 0.25, 4.0)
 _GRID_K = (1.0, 4.0)
-_STARTS_RUN = 3  # Levenberg-Marquardt runs from this many of the best-ranked starts
+_STARTS_RUN = 3
+#: Search ranges of the positive parameters (by their first two letters): a [-], Dc [m],
+#: stiffness [1/m]; wide, but they keep a step in log coordinates from under- or overflowing.
+_RANGES = {
+    "a": (1e-7, 1.0),
+    "Dc": (1e-12, 1.0),
+    "st": (1e-3, 1e15),
+}  # Levenberg-Marquardt runs from this many of the best-ranked starts
 
 
 def _state_names(count):
@@ -198,6 +205,7 @@ def fit(
     windows=None,
     sigma=None,
     profile=True,
+    correlated_noise=False,
 ):
     """Fit a rate-and-state spring-slider to velocity steps, with no initial guess.
 
@@ -228,6 +236,10 @@ def fit(
         Known noise of the friction [-]; default: the residual variance.
     profile : bool
         Profile-likelihood 95 % intervals of a, b and Dc (default); Wald otherwise.
+    correlated_noise : bool
+        Scale the covariance and the profile threshold by the residuals' integrated
+        correlation time (:func:`correlation_time`; at least 1): for real records, whose
+        residuals (instrument filters, slow wander) are not white. Default: white noise.
 
     Returns
     -------
@@ -369,7 +381,8 @@ def fit(
                 value=float(starts[0][i]),
                 log=positive,
                 fixed=name in fixed,
-                lower=0.0 if positive else -math.inf,
+                lower=_RANGES[name[:2]][0] if positive else -math.inf,
+                upper=_RANGES[name[:2]][1] if positive else math.inf,
             )
         )
     weights = 1.0 / sigma if sigma is not None else 1.0
@@ -390,10 +403,16 @@ def fit(
     stats = fit_statistics(
         problem, values, names, sigma_known=sigma is not None, hessian=solution.hessian
     )
-    ci95 = dict(stats.ci95)
+    tau = correlation_time(stats.residuals)
+    inflation = max(tau, 1.0) if correlated_noise else 1.0
+    stderr = {n: e * math.sqrt(inflation) for n, e in stats.stderr.items()}
+    covar = {p: {q: c * inflation for q, c in row.items()} for p, row in stats.covar.items()}
+    ci95 = {
+        n: (stats.params[n] - WALD_Z * e, stats.params[n] + WALD_Z * e) for n, e in stderr.items()
+    }
     method = {n: "wald" for n in names}
     exact = True
-    variance = 1.0 if sigma is not None else stats.redchi
+    variance = (1.0 if sigma is not None else stats.redchi) * inflation
     if profile and stats.invertible and solution.status > 0:
         position = {i: k for k, i in enumerate(problem.free)}
         for name in ("a", *[n for pair in names_states for n in pair]):
@@ -401,7 +420,7 @@ def fit(
             if index not in position:
                 continue
             p = problem.parameters[index]
-            halfwidth = WALD_Z * stats.stderr[name] / (values[index] if p.log else p.scale)
+            halfwidth = WALD_Z * stderr[name] / (values[index] if p.log else p.scale)
             interval, ok = profile_interval(
                 problem, values, index, variance, stats.chisqr, halfwidth, solution.hessian
             )
@@ -415,13 +434,19 @@ def fit(
         message += "; singular covariance"
     if not exact:
         message += "; a profile interval ran into a bound"
+    if correlated_noise:
+        message += f"; covariance scaled by the residuals' correlation time, {tau:.3g} points"
     units = {
         n: ("1/m" if n.startswith(("stiffness", "slope")) else "m" if n.startswith("Dc") else "")
         for n in names
     }
     velocity = np.concatenate([w.velocity for w in record])
     return RateStateFitResult(
-        **stats.summary(ci95=FrozenMap(ci95)),
+        **stats.summary(
+            ci95=FrozenMap(ci95),
+            stderr=FrozenMap(stderr),
+            covar=FrozenMap({p: FrozenMap(row) for p, row in covar.items()}),
+        ),
         success=bool(
             solution.status > 0 and stats.invertible and np.all(np.isfinite(stats.best_fit))
         ),
@@ -435,6 +460,7 @@ def fit(
         windows=tuple((float(t[lo]), float(t[hi - 1])) for lo, hi in ranges),
         v_ref=tuple(w.v_ref for w in record),
         noise=noise,
+        correlation_time=tau,
         t=read_only(np.concatenate([t[lo:hi] for lo, hi in ranges])),
         data=read_only(np.concatenate([friction[lo:hi] for lo, hi in ranges])),
         best_fit=read_only(stats.best_fit),
@@ -442,6 +468,18 @@ def fit(
         load_point_velocity=read_only(velocity),
         source=str(meta.get("source") or ""),
     )
+
+
+def correlation_time(residuals, blocks=20):
+    """The residuals' integrated correlation time [points], by batch means: the variance of
+    the means of ``blocks`` consecutive blocks times the block length, over the variance of
+    the residuals (1 for white noise)."""
+    r = np.asarray(residuals, dtype=float)
+    length = r.size // blocks
+    if length < 2 or not np.var(r) > 0:
+        return 1.0
+    means = r[: length * blocks].reshape(blocks, length).mean(axis=1)
+    return float(np.var(means, ddof=1) * length / np.var(r))
 
 
 def _multistart(problem, starts, noise):

@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from granflow.errors import InvalidParameterError
 from granflow.simulation import equations as eq
 from granflow.simulation import ode
 from granflow.simulation.rsf.model import RateState, State
@@ -145,7 +146,10 @@ class Window:
         """Friction [-] at the window's points (or at ``local`` times since its start);
         NaN where the integration failed."""
         local = self.local if local is None else local
-        model = self.model(mu0, a, k, states)
+        try:
+            model = self.model(mu0, a, k, states)
+        except InvalidParameterError:  # a trial step out of range: no value, LM steps back
+            return np.full(local.shape, np.nan)
         thetas = model.steady_state(self.v_ref)
         y0 = np.array([0.0, *thetas, 0.0])
         tiny = 1e-3 * _RTOL
@@ -187,10 +191,14 @@ class Window:
         return base, columns
 
 
-def noise_scatter(friction):
-    """The record's high-frequency scatter [-]: each point against the mean of its two
-    neighbours (robust: 1.4826 median absolute deviation), scaled to one point's noise."""
+def noise_scatter(friction, width=25):
+    """The record's high-frequency scatter [-]: the standard deviation of the friction about
+    its centred running mean over ``width`` points (a window far shorter than the transients
+    a fit resolves, and longer than the few samples over which an instrument's filter
+    correlates its noise), times sqrt(w / (w - 1)) for the mean's own share."""
     y = np.asarray(friction, dtype=float)
-    chord = y[1:-1] - 0.5 * (y[:-2] + y[2:])
-    mad = float(np.median(np.abs(chord - np.median(chord))))
-    return 1.4826 * mad / math.sqrt(1.5)
+    width = min(width, max(3, y.size // 4))
+    mean = np.convolve(y, np.ones(width) / width, mode="valid")
+    half = width // 2
+    deviation = y[half : half + mean.size] - mean
+    return float(np.std(deviation) * math.sqrt(width / (width - 1)))

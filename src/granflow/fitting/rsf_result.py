@@ -43,7 +43,9 @@ class RateStateFitResult(FitOutcome):
     v_ref : tuple of float
         Per window, its first load-point velocity [m/s] (mu0 is the steady friction there).
     noise : float
-        The record's high-frequency scatter [-] (each point against its neighbours).
+        The record's high-frequency scatter [-] (about its running mean over 25 points).
+    correlation_time : float
+        The residuals' integrated correlation time [points] (1 for white noise).
     t, data, best_fit, residuals, load_point_velocity : numpy.ndarray
         The fitted points [s], friction, model, data - model, load-point velocity [m/s].
     source : str
@@ -58,6 +60,7 @@ class RateStateFitResult(FitOutcome):
     windows: tuple
     v_ref: tuple
     noise: float
+    correlation_time: float
     t: np.ndarray
     data: np.ndarray
     best_fit: np.ndarray
@@ -80,6 +83,15 @@ class RateStateFitResult(FitOutcome):
         )
 
     @property
+    def a_minus_b_stderr(self):
+        """Standard error of a - b [-] from the covariance (0 for held parameters)."""
+        bs = [n for n in self.names if n == "b" or (n[:1] == "b" and n[1:].isdigit())]
+        weights = {"a": 1.0, **dict.fromkeys(bs, -1.0)}
+        free = [n for n in weights if n in self.covar]
+        variance = sum(weights[p] * weights[q] * self.covar[p][q] for p in free for q in free)
+        return float(np.sqrt(max(variance, 0.0)))
+
+    @property
     def residual_rms(self):
         """Root mean square of the residuals [-]."""
         return float(np.sqrt(np.mean(self.residuals**2)))
@@ -93,7 +105,8 @@ class RateStateFitResult(FitOutcome):
             after=[
                 ("residual RMS", f"{self.residual_rms:.4g}"),
                 ("HF scatter", f"{self.noise:.4g}"),
-                ("a - b", f"{self.a_minus_b:.6g}"),
+                ("correlation time", f"{self.correlation_time:.3g} points"),
+                ("a - b", f"{self.a_minus_b:.6g} +/- {self.a_minus_b_stderr:.3g}"),
             ],
         )
 
@@ -110,6 +123,7 @@ class RateStateFitResult(FitOutcome):
                 "windows": [list(w) for w in self.windows],
                 "v_ref": list(self.v_ref),
                 "noise": self.noise,
+                "correlation_time": self.correlation_time,
                 "source": self.source,
                 **statistics(self),
                 **arrays(self, include_arrays),
@@ -130,6 +144,7 @@ class RateStateFitResult(FitOutcome):
             windows=tuple(tuple(float(v) for v in w) for w in d["windows"]),
             v_ref=tuple(float(v) for v in d["v_ref"]),
             noise=float(d["noise"]),
+            correlation_time=float(d["correlation_time"]),
             source=d.get("source", ""),
             **read_arrays(cls, d),
         )
