@@ -122,11 +122,39 @@ def speed(repeats=5):
     )
 
 
+def figure(path, data="../shared/data/rate-state-velocity-steps"):
+    """The aging-law fits of the two real records, with residuals, side by side."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = ("velstep3_TR2_exp013_sepiolite", "velstep4_BRAVA_expb819_basalt")
+    fig, axes = plt.subplots(
+        2, 2, figsize=(12, 6), sharex="col", gridspec_kw={"height_ratios": [3, 1]}
+    )
+    for column, name in enumerate(names):
+        record = rsf.read_velocity_steps(f"{data}/{name}.txt")
+        result = rsf.fit(record, law="aging", correlated_noise=True)
+        result.plot(axes=axes[:, column])
+        axes[0, column].set_title(f"{name}\n{axes[0, column].get_title()}", fontsize=8)
+        print(
+            f"{name}: residual RMS {result.residual_rms:.3g} = "
+            f"{result.residual_rms / result.noise:.2f} x the scatter; "
+            f"a - b = {result.a_minus_b:.4g} +/- {1.96 * result.a_minus_b_stderr:.2g}"
+        )
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--seeds", type=int, default=100)
     parser.add_argument("--speed-only", action="store_true")
+    parser.add_argument("--figure", help="also fit the two real records and draw them here (PNG)")
     args = parser.parse_args()
+    if args.figure:
+        figure(args.figure)
     print(f"{platform.python_version()}, load {os.getloadavg()[0]:.1f}")
     if not args.speed_only:
         for name in SETS:
