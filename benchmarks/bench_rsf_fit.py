@@ -122,8 +122,11 @@ def speed(repeats=5):
     )
 
 
-def figure(path, data="../shared/data/rate-state-velocity-steps"):
-    """The aging-law fits of the two real records, with residuals, side by side."""
+def figure(path):
+    """The aging-law fits of the two real records, with residuals, side by side (the data
+    from ../shared, or $GRANFLOW_SHARED)."""
+    data = os.path.join(os.environ.get("GRANFLOW_SHARED", "../shared"), "data")
+    data = os.path.join(data, "rate-state-velocity-steps")
     import matplotlib
 
     matplotlib.use("Agg")
