@@ -101,7 +101,8 @@ def _pieces(protocol):
 
 
 def _windows(t, pieces, windows):
-    """Index ranges of the fit windows: given, or one per step, cut half-way between steps."""
+    """(first, stop, start time) of each fit window: given (the simulation starts at the
+    window's start, steady sliding there), or one per step, cut half-way between steps."""
     if windows is not None:
         out = []
         for number, (lo, hi) in enumerate(windows, start=1):
@@ -111,7 +112,7 @@ def _windows(t, pieces, windows):
                     f"window {number} ({lo:g} .. {hi:g} s) holds {inside.size} points; "
                     "a fit needs at least 10"
                 )
-            out.append((int(inside[0]), int(inside[-1]) + 1))
+            out.append((int(inside[0]), int(inside[-1]) + 1, max(float(lo), 0.0)))
         return out
     velocity = pieces[:, 2]
     steps = [
@@ -127,7 +128,7 @@ def _windows(t, pieces, windows):
     out = []
     for lo, hi in itertools.pairwise(cuts):
         inside = np.flatnonzero((t >= lo) & (t <= hi if hi == t[-1] else t < hi))
-        out.append((int(inside[0]), int(inside[-1]) + 1))
+        out.append((int(inside[0]), int(inside[-1]) + 1, float(t[inside[0]])))
     return out
 
 
@@ -156,9 +157,10 @@ def _step_estimates(window, y):
     before = y[local < s]
     after = y[local >= s]
     t_after = local[local >= s] - s
-    if before.size < 3 or after.size < 10 or v1 <= 0 or v2 <= 0:
+    if after.size < 10 or v1 <= 0 or v2 <= 0:
         return float(np.median(y[: max(5, y.size // 10)])), None
-    mu_before = float(np.median(before[-max(3, before.size // 5) :]))
+    # a start-up (no data before the step): friction starts from steady sliding at v1
+    mu_before = float(np.median(before[-max(3, before.size // 5) :])) if before.size else y[0]
     mu_after = (
         float(np.median(tail))
         if j == len(pieces) - 1
@@ -276,7 +278,7 @@ def fit(
             f"t runs {t[0]:g} .. {t[-1]:g} s, outside the protocol's 0 .. {pieces[-1, 1]:g} s"
         )
     ranges = _windows(t, pieces, windows)
-    record = [Window(t[lo:hi], pieces, laws) for lo, hi in ranges]
+    record = [Window(t[lo:hi], pieces, laws, start) for lo, hi, start in ranges]
     if any(w.v_ref <= 0 for w in record):
         raise InvalidDataError("a window starts at rest: no steady state to start from")
     names_states = _state_names(count)
@@ -300,7 +302,7 @@ def fit(
 
     # starting values from the data
     estimates = [
-        _step_estimates(w, friction[lo:hi]) for w, (lo, hi) in zip(record, ranges, strict=True)
+        _step_estimates(w, friction[lo:hi]) for w, (lo, hi, _) in zip(record, ranges, strict=True)
     ]
     found = [e[1] for e in estimates if e[1] is not None]
     if not found:
@@ -353,7 +355,7 @@ def fit(
     def function(z, *values):
         window = lookup[float(z[0])]
         mu0, a, k, pairs, slope = unpack(values)
-        local = z - window.t[0]
+        local = z - window.start
         out = window.friction(mu0, a, k, pairs, 0.0, local=local)
         if slope:
             out = out + slope * np.interp(z, window.t, window.displacement)
@@ -387,7 +389,7 @@ def fit(
         )
     weights = 1.0 / sigma if sigma is not None else 1.0
     curves = []
-    for (lo, hi), (mn, sn) in zip(ranges, local_names, strict=True):
+    for (lo, hi, _), (mn, sn) in zip(ranges, local_names, strict=True):
         links = [
             names.index(s if s in names else {"b1": "b", "Dc1": "Dc"}.get(s, s)) for s in slots[:-2]
         ]
@@ -457,12 +459,12 @@ def fit(
         units=FrozenMap(units),
         fixed=tuple(n for n in names if n in fixed),
         ci_method=FrozenMap(method),
-        windows=tuple((float(t[lo]), float(t[hi - 1])) for lo, hi in ranges),
+        windows=tuple((start, float(t[hi - 1])) for _, hi, start in ranges),
         v_ref=tuple(w.v_ref for w in record),
         noise=noise,
         correlation_time=tau,
-        t=read_only(np.concatenate([t[lo:hi] for lo, hi in ranges])),
-        data=read_only(np.concatenate([friction[lo:hi] for lo, hi in ranges])),
+        t=read_only(np.concatenate([t[lo:hi] for lo, hi, _ in ranges])),
+        data=read_only(np.concatenate([friction[lo:hi] for lo, hi, _ in ranges])),
         best_fit=read_only(stats.best_fit),
         residuals=read_only(stats.residuals),
         load_point_velocity=read_only(velocity),

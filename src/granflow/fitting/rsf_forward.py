@@ -92,11 +92,16 @@ class Window:
         The record's load-point history (start, end, velocity at start, slope), record time.
     laws : sequence of str
         The law of each state variable.
+    start : float, optional
+        Where the simulation starts, at steady sliding [s] (record time, at most ``t[0]``);
+        default ``t[0]``.
     """
 
-    def __init__(self, t, pieces, laws):
+    def __init__(self, t, pieces, laws, start=None):
         self.t = np.ascontiguousarray(t, dtype=float)
-        start, stop = float(self.t[0]), float(self.t[-1])
+        start = float(self.t[0]) if start is None else float(start)
+        stop = float(self.t[-1])
+        self.start = start
         rows = []
         for t0, t1, v0, slope in pieces:
             lo, hi = max(t0, start), min(t1, stop)
