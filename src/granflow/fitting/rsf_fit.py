@@ -38,6 +38,7 @@ _GRID_A = (1.0, 0.5, 2.0)
 _GRID_DC = (1.0, 0.25, 4.0)
 _GRID_K = (1.0, 4.0)
 _STARTS_RUN = 3
+_MAX_STEPS = 60  # Levenberg-Marquardt steps from one start
 #: Search ranges of the positive parameters (by their first two letters): a [-], Dc [m],
 #: stiffness [1/m]; wide, but they keep a step in log coordinates from under- or overflowing.
 _RANGES = {
@@ -499,14 +500,19 @@ def _multistart(problem, starts, noise):
         ranked.append((cost if math.isfinite(cost) else math.inf, len(ranked), u))
     ranked.sort(key=lambda item: (item[0], item[1]))
     for _, _, u_start in ranked[:_STARTS_RUN]:
-        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=100, rtol=1e-9)
+        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=_MAX_STEPS, rtol=1e-9)
         nfev, tried = nfev + steps, tried + 1
         if math.isfinite(cost) and (best is None or cost < best[1]):
             best = (u, cost, converged, hessian)
-        if not (converged and math.isfinite(cost)):
+        if not math.isfinite(cost):
             continue
-        if cost <= plausible or any(abs(cost - m) <= 1e-6 * cost for m in minima):
-            break  # the residuals are the noise, or a second start found the same minimum
+        if any(abs(cost - m) <= 1e-6 * cost for m in minima):
+            # a second start ends at the same chi-square: that is the minimum, even where
+            # Levenberg-Marquardt still creeps along a bound
+            best = (best[0], best[1], True, best[3])
+            break
+        if converged and cost <= plausible:
+            break  # the residuals are the noise: no other start can do better than chance
         minima.append(cost)
     if best is None:
         u = problem.internal(list(starts[0]))
@@ -515,4 +521,6 @@ def _multistart(problem, starts, noise):
     if converged:
         message = f"converged (Levenberg-Marquardt from {tried} of {len(starts)} starts)"
         return Solution(u, 1, message, nfev, hessian)
-    return Solution(u, 0, "Levenberg-Marquardt did not converge in 100 steps", nfev, hessian)
+    return Solution(
+        u, 0, f"Levenberg-Marquardt did not converge in {_MAX_STEPS} steps", nfev, hessian
+    )
