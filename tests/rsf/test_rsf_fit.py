@@ -166,3 +166,23 @@ def test_bad_input_is_named():
     flat = gf.Protocol([gf.Velocity(V1, 80.0)])
     with pytest.raises(InvalidDataError, match="no velocity step"):
         rsf.fit(t[t <= 80.0], mu[t <= 80.0], flat)
+
+
+def test_the_fit_command(tmp_path, capsys):
+    from granflow.cli import main
+
+    t, mu, _ = synthetic("weakening", 4)
+    displacement = np.where(t < 40.0, V1 * t, V1 * 40.0 + V2 * (t - 40.0))
+    rows = ["Time(s)\tDispl(microns)\tFriction"]
+    rows += [
+        f"{1000 + a:.4f}\t{d * 1e6:.5f}\t{m:.6f}"
+        for a, d, m in zip(t, displacement, mu, strict=True)
+    ]
+    path = tmp_path / "step.txt"
+    path.write_text("\n".join(rows) + "\n")
+    assert main(["fit", str(path), "--model", "rsf", "--law", "aging", "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert payload["record"]["step_times"] == pytest.approx([40.0], abs=0.1)
+    assert payload["params"]["b"] == pytest.approx(0.012, rel=0.05)
+    assert main(["fit", str(path), "--model", "rsf", "--fix", "k=5"]) == 2
+    assert "unknown parameters ['k']" in capsys.readouterr().err
