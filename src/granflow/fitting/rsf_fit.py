@@ -486,34 +486,42 @@ def correlation_time(residuals, blocks=20):
 
 
 def _multistart(problem, starts, noise):
-    """Levenberg-Marquardt from the best-ranked starts (by chi-square at every 4th point; the
-    start read from the data is the first of them), until chi-square is what the record's
-    scatter ``noise`` allows (5 standard deviations of chi-square), or two runs agree on the
-    minimum, or :data:`_STARTS_RUN` have run. The lowest chi-square wins."""
+    """Levenberg-Marquardt from the start read from the data, then from the best-ranked
+    others (by chi-square at every 4th point), until chi-square is what the record's scatter
+    ``noise`` allows (5 standard deviations of chi-square), or two runs agree on the minimum,
+    or :data:`_STARTS_RUN` more have run. The lowest chi-square wins."""
     dof = max(problem.ndata - len(problem.free), 1)
     plausible = (1.0 + 10.0 / math.sqrt(dof)) * dof * noise**2
-    best, nfev, tried, minima = None, len(starts), 0, []
-    ranked = []
-    for start in starts:
-        u = problem.internal(list(start))
-        cost = problem.chisqr(problem.values(u), stride=4)
-        ranked.append((cost if math.isfinite(cost) else math.inf, len(ranked), u))
-    ranked.sort(key=lambda item: (item[0], item[1]))
-    for _, _, u_start in ranked[:_STARTS_RUN]:
+    best, nfev, tried, minima = None, 0, 0, []
+
+    def run(u_start):
+        """One Levenberg-Marquardt run; True when the search may stop."""
+        nonlocal best, nfev, tried
         u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=_MAX_STEPS, rtol=1e-9)
         nfev, tried = nfev + steps, tried + 1
-        if math.isfinite(cost) and (best is None or cost < best[1]):
-            best = (u, cost, converged, hessian)
         if not math.isfinite(cost):
-            continue
+            return False
+        if best is None or cost < best[1]:
+            best = (u, cost, converged, hessian)
         if any(abs(cost - m) <= 1e-6 * cost for m in minima):
             # a second start ends at the same chi-square: that is the minimum, even where
             # Levenberg-Marquardt still creeps along a bound
             best = (best[0], best[1], True, best[3])
-            break
-        if converged and cost <= plausible:
-            break  # the residuals are the noise: no other start can do better than chance
+            return True
         minima.append(cost)
+        return converged and cost <= plausible  # the residuals are the noise
+
+    if not run(problem.internal(list(starts[0]))):
+        ranked = []
+        for start in starts[1:]:
+            u = problem.internal(list(start))
+            cost = problem.chisqr(problem.values(u), stride=4)
+            ranked.append((cost if math.isfinite(cost) else math.inf, len(ranked), u))
+        nfev += len(ranked)
+        ranked.sort(key=lambda item: (item[0], item[1]))
+        for _, _, u_start in ranked[:_STARTS_RUN]:
+            if run(u_start):
+                break
     if best is None:
         u = problem.internal(list(starts[0]))
         return Solution(u, 0, "the model could not be evaluated at any start", nfev)
