@@ -186,3 +186,16 @@ def test_the_fit_command(tmp_path, capsys):
     assert payload["params"]["b"] == pytest.approx(0.012, rel=0.05)
     assert main(["fit", str(path), "--model", "rsf", "--fix", "k=5"]) == 2
     assert "unknown parameters ['k']" in capsys.readouterr().err
+
+
+def test_two_state_variables():
+    model = rsf.RateState(0.6, 0.01, V1, 3000.0, [rsf.State(0.008, 5e-6), rsf.State(0.006, 80e-6)])
+    protocol = gf.Protocol([gf.Velocity(V1, 40.0), gf.Velocity(10 * V1, 60.0)])
+    t = np.arange(0.0, 100.0001, 0.1)
+    mu = rsf.simulate(model, protocol, t_eval=t).friction
+    fit = rsf.fit(t, mu + np.random.default_rng(0).normal(0, 1e-4, t.size), protocol, states=2)
+    assert fit.success and "b" not in fit.params
+    for name, value in (("b1", 0.008), ("Dc1", 5e-6), ("b2", 0.006), ("Dc2", 80e-6)):
+        low, high = fit.ci95[name]
+        assert low < value < high, (name, fit.ci95[name])
+    assert fit.a_minus_b == pytest.approx(0.01 - 0.014, abs=2e-4)
