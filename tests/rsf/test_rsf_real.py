@@ -87,3 +87,24 @@ def test_the_fit_and_its_residuals_are_drawn(fitted, tmp_path):
     import matplotlib.pyplot as plt
 
     plt.close(top.figure)
+
+
+def test_the_section_for_the_report(tmp_path):
+    import json
+
+    from granflow.analysis.velocity_steps import is_velocity_step_file, velocity_step_section
+
+    path = shared_data("rate-state-velocity-steps", "velstep4_BRAVA_expb819_basalt.txt")
+    assert is_velocity_step_file(path)
+    not_steps = tmp_path / "other.csv"
+    not_steps.write_text("time [s],force [mN]\n0,1\n")
+    assert not is_velocity_step_file(not_steps)
+    section = velocity_step_section([path, not_steps], tmp_path / "out")
+    json.dumps(section)  # plain data
+    (entry,) = section["model_comparison"]
+    assert entry["label"] == path.name and entry["best_aic"] == "rsf_slip"
+    (figure,) = section["figures"]
+    assert (tmp_path / "out" / figure["png"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    table = section["fits"][path.name]
+    assert {row["name"] for row in table["parameters"]} >= {"a", "b", "Dc", "stiffness"}
+    assert len(section["problems"]) == 1 and "other.csv" in section["problems"][0]
