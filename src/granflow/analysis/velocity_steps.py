@@ -16,26 +16,9 @@ import math
 from pathlib import Path
 
 from granflow.errors import GranflowError
+from granflow.io.velocity_steps import is_velocity_step_file
 
 __all__ = ["is_velocity_step_file", "velocity_step_section"]
-
-
-def is_velocity_step_file(path):
-    """Whether ``path`` is a velocity-step table: a first line naming time, displacement and
-    friction columns (``Time(s)``, ``Displ(microns)``, ``Friction``)."""
-    from granflow.io.velocity_steps import _NAME_UNIT, _role
-
-    try:
-        with open(path, encoding="utf-8-sig", errors="replace") as handle:
-            header = handle.readline()
-    except OSError:
-        return False
-    delimiter = "\t" if "\t" in header else ("," if "," in header else None)
-    roles = set()
-    for cell in header.strip().split(delimiter):
-        match = _NAME_UNIT.match(cell.strip())
-        roles.add(_role(match["name"] if match else cell.strip()))
-    return {"time", "displacement", "friction"} <= roles
 
 
 def _parameter_table(fit):

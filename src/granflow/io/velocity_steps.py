@@ -30,7 +30,13 @@ from granflow.errors import FileFormatError, InvalidDataError
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.segments import Velocity
 
-__all__ = ["VelocityStepRecord", "parse_velocity_steps", "read_velocity_steps", "segment_velocity"]
+__all__ = [
+    "VelocityStepRecord",
+    "is_velocity_step_file",
+    "parse_velocity_steps",
+    "read_velocity_steps",
+    "segment_velocity",
+]
 
 _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
 #: Column roles by lower-case name (spaces and underscores removed).
@@ -105,6 +111,22 @@ def _role(name):
         if key in names:
             return role
     return None
+
+
+def is_velocity_step_file(path):
+    """Whether ``path`` is a velocity-step table: a first line naming time, displacement and
+    friction columns (``Time(s)``, ``Displ(microns)``, ``Friction``)."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace") as handle:
+            header = handle.readline()
+    except OSError:
+        return False
+    delimiter = "\t" if "\t" in header else ("," if "," in header else None)
+    roles = set()
+    for cell in header.strip().split(delimiter):
+        match = _NAME_UNIT.match(cell.strip())
+        roles.add(_role(match["name"] if match else cell.strip()))
+    return {"time", "displacement", "friction"} <= roles
 
 
 def parse_velocity_steps(text, source="<text>", *, step_times=None, min_change=0.2):
