@@ -199,3 +199,20 @@ def test_two_state_variables():
         low, high = fit.ci95[name]
         assert low < value < high, (name, fit.ci95[name])
     assert fit.a_minus_b == pytest.approx(0.01 - 0.014, abs=2e-4)
+
+
+def test_an_unresolved_stiffness_is_said_and_can_be_fixed():
+    """A machine so stiff that the elastic rise after the step (0.2 µm, 0.02 s) falls between
+    two samples: a, b and Dc are still found, the stiffness is not, and the fit says so."""
+    model = rsf.RateState(0.6, 0.008, V1, 1e5, [rsf.State(0.012, 20e-6)])
+    protocol = gf.Protocol([gf.Velocity(V1, 40.0), gf.Velocity(V2, 40.0)])
+    t = np.arange(0.0, 80.0001, 0.1)
+    mu = rsf.simulate(model, protocol, t_eval=t).friction
+    mu = mu + np.random.default_rng(0).normal(0, 3e-4, t.size)
+    fit = rsf.fit(t, mu, protocol)
+    assert fit.success and "stiffness is poorly determined" in fit.message
+    assert fit.ci_method["a"] == "wald"
+    held = rsf.fit(t, mu, protocol, fixed={"stiffness": 1e5})
+    for name, value in (("a", 0.008), ("b", 0.012), ("Dc", 20e-6)):
+        low, high = held.ci95[name]
+        assert low < value < high and held.ci_method[name] == "profile"

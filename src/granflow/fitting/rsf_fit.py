@@ -376,6 +376,10 @@ def fit(
 
     model = Model(slots=slots, function=function, jacobian=jacobian, log=log)
     parameters = []
+    search = dict(_RANGES)
+    # the rise after a step unresolved by the sampling gives a lower bound of k: allow 1e4
+    # times more (a machine stiffer than that is rigid at any sampling), not an overflow
+    search["st"] = (_RANGES["st"][0], min(_RANGES["st"][1], 1e4 * k0))
     for i, name in enumerate(names):
         positive = name in ("a", "stiffness") or name.startswith("Dc")
         parameters.append(
@@ -384,8 +388,8 @@ def fit(
                 value=float(starts[0][i]),
                 log=positive,
                 fixed=name in fixed,
-                lower=_RANGES[name[:2]][0] if positive else -math.inf,
-                upper=_RANGES[name[:2]][1] if positive else math.inf,
+                lower=search[name[:2]][0] if positive else -math.inf,
+                upper=search[name[:2]][1] if positive else math.inf,
             )
         )
     weights = 1.0 / sigma if sigma is not None else 1.0
@@ -416,7 +420,15 @@ def fit(
     method = {n: "wald" for n in names}
     exact = True
     variance = (1.0 if sigma is not None else stats.redchi) * inflation
-    if profile and stats.invertible and solution.status > 0:
+    profile_failed = []
+    # identifiability, judged on the white-noise error (before any correlation scaling)
+    k_error = stats.stderr["stiffness"]
+    loose = "stiffness" not in fixed and not k_error < 0.3 * stats.params["stiffness"]
+    if profile and loose:
+        # the elastic rise after a step is not resolved by the sampling: profiles of a, b and
+        # Dc would let k run away to a rigid machine; their Wald intervals stay
+        profile_failed += ["a", *[n for pair in names_states for n in pair]]
+    elif profile and stats.invertible and solution.status > 0:
         position = {i: k for k, i in enumerate(problem.free)}
         for name in ("a", *[n for pair in names_states for n in pair]):
             index = names.index(name)
@@ -427,9 +439,12 @@ def fit(
             interval, ok = profile_interval(
                 problem, values, index, variance, stats.chisqr, halfwidth, solution.hessian
             )
-            ci95[name] = interval
-            method[name] = "profile"
-            exact = exact and ok
+            if all(math.isfinite(end) for end in interval):
+                ci95[name] = interval
+                method[name] = "profile"
+                exact = exact and ok
+            else:  # the profile ran off (a parameter it leans on is unbounded): keep Wald's
+                profile_failed.append(name)
     for name in fixed:
         method[name] = "fixed"
     message = solution.message
@@ -437,6 +452,13 @@ def fit(
         message += "; singular covariance"
     if not exact:
         message += "; a profile interval ran into a bound"
+    if loose:
+        message += (
+            "; the stiffness is poorly determined (the rise after a step is not resolved): "
+            "Wald intervals; consider fixed={'stiffness': ...}"
+        )
+    elif profile_failed:
+        message += f"; Wald intervals for {', '.join(profile_failed)} (the profile ran off)"
     if correlated_noise:
         message += f"; covariance scaled by the residuals' correlation time, {tau:.3g} points"
     units = {
