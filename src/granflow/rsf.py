@@ -1,6 +1,7 @@
 """Rate-and-state friction models beside granflow's own: ``from granflow import rsf``.
 
-The code lives in :mod:`granflow.simulation.rsf`; this module gives it its public name.
+The models live in :mod:`granflow.simulation.rsf`, the fits of velocity steps in
+:mod:`granflow.fitting.rsf_fit`; this module gives them their public name.
 
 Examples
 --------
@@ -27,5 +28,12 @@ __getattr__, __dir__, __all__ = attach(
         "granflow.simulation.rsf.model": ["LAWS", "RateState", "State"],
         "granflow.simulation.rsf.simulate": ["simulate"],
         "granflow.simulation.rsf.result": ["RateStateResult"],
+        "granflow.fitting.rsf_fit": ["fit"],
+        "granflow.fitting.rsf_result": ["RateStateFitResult"],
+        "granflow.io.velocity_steps": [
+            "VelocityStepRecord",
+            "parse_velocity_steps",
+            "read_velocity_steps",
+        ],
     },
 )

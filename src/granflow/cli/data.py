@@ -212,6 +212,8 @@ _EPILOG_FIT = """examples:
   granflow fit tidy.csv --interval 3                (the 3rd run of what 'convert' wrote)
   granflow fit curve.csv --domain time --velocity 0.86um/s --fix Fd=10mN --json
   granflow fit run1.txt --window 1s:600s --geometry outer_radius=15mm,inner_radius=12.5mm
+  granflow fit velstep.txt --model rsf --law aging  (a velocity-step record: a, b, Dc, k)
+  granflow fit velstep.txt --model rsf --law slip --detrend --steps 68.6s --json
 A plain CSV needs a force column and a time or slip column, each with its unit in the header:
 'time [s]', 't (min)', 'slip [µm]', 'force [mN]', or granflow's own 't_s', 'force_N'. The
 data-quality problems the reader found are printed with the fit and kept in --json's
@@ -331,6 +333,86 @@ def add_fit(subparsers):
         "--strict", action="store_true", help="a data-quality problem is an error (exit 1)"
     )
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    rsf = parser.add_argument_group(
+        "rate-and-state (--model rsf)",
+        "a velocity-step record: 'Time(s)', 'Displ(microns)', 'Friction' (units in the "
+        "header); the load-point velocity history comes from the displacement",
+    )
+    parser.add_argument(
+        "--model",
+        choices=("eq3", "rsf"),
+        default="eq3",
+        help="eq3: the aging-rejuvenation model (default); rsf: rate-and-state on a spring",
+    )
+    rsf.add_argument("--law", default="aging", choices=("aging", "slip", "prz"))
+    rsf.add_argument("--states", type=positive_int, default=1, help="state variables (1 or 2)")
+    rsf.add_argument("--detrend", action="store_true", help="fit a linear trend in slip")
+    rsf.add_argument(
+        "--steps", help="the step times, e.g. 68.6s or 100s,250s (default: found automatically)"
+    )
+    rsf.add_argument(
+        "--correlated-noise",
+        action="store_true",
+        help="scale the uncertainties by the residuals' correlation time (real records)",
+    )
+
+
+def _run_fit_rsf(args):
+    """``granflow fit FILE --model rsf``: a rate-and-state fit of a velocity-step record."""
+    import json
+
+    from granflow import rsf
+
+    steps = None
+    if args.steps:
+        steps = [quantity(item, "time", "--steps") for item in args.steps.split(",")]
+    record = rsf.read_velocity_steps(args.data, step_times=steps)
+    fixed = {}
+    for item in args.fix:
+        name, sep, value = item.partition("=")
+        try:
+            fixed[name] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise UsageError(f"--fix must be NAME=VALUE (SI), e.g. stiffness=2000, got {item!r}")
+    windows = None
+    if args.window:
+        start, sep, stop = args.window.partition(":")
+        if not sep:
+            raise UsageError(f"--window must be START:STOP, got {args.window!r}")
+        windows = [
+            (quantity(start, "time", "--window start"), quantity(stop, "time", "--window stop"))
+        ]
+    try:
+        result = rsf.fit(
+            record,
+            law=args.law,
+            states=args.states,
+            fixed=fixed,
+            detrend=args.detrend,
+            windows=windows,
+            sigma=float(args.sigma) if args.sigma else None,
+            correlated_noise=args.correlated_noise,
+        )
+    except GranflowError as exc:
+        raise type(exc)(f"{args.data}: {exc}") from None
+    if args.json:
+        payload = result.to_dict()
+        payload["record"] = {
+            "source": str(args.data),
+            "step_times": list(record.step_times),
+            "velocities": list(record.velocities),
+            "time_offset": record.time_offset,
+        }
+        print(json.dumps(payload, indent=2))
+    else:
+        speeds = " -> ".join(f"{v * 1e6:.4g}" for v in record.velocities)
+        steps_text = ", ".join(f"{s:.4g}" for s in record.step_times)
+        print(f"fit of {args.data} ({plural(record.t.size, 'point')}; load point {speeds} µm/s,")
+        print(f"  steps at {steps_text} s after the first row, t = {record.time_offset:g} s)")
+        print(result.report())
+    return 0 if result.success else 1
 
 
 def _choose(runs, interval, path):
@@ -389,6 +471,8 @@ def _run_fit(args):
 
     from granflow._json import json_safe
 
+    if args.model == "rsf":
+        return _run_fit_rsf(args)
     choice = geometry_choice(args.geometry)
     source = load_runs(args.data, choice)
     if choice.given and source.geometry is None:

@@ -18,6 +18,7 @@ from granflow.fitting.creep import CurveFitResult, fit_curve
 from granflow.fitting.curves import prepare
 from granflow.fitting.engine import Model
 from granflow.fitting.results import FrozenMap, ValueEquality, decode, encode
+from granflow.fitting.rsf_result import RateStateFitResult
 from granflow.fitting.single import FitResult, fit
 from granflow.model.units import si_unit
 
@@ -137,6 +138,8 @@ class ModelComparison(ValueEquality):
         fits = {}
         for model, result in d.get("fits", {}).items():
             kind = FitResult if model == "eq3" else CurveFitResult
+            if model.startswith("rsf_") or model == "eq2_direct":
+                kind = RateStateFitResult
             fits[model] = None if result is None else kind.from_dict(result)
         return cls(
             rows=tuple(dict(row) for row in d["rows"]),
@@ -220,14 +223,20 @@ def _fit_exponential(z, y, sigma):
 
 
 def compare_models(
-    data: Run | tuple[ArrayLike, ArrayLike],
+    data: Run | tuple[ArrayLike, ArrayLike] | Any,
     *,
     domain: str = "slip",
     velocity: float | None = None,
     window: tuple[float, float] | None = None,
     sigma: float | None = None,
+    protocol: Any = None,
+    rate_and_state: bool = False,
+    detrend: bool = False,
+    correlated_noise: bool = False,
 ) -> ModelComparison:
-    """Compare Eq. 3 with pure logarithmic aging and a single-exponential approach.
+    """Compare Eq. 3 with pure logarithmic aging and a single-exponential approach; or, on
+    velocity steps, rate-and-state (aging and slip laws) with the paper's Eq. 2 with and
+    without the direct effect.
 
     Parameters
     ----------
@@ -241,6 +250,19 @@ def compare_models(
         Fit window, the same for every model.
     sigma : float, optional
         Known noise [N].
+    protocol : Protocol, optional
+        The load-point velocity history of a velocity-step record (``data`` then holds time
+        [s] and friction; a :func:`granflow.io.read_velocity_steps` record brings its own):
+        the models are ``rsf_aging``, ``rsf_slip``, ``eq2_direct`` and ``eq2``
+        (:mod:`granflow.fitting.rsf_compare`), each row with its residual pattern and the
+        likelihood-ratio test against the model it extends. ``window`` is then a list of
+        windows as in :func:`granflow.rsf.fit`.
+    rate_and_state : bool
+        On a start-up curve, add the rate-and-state aging and slip laws (a step of the load
+        point from a slow steady sliding to ``velocity``).
+    detrend, correlated_noise : bool
+        Velocity steps: a linear trend in load-point displacement in every model; the
+        likelihood-ratio tests with n divided by the residuals' correlation time.
 
     Returns
     -------
@@ -257,6 +279,17 @@ def compare_models(
     """
     if domain not in ("slip", "time"):
         raise InvalidParameterError(f"domain must be 'slip' or 'time', got {domain!r}")
+    if protocol is not None or hasattr(data, "protocol"):
+        from granflow.fitting.rsf_compare import velocity_step_rows
+
+        if hasattr(data, "protocol"):
+            t, friction = data, None
+        else:
+            t, friction = data
+        rows, fits, _ = velocity_step_rows(
+            t, friction, protocol, windows=window, detrend=detrend, correlated=correlated_noise
+        )
+        return _ranked(rows, fits)
     prepared = prepare(data, domain, velocity, window, None, sigma)
     z, y = prepared.z, prepared.y
     fits, rows = {}, []
@@ -299,6 +332,17 @@ def compare_models(
                 "message": result.message,
             }
         )
+    if rate_and_state:
+        from granflow.fitting.rsf_compare import startup_rows
+
+        more_rows, more_fits = startup_rows(z, y, domain=domain, velocity=prepared.velocity)
+        rows += more_rows
+        fits.update(more_fits)
+    return _ranked(rows, fits)
+
+
+def _ranked(rows, fits):
+    """The comparison of these rows: AIC and BIC differences from the best, the winners."""
     fitted = [r for r in rows if r["aic"] is not None]
     best_aic = min(fitted, key=lambda r: r["aic"])
     best_bic = min(fitted, key=lambda r: r["bic"])

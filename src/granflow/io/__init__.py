@@ -47,5 +47,6 @@ __getattr__, __dir__, __all__ = attach(
         "writer": ["write_rheocompass", "write_trios"],
         "tidy": ["TidyTable", "read_tidy", "write_tidy"],
         "campaign": ["Campaign", "read_manifest"],
+        "velocity_steps": ["VelocityStepRecord", "parse_velocity_steps", "read_velocity_steps"],
     },
 )

@@ -1,0 +1,114 @@
+"""Velocity-step records in a campaign: their rate-and-state fits and model comparison.
+
+A self-contained piece of the campaign analysis, for the report to take in: for each
+velocity-step record (:func:`is_velocity_step_file` tells them from rheometer exports), the
+rate-and-state fit of :func:`granflow.rsf.fit`, the comparison of
+:func:`granflow.compare_models` (rate-and-state aging and slip laws, the paper's Eq. 2 with
+and without the direct effect) and a figure of the fit and its residuals.
+:func:`velocity_step_section` returns plain JSON-safe data in the shapes the report already
+reads: ``model_comparison`` (one entry per record, with ``label``, ``rows``, ``best_aic``,
+``best_bic``, as ``analyses["model_comparison"]``), ``figures`` (``name``, ``title``,
+``caption``, ``png`` relative to the output folder, as ``results["figures"]``) and ``fits``
+(the parameter table of each record: value, standard error, 95 % interval, unit).
+"""
+
+import math
+from pathlib import Path
+
+from granflow.errors import GranflowError
+from granflow.io.velocity_steps import is_velocity_step_file
+
+__all__ = ["is_velocity_step_file", "velocity_step_section"]
+
+
+def _parameter_table(fit):
+    rows = []
+    for name in fit.names:
+        low, high = fit.ci95[name]
+        rows.append(
+            {
+                "name": name,
+                "value": fit.params[name],
+                "stderr": fit.stderr[name],
+                "ci95": [low, high],
+                "method": fit.ci_method[name],
+                "unit": fit.units[name],
+            }
+        )
+    return {
+        "law": "+".join(fit.laws),
+        "success": fit.success,
+        "message": fit.message,
+        "a_minus_b": fit.a_minus_b,
+        "a_minus_b_stderr": fit.a_minus_b_stderr,
+        "residual_rms": fit.residual_rms,
+        "scatter": fit.noise,
+        "parameters": rows,
+    }
+
+
+def velocity_step_section(paths, output_dir, *, law="aging", correlated_noise=True):
+    """Fit, compare and draw every velocity-step record of ``paths``.
+
+    Parameters
+    ----------
+    paths : sequence of path-like
+        Velocity-step records (:func:`granflow.io.read_velocity_steps`).
+    output_dir : path-like
+        Where the figures are written (``velocity_step_<k>.png``).
+    law : str
+        The rate-and-state law of the fit shown and tabled.
+    correlated_noise : bool
+        Uncertainties scaled by the residuals' correlation time (real records).
+
+    Returns
+    -------
+    dict
+        ``model_comparison``, ``figures``, ``fits`` (see the module) and ``problems`` (one
+        sentence per record that could not be read or fitted).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from granflow import rsf
+    from granflow.fitting.compare import compare_models
+
+    output_dir = Path(output_dir)
+    output_dir.mkdir(parents=True, exist_ok=True)
+    section = {"model_comparison": [], "figures": [], "fits": {}, "problems": []}
+    for index, path in enumerate(paths, start=1):
+        label = Path(path).name
+        try:
+            record = rsf.read_velocity_steps(path)
+            comparison = compare_models(record, correlated_noise=correlated_noise)
+        except GranflowError as exc:
+            section["problems"].append(f"{label}: {exc}")
+            continue
+        entry = comparison.to_dict(include_arrays=False)
+        entry.pop("fits", None)
+        section["model_comparison"].append({"label": label, **entry})
+        fit = comparison.fits.get(f"rsf_{law}")
+        if fit is None:
+            section["problems"].append(f"{label}: the {law} law could not be fitted")
+            continue
+        section["fits"][label] = _parameter_table(fit)
+        top, _ = fit.plot()
+        name = f"velocity_step_{index}"
+        top.figure.savefig(output_dir / f"{name}.png", dpi=100)
+        plt.close(top.figure)
+        ratio = fit.residual_rms / fit.noise if fit.noise > 0 else math.nan
+        section["figures"].append(
+            {
+                "name": name,
+                "title": f"{label}: rate-and-state fit ({law} law)",
+                "caption": (
+                    f"load point {' → '.join(f'{v * 1e6:.3g}' for v in record.velocities)} µm/s; "
+                    f"a − b = {fit.a_minus_b:.4g} ± {1.96 * fit.a_minus_b_stderr:.2g}; residual "
+                    f"RMS {ratio:.2f} × the scatter; best by AIC: {comparison.best_aic}"
+                ),
+                "png": f"{name}.png",
+            }
+        )
+    return section

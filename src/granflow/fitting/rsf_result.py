@@ -1,0 +1,179 @@
+"""The result of a rate-and-state fit (:func:`granflow.rsf.fit`)."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow.fitting.results import (
+    FrozenMap,
+    arrays,
+    decode,
+    encode,
+    read_arrays,
+)
+from granflow.fitting.statistics import FitOutcome, decoded, estimates, fit_report, statistics
+
+__all__ = ["RateStateFitResult"]
+
+
+@dataclass(frozen=True, eq=False)
+class RateStateFitResult(FitOutcome):
+    """A rate-and-state fit of velocity steps.
+
+    Attributes
+    ----------
+    params, stderr : mapping of str to float
+        ``a``, ``b``, ``Dc`` [m] (``b1``, ``Dc1``, ``b2``, ``Dc2`` with two states),
+        ``stiffness`` [1/m], ``mu0`` and ``slope`` [1/m] (``mu0_1``, ``slope_1``, ... per
+        window in joint fits), with standard errors.
+    ci95 : mapping of str to (float, float)
+        95 % intervals: profile likelihood for a, b and Dc (see ``ci_method``), Wald else.
+    covar, ndata, nfree, chisqr, redchi, aic, bic, success, message, sigma_known
+        As in :class:`granflow.FitResult`.
+    laws : tuple of str
+        The evolution law of each state.
+    names : tuple of str
+    units : mapping of str to str
+    fixed : tuple of str
+        The parameters held at a value.
+    ci_method : mapping of str to str
+        ``"profile"``, ``"wald"`` or ``"fixed"`` per parameter.
+    windows : tuple of (float, float)
+        The fit windows [s].
+    v_ref : tuple of float
+        Per window, its first load-point velocity [m/s] (mu0 is the steady friction there).
+    noise : float
+        The record's high-frequency scatter [-] (about its running mean over 25 points).
+    correlation_time : float
+        The residuals' integrated correlation time [points] (1 for white noise).
+    t, data, best_fit, residuals, load_point_velocity : numpy.ndarray
+        The fitted points [s], friction, model, data - model, load-point velocity [m/s].
+    source : str
+        The file, where known.
+    """
+
+    laws: tuple
+    names: tuple
+    units: FrozenMap
+    fixed: tuple
+    ci_method: FrozenMap
+    windows: tuple
+    v_ref: tuple
+    noise: float
+    correlation_time: float
+    t: np.ndarray
+    data: np.ndarray
+    best_fit: np.ndarray
+    residuals: np.ndarray
+    load_point_velocity: np.ndarray
+    source: str = ""
+
+    ARRAYS = ("t", "data", "best_fit", "residuals", "load_point_velocity")
+
+    def __repr__(self):
+        shown = [n for n in ("a", "b", "Dc", "b1", "Dc1", "b2", "Dc2") if n in self.params]
+        values = ", ".join(f"{n}={self.params[n]:.4g}" for n in shown)
+        return f"RateStateFitResult({'+'.join(self.laws)}, success={self.success}, {values})"
+
+    @property
+    def a_minus_b(self):
+        """a - sum of b [-]."""
+        return self.params["a"] - sum(
+            self.params[n] for n in self.names if n == "b" or (n[:1] == "b" and n[1:].isdigit())
+        )
+
+    @property
+    def a_minus_b_stderr(self):
+        """Standard error of a - b [-] from the covariance (0 for held parameters)."""
+        bs = [n for n in self.names if n == "b" or (n[:1] == "b" and n[1:].isdigit())]
+        weights = {"a": 1.0, **dict.fromkeys(bs, -1.0)}
+        free = [n for n in weights if n in self.covar]
+        variance = sum(weights[p] * weights[q] * self.covar[p][q] for p in free for q in free)
+        return float(np.sqrt(max(variance, 0.0)))
+
+    @property
+    def residual_rms(self):
+        """Root mean square of the residuals [-]."""
+        return float(np.sqrt(np.mean(self.residuals**2)))
+
+    def report(self):
+        """A text report in the manner of lmfit's ``fit_report``."""
+        return fit_report(
+            self,
+            title=f"Rate-and-state fit ({', '.join(self.laws)} law)",
+            extra=[("windows [s]", ", ".join(f"{lo:g}..{hi:g}" for lo, hi in self.windows))],
+            after=[
+                ("residual RMS", f"{self.residual_rms:.4g}"),
+                ("HF scatter", f"{self.noise:.4g}"),
+                ("correlation time", f"{self.correlation_time:.3g} points"),
+                ("a - b", f"{self.a_minus_b:.6g} +/- {self.a_minus_b_stderr:.3g}"),
+            ],
+        )
+
+    def to_dict(self, include_arrays=True):
+        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+        return encode(
+            {
+                "laws": list(self.laws),
+                "names": list(self.names),
+                **estimates(self),
+                "units": dict(self.units),
+                "fixed": list(self.fixed),
+                "ci_method": dict(self.ci_method),
+                "windows": [list(w) for w in self.windows],
+                "v_ref": list(self.v_ref),
+                "noise": self.noise,
+                "correlation_time": self.correlation_time,
+                "source": self.source,
+                **statistics(self),
+                **arrays(self, include_arrays),
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, d):
+        """The result a :meth:`to_dict` output (or its JSON) describes."""
+        d = decode(d, cls)
+        return cls(
+            **decoded(d),
+            laws=tuple(d["laws"]),
+            names=tuple(d["names"]),
+            units=FrozenMap(d["units"]),
+            fixed=tuple(d["fixed"]),
+            ci_method=FrozenMap(d["ci_method"]),
+            windows=tuple(tuple(float(v) for v in w) for w in d["windows"]),
+            v_ref=tuple(float(v) for v in d["v_ref"]),
+            noise=float(d["noise"]),
+            correlation_time=float(d["correlation_time"]),
+            source=d.get("source", ""),
+            **read_arrays(cls, d),
+        )
+
+    def plot(self, axes=None):
+        """The data with the fit (top) and the residuals (bottom); returns the two Axes.
+
+        ``axes``: two matplotlib Axes to draw into (default: a new figure).
+        """
+        import matplotlib.pyplot as plt
+
+        if axes is None:
+            _, axes = plt.subplots(
+                2, 1, sharex=True, figsize=(7, 5), gridspec_kw={"height_ratios": [3, 1]}
+            )
+        top, bottom = axes
+        top.plot(self.t, self.data, ".", ms=2, color="0.6", label="data")
+        top.plot(self.t, self.best_fit, "-", color="C3", lw=1.5, label=f"{'+'.join(self.laws)} fit")
+        top.set_ylabel("friction μ")
+        text = ", ".join(
+            f"{n} = {self.params[n] * (1e6 if n.startswith('Dc') else 1):.4g}"
+            f"{' µm' if n.startswith('Dc') else ''}"
+            for n in self.names
+            if n in ("a", "b", "Dc", "b1", "Dc1", "b2", "Dc2")
+        )
+        top.set_title(text, fontsize=9)
+        top.legend(loc="best", fontsize=8)
+        bottom.plot(self.t, self.residuals, ".", ms=2, color="C0")
+        bottom.axhline(0.0, color="k", lw=0.8)
+        bottom.set_xlabel("time [s]")
+        bottom.set_ylabel("residual")
+        return top, bottom
