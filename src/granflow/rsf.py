@@ -16,6 +16,11 @@ from typing import TYPE_CHECKING
 from granflow._lazy import attach
 
 if TYPE_CHECKING:  # the public names as type checkers and editors see them
+    from granflow.fitting.rsf_fit import fit as fit
+    from granflow.fitting.rsf_result import RateStateFitResult as RateStateFitResult
+    from granflow.io.velocity_steps import VelocityStepRecord as VelocityStepRecord
+    from granflow.io.velocity_steps import parse_velocity_steps as parse_velocity_steps
+    from granflow.io.velocity_steps import read_velocity_steps as read_velocity_steps
     from granflow.simulation.rsf.model import LAWS as LAWS
     from granflow.simulation.rsf.model import RateState as RateState
     from granflow.simulation.rsf.model import State as State

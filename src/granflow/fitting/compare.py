@@ -282,10 +282,10 @@ def compare_models(
     if protocol is not None or hasattr(data, "protocol"):
         from granflow.fitting.rsf_compare import velocity_step_rows
 
-        if hasattr(data, "protocol"):
-            t, friction = data, None
-        else:
+        if isinstance(data, tuple | list):
             t, friction = data
+        else:  # a velocity-step record or a Run: the friction comes with it
+            t, friction = data, None
         rows, fits, _ = velocity_step_rows(
             t, friction, protocol, windows=window, detrend=detrend, correlated=correlated_noise
         )

@@ -16,8 +16,12 @@ cut half-way between steps), each window starting at steady sliding with its own
 trend), sharing a, b, Dc and k.
 """
 
+from __future__ import annotations
+
 import itertools
 import math
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -197,19 +201,19 @@ def _step_estimates(window, y):
 
 
 def fit(
-    t,
-    friction=None,
-    protocol=None,
+    t: Any,
+    friction: Any = None,
+    protocol: Protocol | None = None,
     *,
-    law="aging",
-    states=1,
-    fixed=None,
-    detrend=False,
-    windows=None,
-    sigma=None,
-    profile=True,
-    correlated_noise=False,
-):
+    law: str = "aging",
+    states: int = 1,
+    fixed: Mapping[str, float] | None = None,
+    detrend: bool = False,
+    windows: Sequence[tuple[float, float]] | None = None,
+    sigma: float | None = None,
+    profile: bool = True,
+    correlated_noise: bool = False,
+) -> RateStateFitResult:
     """Fit a rate-and-state spring-slider to velocity steps, with no initial guess.
 
     Parameters

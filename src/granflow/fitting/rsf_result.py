@@ -1,6 +1,10 @@
 """The result of a rate-and-state fit (:func:`granflow.rsf.fit`)."""
 
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -12,6 +16,9 @@ from granflow.fitting.results import (
     read_arrays,
 )
 from granflow.fitting.statistics import FitOutcome, decoded, estimates, fit_report, statistics
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 __all__ = ["RateStateFitResult"]
 
@@ -70,20 +77,20 @@ class RateStateFitResult(FitOutcome):
 
     ARRAYS = ("t", "data", "best_fit", "residuals", "load_point_velocity")
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         shown = [n for n in ("a", "b", "Dc", "b1", "Dc1", "b2", "Dc2") if n in self.params]
         values = ", ".join(f"{n}={self.params[n]:.4g}" for n in shown)
         return f"RateStateFitResult({'+'.join(self.laws)}, success={self.success}, {values})"
 
     @property
-    def a_minus_b(self):
+    def a_minus_b(self) -> float:
         """a - sum of b [-]."""
         return self.params["a"] - sum(
             self.params[n] for n in self.names if n == "b" or (n[:1] == "b" and n[1:].isdigit())
         )
 
     @property
-    def a_minus_b_stderr(self):
+    def a_minus_b_stderr(self) -> float:
         """Standard error of a - b [-] from the covariance (0 for held parameters)."""
         bs = [n for n in self.names if n == "b" or (n[:1] == "b" and n[1:].isdigit())]
         weights = {"a": 1.0, **dict.fromkeys(bs, -1.0)}
@@ -92,11 +99,11 @@ class RateStateFitResult(FitOutcome):
         return float(np.sqrt(max(variance, 0.0)))
 
     @property
-    def residual_rms(self):
+    def residual_rms(self) -> float:
         """Root mean square of the residuals [-]."""
         return float(np.sqrt(np.mean(self.residuals**2)))
 
-    def report(self):
+    def report(self) -> str:
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(
             self,
@@ -110,7 +117,7 @@ class RateStateFitResult(FitOutcome):
             ],
         )
 
-    def to_dict(self, include_arrays=True):
+    def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping; :meth:`from_dict` inverts it."""
         return encode(
             {
@@ -131,7 +138,7 @@ class RateStateFitResult(FitOutcome):
         )
 
     @classmethod
-    def from_dict(cls, d):
+    def from_dict(cls, d: Mapping[str, Any]) -> RateStateFitResult:
         """The result a :meth:`to_dict` output (or its JSON) describes."""
         d = decode(d, cls)
         return cls(
@@ -149,7 +156,7 @@ class RateStateFitResult(FitOutcome):
             **read_arrays(cls, d),
         )
 
-    def plot(self, axes=None):
+    def plot(self, axes: Sequence[Axes] | None = None) -> tuple[Axes, Axes]:
         """The data with the fit (top) and the residuals (bottom); returns the two Axes.
 
         ``axes``: two matplotlib Axes to draw into (default: a new figure).

@@ -18,9 +18,13 @@ Examples
 ([1.0, 10.0], [50.0])
 """
 
+from __future__ import annotations
+
 import itertools
 import math
+import os
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -129,7 +133,13 @@ def is_velocity_step_file(path):
     return {"time", "displacement", "friction"} <= roles
 
 
-def parse_velocity_steps(text, source="<text>", *, step_times=None, min_change=0.2):
+def parse_velocity_steps(
+    text: str,
+    source: str = "<text>",
+    *,
+    step_times: Sequence[float] | None = None,
+    min_change: float = 0.2,
+) -> VelocityStepRecord:
     """Parse a velocity-step table (decoded text) into a :class:`VelocityStepRecord`.
 
     Parameters
@@ -224,7 +234,12 @@ def parse_velocity_steps(text, source="<text>", *, step_times=None, min_change=0
     )
 
 
-def read_velocity_steps(path, *, step_times=None, min_change=0.2):
+def read_velocity_steps(
+    path: str | os.PathLike[str],
+    *,
+    step_times: Sequence[float] | None = None,
+    min_change: float = 0.2,
+) -> VelocityStepRecord:
     """Read a velocity-step record file; see :func:`parse_velocity_steps`."""
     path = Path(path)
     text = path.read_bytes().decode("utf-8-sig", errors="replace")
