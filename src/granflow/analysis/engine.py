@@ -226,6 +226,7 @@ def analyze(
     progress=None,
     geometry=None,
     strict=False,
+    figure_formats=("png",),
 ):
     """Analyse a whole campaign and write results, tables, figures and a report.
 
@@ -269,6 +270,9 @@ def analyze(
     strict : bool
         Make every data-quality problem an error: a run with problems (``runs[*].problems``)
         is a failed run, named, and the rest is analysed.
+    figure_formats : sequence of {"png", "svg", "pdf"}
+        The files of each figure in ``figures/``, each figure drawn once (default PNG, which
+        the report embeds; the report links an SVG where there is one).
 
     Returns
     -------
@@ -295,6 +299,9 @@ def analyze(
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
         raise InvalidParameterError(f"seed must be an integer, got {seed!r}")
     seed = int(seed)
+    from granflow.plotting.files import check_formats
+
+    figure_formats = check_formats(figure_formats, "figure_formats")  # an error now, not later
     if mcmc:
         _require_emcee()  # a missing extra is an error now, not after the fits
     output = Path(output)
@@ -332,7 +339,7 @@ def analyze(
     notes = list(result.warnings)
     tables = write_tables(output, result.to_dict(), notes)
     reporter.line("figures")
-    figures = make_figures(output, result, joint, notes)
+    figures = make_figures(output, result, joint, notes, figure_formats)
     result = replace(
         result, warnings=tuple(notes), figures=tuple(figures), tables=FrozenMap(tables)
     )

@@ -144,7 +144,7 @@ class Material(Value, Mapping):
 
 
 #: Keys of a joint analysis' entry that say where it applies (the rest is the fit result).
-_CONDITIONS = ("normal_load", "velocity", "preparation", "run", "runs")
+_CONDITIONS = ("normal_load", "velocity", "preparation", "run", "runs", "held")
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,8 +154,11 @@ class JointAnalysis(Value):
     Attributes
     ----------
     conditions : mapping
-        ``normal_load`` [N], ``velocity`` [m/s], ``preparation``, and ``runs`` (names) or
-        ``run`` (one name), as far as they apply.
+        ``normal_load`` [N], ``velocity`` [m/s], ``preparation`` (the preparation state),
+        and ``runs`` (names) or ``run`` (one name), as far as they apply; a preparation
+        spread adds ``held``: the joint fit of its repeats with a, α and F_d held common
+        (``a``, ``alpha``, ``Fd`` as [value, stderr]; ``x0`` and ``x0_stderr`` per repeat [m];
+        ``x0_spread``: mean, std, relative, min, max; ``redchi``, ``success``).
     result : object
         The fitting result (:class:`granflow.CollapseResult`, :class:`granflow.AmontonsResult`,
         :class:`granflow.JointFitResult`, :class:`granflow.PreparationSpread`,

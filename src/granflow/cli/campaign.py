@@ -85,6 +85,13 @@ def _add_execution_options(parser):
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
+    parser.add_argument(
+        "--figure-formats",
+        default="png",
+        metavar="LIST",
+        help="the files of each figure, from png, svg and pdf, e.g. png,svg,pdf (default png; "
+        "each figure is drawn once)",
+    )
 
 
 def add_demo(subparsers):
@@ -125,6 +132,12 @@ def _sigterm_interrupts():
         signal.signal(signal.SIGTERM, previous)
 
 
+def _figure_formats(args):
+    """The --figure-formats list ("png,svg"), checked by analyze."""
+    text = getattr(args, "figure_formats", None) or "png"
+    return tuple(part.strip() for part in text.split(",") if part.strip())
+
+
 def _analyze_and_report(args, campaign):
     # looked up when called, not imported with the module: tests replace it
     from granflow.analysis import analyze
@@ -142,6 +155,7 @@ def _analyze_and_report(args, campaign):
                 seed=args.seed,
                 geometry=getattr(args, "geometry", None),
                 strict=getattr(args, "strict", False),
+                figure_formats=_figure_formats(args),
             )
     except KeyboardInterrupt:
         print(
