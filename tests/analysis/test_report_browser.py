@@ -17,7 +17,8 @@ def test_report_opens_with_no_errors_and_every_image_shown(browser, tmp_path):  
     path = render_report(results, tmp_path)
     problems, images = page_problems(browser, path)
     assert problems == []
-    assert len(images) == len(results["figures"]) == 7
+    assert len(images) == len(results["figures"]) == 10
+    assert {"fits", "fig2", "fig3"} <= {figure["name"] for figure in results["figures"]}
     assert {image["alt"] for image in images} == {f["title"] for f in results["figures"]}
     assert browser.title.startswith("[SYNTHETIC DATA]")
 

@@ -57,9 +57,9 @@ class FigureJob:
 
 
 def _figure(drawn):
-    from granflow.plotting.files import _figure_of
+    from granflow.plotting.files import figure_of
 
-    return _figure_of(drawn)
+    return figure_of(drawn)
 
 
 def render_figure(job, folder, formats=("png",)):
@@ -224,7 +224,12 @@ def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
 
     panels = [
         (name, value)
-        for name, value in (("ramp", ramp), ("creep", creep), ("switch", switch), ("map", stability))
+        for name, value in (
+            ("ramp", ramp),
+            ("creep", creep),
+            ("switch", switch),
+            ("map", stability),
+        )
         if value is not None
     ]
     columns = 2 if len(panels) > 1 else 1
@@ -324,7 +329,9 @@ def _startup_job(result, joint):
         "residuals (Fig. 2a). The preparations differ by t0 alone."
     )
     inputs = {"runs": [_named(s.run) for s in chosen], "fits": [s.fit for s in chosen]}
-    return FigureJob("startup", "Preparations (start-up curves and fits)", caption, draw_startup, inputs)
+    return FigureJob(
+        "startup", "Preparations (start-up curves and fits)", caption, draw_startup, inputs
+    )
 
 
 def figure_jobs(result, joint):
@@ -488,9 +495,7 @@ def _stress_jobs(result, fig3):
         )
         inputs = {"run": entry.run, "params": params, "switch_time": switch_time}
         jobs.append(
-            FigureJob(
-                "switch", "Switch from rate to stress control", caption, draw_switch, inputs
-            )
+            FigureJob("switch", "Switch from rate to stress control", caption, draw_switch, inputs)
         )
         fig3["switch"] = (entry.run, params, switch_time)
     if result.predictions.stability_map is not None:

@@ -31,11 +31,13 @@ __all__ = [
     "Notes",
     "Startup",
     "attempt",
+    "figure_preparations",
+    "goodness_of_fit",
     "material_constants",
     "mcmc_analysis",
     "model_comparison",
     "most_common",
-    "figure_preparations",
+    "plateau_noise",
     "preparation_of",
     "preparation_spreads",
     "representative",
@@ -406,6 +408,68 @@ def figure_preparations(startups, spreads, count=3):
     ranked = sorted(members, key=lambda s: s.fit.params.get("x0", s.fit.params.get("t0", 0.0)))
     picks = sorted({round(i * (len(ranked) - 1) / (count - 1)) for i in range(count)})
     return tuple(ranked[i] for i in picks)
+
+
+#: The plateau is the last part of a start-up's fit window (in slip) [fraction].
+PLATEAU_FRACTION = 0.5
+#: A normalised χ² above this marks a fit that does not reach the noise (the noise estimate
+#: of a 200-point plateau is itself uncertain by about 6 %).
+CHI2_LIMIT = 2.0
+
+
+def plateau_noise(force):
+    """The force noise [N] of a start-up from its plateau: the last
+    :data:`PLATEAU_FRACTION` of the points, by successive differences
+    (σ² = Σ(ΔF)² / 2(n − 1)), which the slow decay towards F_d hardly touches.
+
+    Returns nan with fewer than 10 plateau points.
+    """
+    force = np.asarray(force, dtype=float)
+    force = force[np.isfinite(force)]
+    tail = force[int(len(force) * (1.0 - PLATEAU_FRACTION)) :]
+    if tail.size < 10:
+        return math.nan
+    return float(np.sqrt(np.sum(np.diff(tail) ** 2) / (2.0 * (tail.size - 1))))
+
+
+def goodness_of_fit(startups):
+    """Each start-up fit against the noise of its own plateau.
+
+    The normalised χ² is the fit's χ² over σ² (the plateau noise, :func:`plateau_noise`)
+    per degree of freedom: about 1 when the model leaves only noise, above
+    :data:`CHI2_LIMIT` when it misses the curve. A fit with a known sigma keeps its own χ²ᵣ.
+
+    Returns
+    -------
+    FrozenMap or None
+        ``runs`` (name -> ``noise`` [N], ``chi2`` [-]), ``median``, ``min``, ``max``,
+        ``limit``, ``poor`` (names above the limit), ``method``; None without start-ups.
+    """
+    rows = {}
+    for startup in startups:
+        fit = startup.fit
+        dof = fit.ndata - fit.nfree
+        if fit.sigma_known:
+            noise, chi2 = math.nan, float(fit.redchi)
+        else:
+            noise = plateau_noise(startup.data.force)
+            chi2 = fit.chisqr / (noise**2 * dof) if noise > 0 and dof > 0 else math.nan
+        rows[startup.name] = {"noise": noise, "chi2": chi2}
+    values = [row["chi2"] for row in rows.values() if math.isfinite(row["chi2"])]
+    if not values:
+        return None
+    return FrozenMap(
+        {
+            "runs": rows,
+            "median": float(np.median(values)),
+            "min": float(min(values)),
+            "max": float(max(values)),
+            "limit": CHI2_LIMIT,
+            "poor": [name for name, row in rows.items() if row["chi2"] > CHI2_LIMIT],
+            "method": f"noise from the plateau (last {PLATEAU_FRACTION:.0%} of each fit window, "
+            "successive differences); χ² per degree of freedom over that noise",
+        }
+    )
 
 
 def model_comparison(chosen):

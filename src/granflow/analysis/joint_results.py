@@ -209,6 +209,7 @@ _ORDER = (
     "creep",
     "switch",
     "stability_map",
+    "goodness_of_fit",
 )
 
 
@@ -225,6 +226,9 @@ class Analyses(Value):
     stress_ramp : tuple of RampComparison
     creep : tuple of CreepComparison
     switch : tuple of SwitchComparison
+    goodness_of_fit : mapping or None
+        Each start-up fit against the noise of its plateau
+        (:func:`granflow.analysis.joint.goodness_of_fit`).
     errors : mapping of str to str
         Analyses that failed, and why.
     """
@@ -238,6 +242,7 @@ class Analyses(Value):
     stress_ramp: tuple = ()
     creep: tuple = ()
     switch: tuple = ()
+    goodness_of_fit: FrozenMap | None = None
     errors: FrozenMap = field(default_factory=FrozenMap)
 
     def to_dict(self):
@@ -248,6 +253,8 @@ class Analyses(Value):
             value = getattr(self, name, None)
             if isinstance(value, tuple) and value:
                 out[name] = [row.to_dict() for row in value]
+            elif isinstance(value, Mapping):
+                out[name] = json_safe(dict(value))
             elif value is not None and not isinstance(value, tuple):
                 out[name] = value.to_dict()
             elif name in self.errors:
@@ -261,6 +268,8 @@ class Analyses(Value):
         for name, entry in saved.items():
             if isinstance(entry, Mapping) and set(entry) == {"error"}:
                 errors[name] = entry["error"]
+            elif name == "goodness_of_fit":
+                values[name] = frozen_json(entry)
             elif name == "preparation_spread":
                 values[name] = tuple(
                     JointAnalysis.from_dict(row, PreparationSpread) for row in entry

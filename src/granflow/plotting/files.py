@@ -7,7 +7,7 @@ import numpy as np
 
 from granflow.errors import InvalidParameterError
 
-__all__ = ["FIGURE_FORMATS", "check_formats", "save_figure"]
+__all__ = ["FIGURE_FORMATS", "check_formats", "figure_of", "save_figure"]
 
 #: Resolution of the PNG files written by :func:`save_figure` [dots per inch].
 PNG_DPI = 150
@@ -16,7 +16,8 @@ PNG_DPI = 150
 # --------------------------------------------------------------------------- saving
 
 
-def _figure_of(figure):
+def figure_of(figure):
+    """The Figure of a Figure, an Axes or an array of Axes (InvalidParameterError else)."""
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
@@ -94,7 +95,7 @@ def save_figure(figure, directory, stem, formats=("png", "svg")):
     """
     import matplotlib
 
-    figure = _figure_of(figure)
+    figure = figure_of(figure)
     if not isinstance(directory, str | os.PathLike):
         raise InvalidParameterError(
             f"directory must be a path (str or os.PathLike), got {type(directory).__name__}"

@@ -5,9 +5,9 @@ import numpy as np
 from granflow.plotting._axes import (
     FORCE_SCALE,
     FORCE_UNIT,
+    PEAK_COLOR,
     SLIP_SCALE,
     SLIP_UNIT,
-    PEAK_COLOR,
     TIME_UNIT,
     legend_above,
     new_axes,
