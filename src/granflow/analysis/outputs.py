@@ -106,6 +106,7 @@ def _predictions_table(predictions):
     rows = []
     for row in predictions.get("static_yield", []):
         flat = {k: v for k, v in row.items() if k not in ("ci95", "x0_estimate")}
+        flat["F_peak_stderr"] = flat.pop("stderr", None)
         flat["ci95_low"], flat["ci95_high"] = row["ci95"]
         flat["x0_stderr"] = row["x0_estimate"]["stderr"]
         flat["x0_from"] = row["x0_estimate"]["from"]
@@ -113,8 +114,49 @@ def _predictions_table(predictions):
     return rows
 
 
+#: Names of table columns that are not quantities themselves, and the quantity each is.
+_COLUMN_QUANTITY = {"peak_force": "force", "switch_point": "time", "F_peak_spread": "force"}
+#: Suffixes of a column named after a quantity (its error, its interval, a mean).
+_SUFFIXES = ("_stderr", "_ci95_low", "_ci95_high", "_mean")
+_ASCII_UNITS = str.maketrans({"µ": "u", "/": "_per_", " ": "_"})
+
+
+def column_unit(column):
+    """(display scale, column name with its display unit) of a table column:
+    ``normal_load`` -> (1000.0, "normal_load_mN"); (1.0, column) without a unit."""
+    from granflow.analysis.formatting import display_unit
+
+    base = column
+    for suffix in _SUFFIXES:
+        if column.endswith(suffix):
+            base = column[: -len(suffix)]
+            break
+    scale, unit = display_unit(_COLUMN_QUANTITY.get(base, base))
+    if not unit:
+        return 1.0, column
+    return scale, f"{column}_{unit.replace('1/', 'per_').translate(_ASCII_UNITS)}"
+
+
+def with_units(rows):
+    """Rows in display units, each column named with its unit (``x0_um``, ``alpha_per_m``,
+    ``velocity_um_per_s``); text and unitless columns as they are."""
+    converted = []
+    for row in rows:
+        out = {}
+        for key, value in row.items():
+            scale, name = column_unit(key)
+            number = isinstance(value, int | float) and not isinstance(value, bool)
+            out[name] = value * scale if number and value is not None else value
+        converted.append(out)
+    return converted
+
+
 def write_tables(output, results, warnings_list):
-    """CSV and Parquet of runs, loads, material and predictions; returns results["tables"]."""
+    """CSV and Parquet of runs, loads, material and predictions; returns results["tables"].
+
+    Quantities are in display units with the unit in the column name (``normal_load_mN``,
+    ``x0_um``, ``alpha_per_m``); the material table keeps SI values with a ``unit`` column.
+    """
     import pandas as pd
 
     folder = output / TABLES_DIR
@@ -149,7 +191,7 @@ def write_tables(output, results, warnings_list):
         )
     written = {}
     for name, rows in tables.items():
-        frame = pd.DataFrame(rows)
+        frame = pd.DataFrame(rows if name == "material" else with_units(rows))
         paths = {"csv": f"{TABLES_DIR}/{name}.csv"}
         write_atomic(
             output / paths["csv"],

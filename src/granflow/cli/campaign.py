@@ -15,8 +15,9 @@ _EPILOG_ANALYZE = """examples:
   granflow analyze campaign/ --scheduler tcp://10.0.0.5:8786   (Dask: pip install granflow[dask])
   granflow analyze campaign/ --mcmc --seed 1        (emcee: pip install granflow[mcmc])
   granflow analyze campaign/ --geometry "effective_radius=9mm,mean_radius=8.5mm" --strict
-The manifest lists the export files with normal_load, velocity, preparation, test, ...
-Writes report.html, results.json, tables/ (CSV and Parquet), figures/ (PNG and SVG) and runs/
+The manifest lists the export files with normal_load, velocity, preparation,
+preparation_state, test, ... Writes report.html, results.json, tables/ (CSV and Parquet,
+display units in the column names), figures/ (PNG; --figure-formats png,svg,pdf) and runs/
 (one result per run, written as it finishes). Data-quality problems (a truncated export, NaN
 cells, points a fit left out, a bad manifest entry) are listed per run in results.json and in
 the report's "Data quality" section; --strict makes them errors. Exit code 1 when some runs or
