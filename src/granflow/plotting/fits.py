@@ -410,7 +410,7 @@ def _joint_alpha(ax, joint, span, factor, rate):
     value = joint.params["alpha"] * factor
     error = joint.stderr.get("alpha", math.nan) * factor
     name, unit = (r"$\alpha v$", "1/s") if rate else (r"$\alpha$", "1/m")
-    label = f"joint fit: {name} = {plus_minus(value, error)} {unit}"
+    label = f"joint fit:\n{name} = {plus_minus(value, error)} {unit}"
     ax.plot(span * FORCE_SCALE, np.full(span.size, value), "k-", lw=1, label=label)
     if math.isfinite(error):
         ax.fill_between(span * FORCE_SCALE, value - error, value + error, color="0.85", lw=0)
