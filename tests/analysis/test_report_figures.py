@@ -1,13 +1,14 @@
 """Every figure of the report: drawn once, in the formats asked for, with mathtext labels
 and units, and no text outside its frame (matplotlib's tight bounding box)."""
 
+import pickle
 import re
 
 import pytest
 from conftest import write_small_campaign
 
 import granflow.plotting
-from granflow.analysis import analyze
+from granflow.analysis import analyze, figures
 from granflow.errors import InvalidParameterError
 from granflow.plotting.files import check_formats
 
@@ -61,8 +62,16 @@ def drawn(tmp_path_factory):
         )
         return original(figure, folder, stem, formats)
 
+    render = figures.render_figure
+
+    def picklable(job, *args, **kwargs):  # each figure can be drawn in another process
+        copy = pickle.loads(pickle.dumps(job))
+        assert copy.draw is job.draw and copy.name == job.name
+        return render(job, *args, **kwargs)
+
     patch = pytest.MonkeyPatch()
     patch.setattr(granflow.plotting, "save_figure", checking)
+    patch.setattr(figures, "render_figure", picklable)
     try:
         result = analyze(manifest, directory / "out", jobs=1, quiet=True)
     finally:

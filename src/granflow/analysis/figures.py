@@ -137,11 +137,19 @@ def draw_switch(run, params, switch_time):
     return plot_switch(run, params, switch_time=switch_time)
 
 
+def _stability_map(saved):
+    """A :class:`granflow.StabilityMap` from its ``to_dict()`` (which pickles; the map's
+    options do not)."""
+    from granflow.simulation.stability import StabilityMap
+
+    return StabilityMap.from_dict(saved)
+
+
 def draw_stability(stability):
-    """The stability map with its analytic boundary."""
+    """The stability map (given as its ``to_dict()``) with its analytic boundary."""
     from granflow.plotting import plot_stability_map
 
-    return plot_stability_map(stability)
+    return plot_stability_map(_stability_map(stability))
 
 
 def draw_corner(posterior):
@@ -257,7 +265,7 @@ def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
             plot_switch(value[0], value[1], ax=ax, switch_time=value[2])
             places[ax] = "center"
         else:
-            plot_stability_map(value, ax=ax)
+            plot_stability_map(_stability_map(value), ax=ax)
             places[ax] = "upper right"
         panel_letter(ax, "abcd"[index])
     _legends_inside(figure, places)
@@ -499,7 +507,7 @@ def _stress_jobs(result, fig3):
         )
         fig3["switch"] = (entry.run, params, switch_time)
     if result.predictions.stability_map is not None:
-        stability = result.predictions.stability_map.map
+        stability = result.predictions.stability_map.map.to_dict()
         caption = (
             "Predicted outcome of a switch to force control, over the switch time and the "
             "ratio of imposed to current force (quasi-static, slip clock): failure (grey) or "
