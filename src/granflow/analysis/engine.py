@@ -41,11 +41,14 @@ A run that cannot be analysed (an error, or a fit with ``success=False``) is a f
 file that cannot be read is one too; the rest goes on.
 
 **Joint analyses** (main process, only where the campaign allows): velocity collapse over the
-start-up runs at the load with the most distinct velocities; Amontons' law over loads with
-the runs at the most common velocity (the material constants mu_a, mu_d, alpha; with one load,
-a joint fit at that load divided by the load); the preparation spread over repeats (same
-load, velocity and preparation); the model comparison on the first start-up run of the
-largest (load, velocity) group, which is also the run sampled with ``mcmc=True``.
+start-up runs of one preparation at the load with the most distinct velocities; Amontons' law
+over loads with the runs at the most common velocity (the material constants mu_a, mu_d,
+alpha; with one load, a joint fit at that load divided by the load); the preparation spread
+over repeats of one preparation state (same load and velocity, and the same manifest
+``preparation_state``, else the same ``preparation`` label), with x0 also from a joint fit
+that holds a, alpha and Fd common to the repeats; each start-up fit against the force noise
+of its plateau (a normalised chi-square); the model comparison on the first start-up run of
+the largest (load, velocity) group, which is also the run sampled with ``mcmc=True``.
 
 **Predictions.** The static yield per load, ``F_peak`` from the material constants and the
 mean x0 of the start-ups at that load (pooled over all start-ups for a load without any),

@@ -163,10 +163,8 @@ def _legends_inside(figure, places=None, fontsize=6):
     """Move each legend drawn above its axes inside them (upper-most twin; at ``places[ax]``,
     else the best place), so that the panels of a multi-panel figure keep their width."""
     places = places or {}
-    for ax in list(figure.axes):
-        legend = ax.get_legend()
-        if legend is None:
-            continue
+    found = [(ax, ax.get_legend()) for ax in figure.axes if ax.get_legend() is not None]
+    for ax, legend in found:
         handles, texts = legend.legend_handles, [t.get_text() for t in legend.get_texts()]
         title = legend.get_title().get_text()
         legend.remove()
@@ -209,15 +207,7 @@ def draw_fig2(startup=None, collapse=None, amontons=None):
         else:
             axes = part.subplots(1, 3)
             plot_amontons(amontons, axes=axes)
-            for ax, suffix in zip(axes, ("i", "ii", "iii"), strict=True):
-                ax.text(
-                    0.98,
-                    0.04,
-                    f"{letter}{suffix}",
-                    transform=ax.transAxes,
-                    ha="right",
-                    fontweight="bold",
-                )
+            panel_letter(axes[0], letter)
     return figure
 
 
@@ -260,7 +250,7 @@ def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
             places[ax] = "upper left"
         elif name == "creep":
             plot_creep(value[0], value[1], ax=ax, params=value[2], log_time=True)
-            places[ax] = "lower right"
+            places[ax] = "center left"
         elif name == "switch":
             plot_switch(value[0], value[1], ax=ax, switch_time=value[2])
             places[ax] = "center"

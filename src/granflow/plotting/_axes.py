@@ -77,17 +77,18 @@ def velocity_colors(count):
 
 
 def panel_letter(ax, letter):
-    """A bold panel letter in the upper left corner, inside the axes' frame."""
-    return ax.text(
-        0.015,
-        0.985,
+    """A bold panel letter at the upper left corner of ``ax``, outside the frame (left of the
+    tick labels), so that it never covers data, an inset or a legend."""
+    return ax.annotate(
         letter,
-        transform=ax.transAxes,
-        ha="left",
-        va="top",
+        xy=(0.0, 1.0),
+        xycoords="axes fraction",
+        xytext=(-26, 2),
+        textcoords="offset points",
+        ha="right",
+        va="bottom",
         fontweight="bold",
         fontsize="large",
-        zorder=10,
     )
 
 

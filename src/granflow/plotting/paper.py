@@ -44,6 +44,7 @@ from granflow.plotting._shared import (
     no_slip_note,
     peak_or_none,
     quasistatic_slip,
+    scale_to_creep,
     small_axes,
     twin_axes,
     usable,
@@ -217,32 +218,6 @@ def _slip_inset(parent, t, slip, end, model=None):
     return inset
 
 
-def _clip_runaway(slip_ax, t, slip, end):
-    """Scale the slip axis to the slip before ``end`` [s] (three times its largest value),
-    so that the runaway after the failure does not squash the creep before it; the zero
-    stays where :func:`align_zeros` put it."""
-    before = slip[t <= end]
-    if before.size < 3 or np.max(before) <= 0:
-        return False
-    top = 3.0 * float(np.max(before)) * SLIP_SCALE
-    low, high = slip_ax.get_ylim()
-    if high <= top:
-        return False
-    slip_ax.set_ylim(low * top / high, top)
-    slip_ax.annotate(
-        "runaway ↑",
-        xy=(1.0, 1.0),
-        xycoords="axes fraction",
-        xytext=(-4, -4),
-        textcoords="offset points",
-        ha="right",
-        va="top",
-        fontsize="small",
-        color=SLIP_COLOR,
-    )
-    return True
-
-
 def plot_stress_ramp(run, params=None, ax=None, *, inset=True, clip_runaway=True):
     """A stress ramp (Fig. 3a): slip (left axis) and imposed force (right axis) against time.
 
@@ -324,7 +299,7 @@ def plot_stress_ramp(run, params=None, ax=None, *, inset=True, clip_runaway=True
     end = min(ends) if ends else None  # the creep before failure ends at the first of them
     clipped = False
     if clip_runaway and slip.size and end is not None:
-        clipped = _clip_runaway(slip_ax, t_slip, slip, end)
+        clipped = scale_to_creep(slip_ax, t_slip, slip, end)
     if inset and slip.size and end is not None and end > t_slip[0]:
         before = slip[t_slip <= end]
         if before.size >= 3 and (clipped or np.ptp(before) < 0.25 * np.ptp(slip)):
