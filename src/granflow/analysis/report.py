@@ -1,9 +1,15 @@
 """The HTML report of a campaign analysis: one self-contained file that opens offline.
 
 :func:`render_report` turns the content of ``results.json`` (see :mod:`granflow.analysis`)
-into ``report.html``: campaign summary, material constants, per-run fits, joint analyses,
-predictions, figures (PNG embedded as base64 data URIs), warnings and provenance. The page has
-no external resources (no fonts, style sheets or scripts) and no JavaScript.
+into ``report.html``: a summary of verdicts first (the material constants with intervals;
+the fits against the noise of their plateaus; the velocity collapse; Amontons' law and its
+test; the preparation spread; the static yield per load; the stress-controlled runs against
+their predictions; every data-quality problem; each line linking to its section, see
+:mod:`granflow.analysis.report_summary`), then the campaign, material constants, per-run fits,
+joint analyses, predictions, the failure forecasts, figures (PNG embedded as base64 data
+URIs), warnings and provenance. The page has no external resources (no fonts, style sheets
+or scripts) and no JavaScript; a print style sheet keeps every column (the run table on
+landscape pages) and puts figures two to a page.
 
 Every quantity in ``results`` is in SI units; the report shows display units (mN, µm, µm/s,
 s, 1/m and 1/µm). Sections whose entry is missing or None are left out; an analysis given as
@@ -13,11 +19,15 @@ Accepted shapes beyond the plain ``to_dict()`` of granflow's results:
 
 * ``analyses["preparation_spread"]`` and ``analyses["model_comparison"]``: one result, a list
   of results (each with an optional ``"name"``, ``"run"`` or ``"preparation"``), or a mapping
-  from a label to a result;
+  from a label to a result; a spread's ``"held"`` (the joint fit with a, α and F_d common to
+  the repeats) is shown where given;
+* ``analyses["goodness_of_fit"]``: ``"runs"`` (name -> ``noise`` [N], ``chi2``) for the run
+  table's σ and χ²ₙ columns and the summary;
 * ``analyses["stress_ramp"]`` and ``analyses["switch"]``: a mapping or a list of mappings with
   an optional ``"run"`` (or ``"name"``) and ``"observed"`` / ``"predicted"`` mappings of
-  quantities, shown side by side with their relative difference; other scalar entries are
-  listed under the table;
+  quantities, shown side by side with the signed difference observed − predicted (in display
+  units and relative to the prediction); other scalar entries are listed under the table by
+  a physicist's name (:data:`granflow.analysis.report_summary.LABELS`);
 * ``analyses["creep"]``: a list of mappings with ``"name"`` (or ``"run"``), an optional
   imposed ``"force"`` (or ``"stress"``, ``"imposed_force"``) [N] and a ``"fit"`` (the
   ``to_dict()`` of :class:`granflow.CurveFitResult`); runs whose own fit is a creep fit are

@@ -9,7 +9,6 @@ from granflow.plotting._axes import (
     SLIP_SCALE,
     SLIP_UNIT,
     TIME_UNIT,
-    legend_above,
     new_axes,
 )
 
@@ -136,13 +135,12 @@ def plot_stability_map(stability, ax=None):
     ax.figure.colorbar(mesh, ax=ax, label=f"slip to stop [{SLIP_UNIT}]")
     ax.set_xlabel(f"switch time [{TIME_UNIT}]")
     ax.set_ylabel("imposed / current force [-]")
-    title = f"grey: failure ({stability.method}, {stability.clock} clock)"
-    if not _analytic_boundary(ax, stability, title):
-        ax.set_title(title, fontsize="medium")
+    ax.set_title(f"grey: failure ({stability.method}, {stability.clock} clock)", fontsize="medium")
+    _analytic_boundary(ax, stability)
     return ax
 
 
-def _analytic_boundary(ax, stability, title):
+def _analytic_boundary(ax, stability):
     """The quasi-static boundary between stop and failure, and the peak of the start-up.
 
     Switched at the aging coordinate x_s to r times the force F(x_s), the layer slides up the
@@ -156,12 +154,12 @@ def _analytic_boundary(ax, stability, title):
     slips = np.asarray(stability.switch_slip, dtype=float)
     keep = np.isfinite(times) & np.isfinite(slips)
     if keep.sum() < 2 or getattr(stability, "params", None) is None:
-        return False
+        return
     times, slips = times[keep], slips[keep]
     try:
         top = peak(stability.params)
     except (NoPeakError, ValueError):
-        return False
+        return
     grid = np.linspace(times.min(), times.max(), 300)
     slip = np.interp(grid, times, slips)
     ratio = np.where(slip < top.slip, top.force / friction_slip(slip, stability.params), 1.0)
@@ -173,5 +171,4 @@ def _analytic_boundary(ax, stability, title):
     ratios = np.asarray(stability.stress_ratios, dtype=float)
     half = 0.5 * float(np.diff(ratios[:2]).sum()) if ratios.size > 1 else 0.01
     ax.set_ylim(ratios.min() - half, ratios.max() + half)
-    legend_above(ax, ncols=2, title=title)
-    return True
+    ax.legend(loc="lower right", fontsize="small", framealpha=0.9)
