@@ -141,4 +141,9 @@ def format_interval(bounds: object, scale: float = 1.0, significant: int = 4) ->
     low, high = (real_number(b) for b in bounds)
     if low is None and high is None:
         return DASH
+    if low is not None and high is not None and high > low:
+        # enough digits that the two ends differ: two in the width
+        width, top = (high - low) * abs(scale), max(abs(low), abs(high)) * abs(scale)
+        if top > 0:
+            significant = max(significant, _exponent(top, 2) - _exponent(width, 2) + 2)
     return f"[{format_number(low, scale, significant)}, {format_number(high, scale, significant)}]"

@@ -26,5 +26,5 @@ def example_results(directory):
     document = yaml.safe_load(manifest.read_text(encoding="utf-8"))
     document["runs"].append({"file": CORRUPT, "normal_load": "60 mN"})
     manifest.write_text(yaml.safe_dump(document, sort_keys=False), encoding="utf-8")
-    analyze(manifest, directory, jobs=1, quiet=True)
+    analyze(manifest, directory, jobs=1, quiet=True, figure_formats=("png", "svg"))
     return json.loads((directory / "results.json").read_text(encoding="utf-8"))

@@ -101,6 +101,17 @@ def test_tables_and_figures_are_written(baseline):
         assert len(csv) == len(parquet) > 0
     runs = pd.read_csv(baseline.output / results["tables"]["runs"]["csv"])
     assert runs["name"].tolist() == SMALL_RUNS
+    # display units, named in the columns
+    assert runs["normal_load_mN"].tolist() == pytest.approx(
+        [1e3 * run["normal_load"] for run in results["runs"]], rel=1e-12
+    )
+    fitted = [run for run in results["runs"] if (run.get("fit") or {}).get("params", {}).get("x0")]
+    x0 = dict(zip(runs["name"], runs["x0_um"], strict=True))
+    for run in fitted:
+        assert x0[run["name"]] == pytest.approx(1e6 * run["fit"]["params"]["x0"], rel=1e-12)
+    assert {"velocity_um_per_s", "alpha_per_m", "Fd_stderr_mN"} <= set(runs.columns)
+    loads = pd.read_csv(baseline.output / results["tables"]["loads"]["csv"])
+    assert {"normal_load_mN", "F_peak_mN", "alpha_v_mean_per_s"} <= set(loads.columns)
     material = pd.read_csv(baseline.output / results["tables"]["material"]["csv"])
     assert material["constant"].tolist() == ["mu_a", "mu_d", "alpha"]
     assert material["value"].tolist() == [
@@ -108,9 +119,10 @@ def test_tables_and_figures_are_written(baseline):
     ]
     names = [figure["name"] for figure in results["figures"]]
     assert {"startup", "collapse", "amontons", "stability_map"} <= set(names)
-    for figure in results["figures"]:
-        for suffix in ("png", "svg"):
-            assert (baseline.output / figure[suffix]).stat().st_size > 0
+    for figure in results["figures"]:  # each drawn once, as PNG only by default
+        assert (baseline.output / figure["png"]).stat().st_size > 0
+        assert "svg" not in figure and "pdf" not in figure
+    assert not list((baseline.output / "figures").glob("*.svg"))
     assert not list(baseline.output.rglob("*.tmp"))
 
 

@@ -251,3 +251,21 @@ def test_bad_seed(tmp_path, seed):
     with pytest.raises(granflow.InvalidParameterError, match="seed"):
         make_demo_campaign(tmp_path, seed=seed)
     assert not any(tmp_path.iterdir())
+
+
+def test_the_manifest_names_the_preparation_states(demo):
+    """Fig. 2a's three preparations are repeats of one state, and so are each load's eight;
+    the spread over them is what the analysis reports (granflow.analysis.joint)."""
+    _, manifest, _, _ = demo
+    manifest = yaml.safe_load(manifest.read_text(encoding="utf-8"))
+    entries = manifest["runs"] if isinstance(manifest, dict) else manifest
+    states = Counter(
+        (entry.get("normal_load"), entry.get("preparation_state"))
+        for entry in entries
+        if entry.get("test") == "startup" and entry.get("preparation_state")
+    )
+    fig2a = [entry for entry in entries if str(entry.get("preparation", "")).startswith("fig2a")]
+    assert len({entry["preparation_state"] for entry in fig2a}) == 1 and len(fig2a) == 3
+    assert sorted(states.values()) == [3, 8, 8, 8, 8, 8]
+    fig2b = [entry for entry in entries if entry.get("preparation") == "fig2b"]
+    assert fig2b and not any("preparation_state" in entry for entry in fig2b)

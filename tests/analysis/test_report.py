@@ -213,7 +213,7 @@ def test_every_section_is_rendered(example, page):
     amontons = parsed.section("amontons")
     for load in ("30.00", "60.00", "90.00"):
         assert load in amontons
-    assert "·F_N" in amontons
+    assert "·F N" in amontons  # F<sub>N</sub>
     comparison = parsed.section("model-comparison")
     assert "log_aging" in comparison and "Best by AIC: eq3" in comparison
     outcomes = results["predictions"]["stability_map"]["outcome"]
@@ -225,7 +225,9 @@ def test_every_section_is_rendered(example, page):
     predicted = row["predicted"]["failure_force"]
     assert 0.01 < observed < 0.1 and 0.01 < predicted < 0.1  # so 4 digits are 2 decimals in mN
     assert f"{observed * 1e3:.2f}" in ramp and f"{predicted * 1e3:.2f}" in ramp
-    assert f"{100 * (predicted - observed) / observed:.3g} %" in ramp
+    # signed, observed − predicted, relative to the prediction (U+2212 for the minus)
+    relative = f"({100 * (observed - predicted) / predicted:+.2g} %)".replace("-", "−")
+    assert relative in ramp
     provenance = parsed.section("provenance")
     for entry in results["provenance"]["inputs"]:
         assert entry["file"] in provenance and entry["sha256"] in provenance
@@ -384,13 +386,14 @@ def test_labelled_results_are_listed_per_label(tmp_path):
     analyses = {"preparation_spread": {"sieved": spread, "poured": {"reason": "one repeat"}}}
     text = _Page(render_html(_minimal(analyses=analyses), tmp_path)).section("preparation")
     assert "sieved" in text and "poured" in text and "one repeat" in text
-    assert "0.3000" in text and "33.3 %" in text  # x0 mean [µm], relative spread
+    assert "0.300" in text and "33.3 %" in text  # x0 mean [µm], relative spread
 
 
 def test_figures_are_embedded_as_data_uris(example, page):
     directory, results = example
     images = [attrs for tag, attrs in _Page(page).tags if tag == "img"]
-    assert len(images) == len(results["figures"]) == 7
+    assert len(images) == len(results["figures"]) == 10
+    assert {"fits", "fig2", "fig3"} <= {figure["name"] for figure in results["figures"]}
     for attrs, figure in zip(images, results["figures"], strict=True):
         prefix = "data:image/png;base64,"
         assert attrs["src"].startswith(prefix)

@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from browser import browser, page_problems  # noqa: F401 (browser: a fixture)
 from conftest import write_small_campaign
@@ -308,5 +309,55 @@ def test_demo_report_opens_in_chromium_with_every_figure(demo, browser):  # noqa
         "creep",
         "switch",
         "stability_map",
+        "fits",
+        "fig2",
+        "fig3",
     }
     assert browser.title.startswith("[SYNTHETIC DATA]")
+
+
+def test_demo_report_opens_with_its_verdicts(demo):
+    """The summary states each verdict with numbers and links to its section; Fig. 2a shows
+    the three preparations of one state; the preparation spread holds a, α and F_d."""
+    import html
+    import re
+
+    output, _, _ = demo
+    page = (output / "report.html").read_text(encoding="utf-8")
+    results = json.loads((output / "results.json").read_text(encoding="utf-8"))
+    truth = json.loads((output / "synthetic_truth.json").read_text(encoding="utf-8"))
+    summary = page[page.index('<section id="summary">') : page.index('<section id="campaign">')]
+    assert page.index('id="summary"') < page.index('id="campaign"')  # the summary first
+    text = html.unescape(re.sub(r"<[^>]+>", " ", summary))
+    for phrase in (
+        "Material constants: μ_a = ",
+        "95 %: [",
+        "Eq. 3 fits all 48 start-ups to the noise: normalised χ²",
+        "force noise σ from the plateaus",
+        "The curves collapse in slip: one preparation at 5 velocities",
+        "Amontons' law holds (χ² test",
+        "The preparations differ by their initial state x0 alone",
+        "Static yield F_peak per load",
+        "Stress ramp fig3a_stress_ramp_trios.txt#1: failed at",
+        "(predicted 2",  # the predicted failure time, on the record's clock
+        "Creep fig3b_creep_de.txt#1",
+        "Switch fig3c_switch_fr.txt#1",
+        "Failure forecast",
+        "No data-quality problem: all 52 runs",
+    ):
+        assert phrase in text, phrase
+    links = re.findall(r'href="#([^"]+)"', summary)
+    assert len(links) >= 12
+    for anchor in links:
+        assert f'id="{anchor}"' in page, anchor
+    (startup,) = [f for f in results["figures"] if f["name"] == "startup"]
+    assert "3 preparations (repeats of the preparation state" in startup["caption"]
+    spreads = {row["preparation"]: row for row in results["analyses"]["preparation_spread"]}
+    fig2a = [r for r in truth["runs"] if str(r["preparation"]).startswith("fig2a")]
+    (state,) = {r["preparation_state"] for r in fig2a}
+    held = spreads[state]["held"]
+    np.testing.assert_allclose(held["x0"], [r["x0"] for r in fig2a], rtol=0.03)
+    assert held["a"][0] == pytest.approx(fig2a[0]["a"], rel=0.01)
+    assert held["Fd"][0] == pytest.approx(fig2a[0]["Fd"], rel=1e-3)
+    section = page[page.index('<section id="preparation">') :]
+    assert state in section[: section.index("</section>")]

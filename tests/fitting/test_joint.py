@@ -200,5 +200,5 @@ def test_collapse_and_amontons_plots():
             amontons_runs.append(slip_run(params, seed=40 + 10 * i + repeat, points=400))
             loads.append(load)
     axes = plot_amontons(granflow.fit_amontons(amontons_runs, loads))
-    assert [a.get_ylabel() for a in axes] == ["a [mN]", "α [1/m]", "F_d [mN]"]
+    assert [a.get_ylabel() for a in axes] == ["$a$ [mN]", r"$\alpha$ [1/m]", r"$F_\mathrm{d}$ [mN]"]
     plt.close("all")

@@ -98,6 +98,10 @@ _SLIP_STEP = _VELOCITY * 1.0  # m between points of a start-up: 1 point/s at 0.8
 _STARTUP_POINTS = 401  # 0..400 s at 0.86 um/s: 344 um of slip, peak and tail
 _FIG_LOAD = 0.055  # N: the tube of Figs. 2a, 2b and 3 (a = 3.3 mN, as in the paper)
 _PAPER_T0 = (0.23, 0.39, 0.55)  # s, the paper's Fig. 2a preparations
+# The preparation states (protocols) of the manifest: the Fig. 2a preparations are repeats of
+# one protocol, and so are the load series' repeats (at each load).
+_FIG2A_STATE = "sieved and poured (Fig. 2a)"
+_SERIES_STATE = "sieved and poured (load series)"
 _X0_RANGE = (0.2e-6, 0.5e-6)  # m, x0 of the other preparations, drawn uniformly
 _VELOCITIES = (0.43e-6, 0.86e-6, 1.72e-6, 4.3e-6, 8.6e-6)  # m/s
 _REST_TIME = 60.0  # s between the tests of the velocity series
@@ -241,13 +245,14 @@ def _params(normal_load, x0):
     return Params(a=MU_A * normal_load, alpha=ALPHA, Fd=MU_D * normal_load, x0=x0)
 
 
-def _truth(params, normal_load, velocity, preparation, control="rate"):
+def _truth(params, normal_load, velocity, preparation, control="rate", state=None):
     """The truth every run shares: load, velocity, parameters and the overshoot."""
     top = peak(params)
     return {
         "normal_load": normal_load,
         "velocity": velocity,
         "preparation": preparation,
+        "preparation_state": state,
         "control": control,
         "x0": params.x0,
         "t0": None if velocity is None else params.x0 / velocity,
@@ -408,7 +413,7 @@ def _campaign(rng):
         params = _params(_FIG_LOAD, t0 * _VELOCITY)
         preparation = f"fig2a-{label}"
         run = _startup(params, _VELOCITY, rng, _meta(_FIG_LOAD, preparation, _VELOCITY))
-        truth = _truth(params, _FIG_LOAD, _VELOCITY, preparation)
+        truth = _truth(params, _FIG_LOAD, _VELOCITY, preparation, state=_FIG2A_STATE)
         planned.append(_Planned("fig2a", run, "startup", truth))
 
     params = _params(_FIG_LOAD, float(rng.uniform(*_X0_RANGE)))
@@ -423,7 +428,7 @@ def _campaign(rng):
             params = _params(load, float(rng.uniform(*_X0_RANGE)))
             preparation = f"load{load * 1e3:03.0f}-{repeat}"
             run = _startup(params, _VELOCITY, rng, _meta(load, preparation, _VELOCITY))
-            truth = _truth(params, load, _VELOCITY, preparation)
+            truth = _truth(params, load, _VELOCITY, preparation, state=_SERIES_STATE)
             planned.append(_Planned(load, run, "startup", truth))
 
     params = _params(_FIG_LOAD, float(rng.uniform(*_X0_RANGE)))
@@ -464,7 +469,10 @@ def _manifest_entry(plan, interval):
         entry["velocity"] = _quantity(truth["velocity"], 1e-6, "um/s")
     if "rest_time" in truth:
         entry["rest_time"] = _quantity(truth["rest_time"], 1.0, "s")
-    entry.update(preparation=truth["preparation"], sample=_SAMPLE, notes=plan.notes)
+    entry["preparation"] = truth["preparation"]
+    if truth.get("preparation_state"):
+        entry["preparation_state"] = truth["preparation_state"]
+    entry.update(sample=_SAMPLE, notes=plan.notes)
     if plan.test == "switch":
         entry["switch_time"] = f"{_SWITCH_TIME:g} s"
     return entry

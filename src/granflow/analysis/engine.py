@@ -41,11 +41,14 @@ A run that cannot be analysed (an error, or a fit with ``success=False``) is a f
 file that cannot be read is one too; the rest goes on.
 
 **Joint analyses** (main process, only where the campaign allows): velocity collapse over the
-start-up runs at the load with the most distinct velocities; Amontons' law over loads with
-the runs at the most common velocity (the material constants mu_a, mu_d, alpha; with one load,
-a joint fit at that load divided by the load); the preparation spread over repeats (same
-load, velocity and preparation); the model comparison on the first start-up run of the
-largest (load, velocity) group, which is also the run sampled with ``mcmc=True``.
+start-up runs of one preparation at the load with the most distinct velocities; Amontons' law
+over loads with the runs at the most common velocity (the material constants mu_a, mu_d,
+alpha; with one load, a joint fit at that load divided by the load); the preparation spread
+over repeats of one preparation state (same load and velocity, and the same manifest
+``preparation_state``, else the same ``preparation`` label), with x0 also from a joint fit
+that holds a, alpha and Fd common to the repeats; each start-up fit against the force noise
+of its plateau (a normalised chi-square); the model comparison on the first start-up run of
+the largest (load, velocity) group, which is also the run sampled with ``mcmc=True``.
 
 **Predictions.** The static yield per load, ``F_peak`` from the material constants and the
 mean x0 of the start-ups at that load (pooled over all start-ups for a load without any),
@@ -70,7 +73,7 @@ import contextlib
 import datetime
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -188,6 +191,7 @@ def analyze(
     progress: Callable[[int, int, str], object] | None = None,
     geometry: Any = None,
     strict: bool = False,
+    figure_formats: Sequence[str] = ("png",),
 ) -> AnalysisResult:
     """Analyse a whole campaign and write results, tables, figures and a report.
 
@@ -232,6 +236,9 @@ def analyze(
     strict : bool
         Make every data-quality problem an error: a run with problems (``runs[*].problems``)
         is a failed run, named, and the rest is analysed.
+    figure_formats : sequence of {"png", "svg", "pdf"}
+        The files of each figure in ``figures/``, each figure drawn once (default PNG, which
+        the report embeds; the report links an SVG where there is one).
 
     Returns
     -------
@@ -258,6 +265,9 @@ def analyze(
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
         raise InvalidParameterError(f"seed must be an integer, got {seed!r}")
     seed = int(seed)
+    from granflow.plotting.files import check_formats
+
+    figure_formats = check_formats(figure_formats, "figure_formats")  # an error now, not later
     if mcmc:
         _require_emcee()  # a missing extra is an error now, not after the fits
     output = Path(output)
@@ -296,7 +306,7 @@ def analyze(
     notes = list(result.warnings)
     tables = write_tables(output, result.to_dict(), notes)
     reporter.line("figures")
-    figures = make_figures(output, result, joint, notes)
+    figures = make_figures(output, result, joint, notes, figure_formats)
     result = replace(
         result, warnings=tuple(notes), figures=tuple(figures), tables=FrozenMap(tables)
     )

@@ -31,10 +31,14 @@ __all__ = [
     "Notes",
     "Startup",
     "attempt",
+    "figure_preparations",
+    "goodness_of_fit",
     "material_constants",
     "mcmc_analysis",
     "model_comparison",
     "most_common",
+    "plateau_noise",
+    "preparation_of",
     "preparation_spreads",
     "representative",
     "rounded",
@@ -156,18 +160,31 @@ def representative(startups):
     return next(s for s in startups if (s.load, s.velocity) == largest)
 
 
+def preparation_of(startup):
+    """The preparation state a start-up is a repeat of, or None.
+
+    The rule: the run's ``preparation_state`` (the manifest field naming the protocol it was
+    prepared by) when given, else its ``preparation`` label; runs at one load and velocity
+    with the same one are repeats of one preparation state.
+    """
+    meta = startup.run.meta
+    state = meta.get("preparation_state")
+    return str(state) if state not in (None, "") else meta.get("preparation")
+
+
 # --------------------------------------------------------------------------- analyses
 
 
 def velocity_collapse(startups):
-    """The velocity collapse at the load with the most distinct velocities (at least two)."""
+    """The velocity collapse of one preparation: the runs at one load and of one preparation
+    (:func:`preparation_of`) with the most distinct velocities (at least two)."""
     from granflow.fitting.joint import velocity_collapse as collapse
 
     groups = {}
     for startup in startups:
-        groups.setdefault(startup.load, []).append(startup)
+        groups.setdefault((startup.load, preparation_of(startup)), []).append(startup)
     best = None
-    for load, members in groups.items():
+    for (load, _), members in groups.items():
         distinct = len({m.velocity for m in members})
         if distinct >= 2 and (best is None or (distinct, len(members)) > best[0]):
             best = ((distinct, len(members)), load, members)
@@ -307,13 +324,46 @@ def material_constants(startups):
     return basis, analysis, "joint_fit", notes
 
 
+def _held(members):
+    """x0 of each repeat with a, α and F_d held common: a joint fit of the repeats with
+    ``a``, ``alpha``, ``Fd`` shared and ``x0`` per run, as a JSON-safe mapping (or None)."""
+    from granflow.fitting.tied import fit_joint
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            joint = fit_joint([m.pair for m in members], shared=("a", "alpha", "Fd"))
+    except GranflowError:
+        return None
+    starts = np.array([joint.params[f"x0_{i}"] for i in range(len(members))])
+    errors = [joint.stderr.get(f"x0_{i}") for i in range(len(members))]
+    mean = float(np.mean(starts))
+    std = float(np.std(starts, ddof=1)) if starts.size > 1 else math.nan
+    return {
+        **{n: [joint.params[n], joint.stderr.get(n)] for n in ("a", "alpha", "Fd")},
+        "x0": [float(v) for v in starts],
+        "x0_stderr": [None if e is None else float(e) for e in errors],
+        "x0_spread": {
+            "mean": mean,
+            "std": std,
+            "relative": std / mean if mean else math.nan,
+            "min": float(starts.min()),
+            "max": float(starts.max()),
+        },
+        "redchi": joint.redchi,
+        "success": bool(joint.success),
+    }
+
+
 def preparation_spreads(startups):
-    """The spread over repeats of each (load, velocity, preparation) with two or more."""
+    """The spread over the repeats of each preparation state (two or more runs at one load
+    and velocity with the same :func:`preparation_of`), with x0 also from a joint fit that
+    holds a, α and F_d common to the repeats (``held``)."""
     from granflow.fitting.joint import preparation_spread
 
     groups = {}
     for startup in startups:
-        key = (startup.load, startup.velocity, startup.run.meta.get("preparation"))
+        key = (startup.load, startup.velocity, preparation_of(startup))
         groups.setdefault(key, []).append(startup)
     rows, notes = [], Notes()
     for (load, velocity, preparation), members in groups.items():
@@ -329,9 +379,97 @@ def preparation_spreads(startups):
                 "velocity": velocity,
                 "preparation": preparation,
                 "runs": [s.name for s in members],
+                "held": _held(members),
             }
             rows.append(JointAnalysis(FrozenMap(conditions), spread))
     return tuple(rows), notes
+
+
+def figure_preparations(startups, spreads, count=3):
+    """The start-ups Fig. 2a shows: ``count`` repeats of one preparation state, those with the
+    most different x0 (the smallest, the largest and the ones nearest evenly between).
+
+    The repeats are those of the first preparation spread (manifest order) when there is one,
+    else the runs at the load and velocity of :func:`representative`.
+    """
+    by_name = {s.name: s for s in startups}
+    members = []
+    for spread in spreads:
+        members = [by_name[n] for n in spread.conditions.get("runs", ()) if n in by_name]
+        if len(members) >= 2:
+            break
+    if len(members) < 2:
+        chosen = representative(startups)
+        if chosen is None:
+            return ()
+        members = [s for s in startups if (s.load, s.velocity) == (chosen.load, chosen.velocity)]
+    if len(members) <= count:
+        return tuple(members)
+    ranked = sorted(members, key=lambda s: s.fit.params.get("x0", s.fit.params.get("t0", 0.0)))
+    picks = sorted({round(i * (len(ranked) - 1) / (count - 1)) for i in range(count)})
+    return tuple(ranked[i] for i in picks)
+
+
+#: The plateau is the last part of a start-up's fit window (in slip) [fraction].
+PLATEAU_FRACTION = 0.5
+#: A normalised χ² above this marks a fit that does not reach the noise (the noise estimate
+#: of a 200-point plateau is itself uncertain by about 6 %).
+CHI2_LIMIT = 2.0
+
+
+def plateau_noise(force):
+    """The force noise [N] of a start-up from its plateau: the last
+    :data:`PLATEAU_FRACTION` of the points, by successive differences
+    (σ² = Σ(ΔF)² / 2(n − 1)), which the slow decay towards F_d hardly touches.
+
+    Returns nan with fewer than 10 plateau points.
+    """
+    force = np.asarray(force, dtype=float)
+    force = force[np.isfinite(force)]
+    tail = force[int(len(force) * (1.0 - PLATEAU_FRACTION)) :]
+    if tail.size < 10:
+        return math.nan
+    return float(np.sqrt(np.sum(np.diff(tail) ** 2) / (2.0 * (tail.size - 1))))
+
+
+def goodness_of_fit(startups):
+    """Each start-up fit against the noise of its own plateau.
+
+    The normalised χ² is the fit's χ² over σ² (the plateau noise, :func:`plateau_noise`)
+    per degree of freedom: about 1 when the model leaves only noise, above
+    :data:`CHI2_LIMIT` when it misses the curve. A fit with a known sigma keeps its own χ²ᵣ.
+
+    Returns
+    -------
+    FrozenMap or None
+        ``runs`` (name -> ``noise`` [N], ``chi2`` [-]), ``median``, ``min``, ``max``,
+        ``limit``, ``poor`` (names above the limit), ``method``; None without start-ups.
+    """
+    rows = {}
+    for startup in startups:
+        fit = startup.fit
+        dof = fit.ndata - fit.nfree
+        if fit.sigma_known:
+            noise, chi2 = math.nan, float(fit.redchi)
+        else:
+            noise = plateau_noise(startup.data.force)
+            chi2 = fit.chisqr / (noise**2 * dof) if noise > 0 and dof > 0 else math.nan
+        rows[startup.name] = {"noise": noise, "chi2": chi2}
+    values = [row["chi2"] for row in rows.values() if math.isfinite(row["chi2"])]
+    if not values:
+        return None
+    return FrozenMap(
+        {
+            "runs": rows,
+            "median": float(np.median(values)),
+            "min": float(min(values)),
+            "max": float(max(values)),
+            "limit": CHI2_LIMIT,
+            "poor": [name for name, row in rows.items() if row["chi2"] > CHI2_LIMIT],
+            "method": f"noise from the plateau (last {PLATEAU_FRACTION:.0%} of each fit window, "
+            "successive differences); χ² per degree of freedom over that noise",
+        }
+    )
 
 
 def model_comparison(chosen):

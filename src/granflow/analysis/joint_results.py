@@ -189,7 +189,7 @@ class Material(Value, Mapping):
 
 
 #: Keys of a joint analysis' entry that say where it applies (the rest is the fit result).
-_CONDITIONS = ("normal_load", "velocity", "preparation", "run", "runs")
+_CONDITIONS = ("normal_load", "velocity", "preparation", "run", "runs", "held")
 
 
 @dataclass(frozen=True, eq=False)
@@ -199,8 +199,11 @@ class JointAnalysis(Value):
     Attributes
     ----------
     conditions : mapping
-        ``normal_load`` [N], ``velocity`` [m/s], ``preparation``, and ``runs`` (names) or
-        ``run`` (one name), as far as they apply.
+        ``normal_load`` [N], ``velocity`` [m/s], ``preparation`` (the preparation state),
+        and ``runs`` (names) or ``run`` (one name), as far as they apply; a preparation
+        spread adds ``held``: the joint fit of its repeats with a, α and F_d held common
+        (``a``, ``alpha``, ``Fd`` as [value, stderr]; ``x0`` and ``x0_stderr`` per repeat [m];
+        ``x0_spread``: mean, std, relative, min, max; ``redchi``, ``success``).
     result : object
         The fitting result (:class:`granflow.CollapseResult`, :class:`granflow.AmontonsResult`,
         :class:`granflow.JointFitResult`, :class:`granflow.PreparationSpread`,
@@ -251,6 +254,7 @@ _ORDER = (
     "creep",
     "switch",
     "stability_map",
+    "goodness_of_fit",
 )
 
 
@@ -267,6 +271,9 @@ class Analyses(Value):
     stress_ramp : tuple of RampComparison
     creep : tuple of CreepComparison
     switch : tuple of SwitchComparison
+    goodness_of_fit : mapping or None
+        Each start-up fit against the noise of its plateau
+        (:func:`granflow.analysis.joint.goodness_of_fit`).
     errors : mapping of str to str
         Analyses that failed, and why.
     """
@@ -280,6 +287,7 @@ class Analyses(Value):
     stress_ramp: tuple = ()
     creep: tuple = ()
     switch: tuple = ()
+    goodness_of_fit: FrozenMap | None = None
     errors: FrozenMap = field(default_factory=FrozenMap)
 
     def to_dict(self):
@@ -290,6 +298,8 @@ class Analyses(Value):
             value = getattr(self, name, None)
             if isinstance(value, tuple) and value:
                 out[name] = [row.to_dict() for row in value]
+            elif isinstance(value, Mapping):
+                out[name] = json_safe(dict(value))
             elif value is not None and not isinstance(value, tuple):
                 out[name] = value.to_dict()
             elif name in self.errors:
@@ -303,6 +313,8 @@ class Analyses(Value):
         for name, entry in saved.items():
             if isinstance(entry, Mapping) and set(entry) == {"error"}:
                 errors[name] = entry["error"]
+            elif name == "goodness_of_fit":
+                values[name] = frozen_json(entry)
             elif name == "preparation_spread":
                 values[name] = tuple(
                     JointAnalysis.from_dict(row, PreparationSpread) for row in entry

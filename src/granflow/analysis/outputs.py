@@ -4,13 +4,18 @@ Tables are built from ``results.json``'s content (the ``to_dict()`` of the campa
 :class:`~granflow.analysis.result.AnalysisResult`); figures from the result's objects.
 """
 
-import warnings
-
 from granflow._files import write_atomic
 from granflow.analysis.files import FIGURES_DIR, TABLES_DIR
-from granflow.model.units import display_unit, si_unit, to_display
+from granflow.model.units import si_unit
 
-__all__ = ["FORECAST_FIGURE", "make_figures", "write_report", "write_tables"]
+__all__ = [
+    "FORECAST_FIGURE",
+    "draw_forecast",
+    "figure_jobs",
+    "make_figures",
+    "write_report",
+    "write_tables",
+]
 
 #: Name of the running forecast's figure (the report shows it in its forecast section).
 FORECAST_FIGURE = "forecast"
@@ -101,6 +106,7 @@ def _predictions_table(predictions):
     rows = []
     for row in predictions.get("static_yield", []):
         flat = {k: v for k, v in row.items() if k not in ("ci95", "x0_estimate")}
+        flat["F_peak_stderr"] = flat.pop("stderr", None)
         flat["ci95_low"], flat["ci95_high"] = row["ci95"]
         flat["x0_stderr"] = row["x0_estimate"]["stderr"]
         flat["x0_from"] = row["x0_estimate"]["from"]
@@ -108,8 +114,49 @@ def _predictions_table(predictions):
     return rows
 
 
+#: Names of table columns that are not quantities themselves, and the quantity each is.
+_COLUMN_QUANTITY = {"peak_force": "force", "switch_point": "time", "F_peak_spread": "force"}
+#: Suffixes of a column named after a quantity (its error, its interval, a mean).
+_SUFFIXES = ("_stderr", "_ci95_low", "_ci95_high", "_mean")
+_ASCII_UNITS = str.maketrans({"µ": "u", "/": "_per_", " ": "_"})
+
+
+def column_unit(column):
+    """(display scale, column name with its display unit) of a table column:
+    ``normal_load`` -> (1000.0, "normal_load_mN"); (1.0, column) without a unit."""
+    from granflow.analysis.formatting import display_unit
+
+    base = column
+    for suffix in _SUFFIXES:
+        if column.endswith(suffix):
+            base = column[: -len(suffix)]
+            break
+    scale, unit = display_unit(_COLUMN_QUANTITY.get(base, base))
+    if not unit:
+        return 1.0, column
+    return scale, f"{column}_{unit.replace('1/', 'per_').translate(_ASCII_UNITS)}"
+
+
+def with_units(rows):
+    """Rows in display units, each column named with its unit (``x0_um``, ``alpha_per_m``,
+    ``velocity_um_per_s``); text and unitless columns as they are."""
+    converted = []
+    for row in rows:
+        out = {}
+        for key, value in row.items():
+            scale, name = column_unit(key)
+            number = isinstance(value, int | float) and not isinstance(value, bool)
+            out[name] = value * scale if number and value is not None else value
+        converted.append(out)
+    return converted
+
+
 def write_tables(output, results, warnings_list):
-    """CSV and Parquet of runs, loads, material and predictions; returns results["tables"]."""
+    """CSV and Parquet of runs, loads, material and predictions; returns results["tables"].
+
+    Quantities are in display units with the unit in the column name (``normal_load_mN``,
+    ``x0_um``, ``alpha_per_m``); the material table keeps SI values with a ``unit`` column.
+    """
     import pandas as pd
 
     folder = output / TABLES_DIR
@@ -144,7 +191,7 @@ def write_tables(output, results, warnings_list):
         )
     written = {}
     for name, rows in tables.items():
-        frame = pd.DataFrame(rows)
+        frame = pd.DataFrame(rows if name == "material" else with_units(rows))
         paths = {"csv": f"{TABLES_DIR}/{name}.csv"}
         write_atomic(
             output / paths["csv"],
@@ -165,170 +212,52 @@ def write_tables(output, results, warnings_list):
 # --------------------------------------------------------------------------- figures and report
 
 
-def _startup_figure(joint):
-    """Fig. 2a: the start-ups of the representative load and velocity (at most six)."""
-    from granflow.plotting import plot_startup
-
-    chosen = joint.representative
-    group = [s for s in joint.startups if (s.load, s.velocity) == (chosen.load, chosen.velocity)]
-    group = group[:6]
-    axes = plot_startup([s.run for s in group], [s.fit for s in group])
-    caption = (
-        f"Friction force during start-up at {_display_load(chosen.load)} and "
-        f"{to_display('velocity', chosen.velocity):.4g} µm/s: data (points), fits of Eq. 3 "
-        "(lines) and residuals (Fig. 2a)."
-    )
-    return axes, caption
-
-
-def _ok_entries(result, kind):
-    return [entry for entry in result.runs if entry.test == kind and entry.ok]
-
-
-def _figure_specs(result, joint):
-    """(name, title, draw) for each figure the campaign allows; draw() -> (figure, caption)."""
-    from granflow import plotting
-
-    analyses = result.analyses
-    specs = []
-    if joint.startups:
-        specs.append(("startup", "Start-up curves and fits", lambda: _startup_figure(joint)))
-    if analyses.velocity_collapse is not None:
-        specs.append(
-            (
-                "collapse",
-                "Velocity collapse",
-                lambda: (
-                    plotting.plot_collapse(analyses.velocity_collapse.result),
-                    "Start-ups at several velocities against slip, with the shared fit of "
-                    "Eq. 3; inset: the short slips (Fig. 2b).",
-                ),
-            )
-        )
-    if analyses.amontons is not None:
-        specs.append(
-            (
-                "amontons",
-                "Amontons' law",
-                lambda: (
-                    plotting.plot_amontons(analyses.amontons.result),
-                    "a, αv and F_d against the normal load: means over the repeats with "
-                    "standard errors, F_d with its line through the origin (Fig. 2c).",
-                ),
-            )
-        )
-    ramps = _ok_entries(result, "ramp")
-    if ramps:
-        params = {row.run: row.params for row in analyses.stress_ramp}
-        specs.append(
-            (
-                "stress_ramp",
-                "Stress ramp",
-                lambda: (
-                    plotting.plot_stress_ramp(ramps[0].run, params.get(ramps[0].name)),
-                    f"{ramps[0].name}: slip and imposed force against time under a stress "
-                    "ramp, with the predicted static yield F_peak at its load (Fig. 3a).",
-                ),
-            )
-        )
-    specs += _forecast_specs(result.forecasts)
-    creeps = _ok_entries(result, "creep")
-    if creeps:
-        specs.append(
-            (
-                "creep",
-                "Creep",
-                lambda: (
-                    plotting.plot_creep([e.run for e in creeps], [e.result.fit for e in creeps]),
-                    "Slip against time under constant forces, with fits of "
-                    "δ = B ln(1 + t/τ_c) (Fig. 3b).",
-                ),
-            )
-        )
-    switches = _ok_entries(result, "switch")
-    if switches:
-        entry = switches[0]
-        params = {row.run: row.params for row in analyses.switch}
-        specs.append(
-            (
-                "switch",
-                "Switch from rate to stress control",
-                lambda: (
-                    plotting.plot_switch(
-                        entry.run,
-                        params.get(entry.name),
-                        switch_time=entry.result.switch.switch_time,
-                    ),
-                    f"{entry.name}: slip and force against time, the switch marked, with the "
-                    "rate-controlled curve of the fitted parameters (Fig. 3c).",
-                ),
-            )
-        )
-    if result.predictions.stability_map is not None:
-        specs.append(
-            (
-                "stability_map",
-                "Stability map",
-                lambda: (
-                    plotting.plot_stability_map(result.predictions.stability_map.map),
-                    "Predicted outcome of a switch to force control, over the switch time and "
-                    "the ratio of imposed to current force (quasi-static, slip clock): failure "
-                    "(grey) or the slip to the stop.",
-                ),
-            )
-        )
-    if analyses.mcmc is not None:
-        specs.append(
-            (
-                "corner",
-                "Posterior (MCMC)",
-                lambda: (
-                    plotting.plot_corner(analyses.mcmc.result),
-                    f"Posterior of the Eq. 3 fit of {joint.representative.name} "
-                    "(emcee), the least-squares values marked.",
-                ),
-            )
-        )
-    return specs
-
-
-def _forecast_specs(forecasts):
-    """The running forecast of each run with a dated forecast, named "forecast_<k>" after its
-    place k (from 1) in ``results["forecasts"]``."""
+def draw_forecast(forecast):
+    """The running forecast of one run (a :class:`~granflow.analysis.forecasts.RunForecast`)."""
     from granflow.plotting import plot_forecast
 
-    specs = []
+    return plot_forecast(forecast.running())
+
+
+def _forecast_jobs(forecasts):
+    """The running forecast of each run with a dated forecast, named "forecast_<k>" after its
+    place k (from 1) in ``results["forecasts"]``."""
+    from granflow.analysis.figures import FigureJob
+
+    jobs = []
     for number, forecast in enumerate(forecasts, start=1):
         if not forecast.dated:
             continue
-        name = f"{FORECAST_FIGURE}_{number}"
         observed = "" if forecast.observed is None else " and the observed failure (dashed)"
         caption = (
             f"{forecast.run}: the failure time forecast from the slip before each cut time, "
             f"with its {forecast.level:.0%} band{observed}; prior: {forecast.prior_from}."
         )
-        specs.append(
-            (
-                name,
+        jobs.append(
+            FigureJob(
+                f"{FORECAST_FIGURE}_{number}",
                 "Forecasting the failure",
-                lambda forecast=forecast, caption=caption: (
-                    plot_forecast(forecast.running()),
-                    caption,
-                ),
+                caption,
+                draw_forecast,
+                {"forecast": forecast},
             )
         )
-    return specs
+    return jobs
 
 
-def _display_load(load):
-    if load is None:
-        return "an unknown load"
-    return f"F_N = {to_display('normal_load', load):.4g} {display_unit('normal_load')}"
+def figure_jobs(result, joint):
+    """Every figure of the campaign as an independent job (see
+    :mod:`granflow.analysis.figures`), the forecasts' after Fig. 3a."""
+    from granflow.analysis import figures
+
+    jobs = figures.figure_jobs(result, joint)
+    at = next((i + 1 for i, job in enumerate(jobs) if job.name == "stress_ramp"), len(jobs))
+    return jobs[:at] + _forecast_jobs(result.forecasts) + jobs[at:]
 
 
-def make_figures(output, result, joint, warnings_list):
-    """Draw every figure the campaign allows into OUTPUT/figures (PNG and SVG, each written
-    atomically); returns the entries of results["figures"].
+def make_figures(output, result, joint, warnings_list, formats=("png",)):
+    """Draw every figure the campaign allows into OUTPUT/figures, each once, in ``formats``
+    (each file written atomically); returns the entries of results["figures"].
 
     Parameters
     ----------
@@ -339,29 +268,22 @@ def make_figures(output, result, joint, warnings_list):
         What the joint stage found (the start-ups and the representative one).
     warnings_list : list of str
         Figures that could not be drawn are added to it.
+    formats : sequence of {"png", "svg", "pdf"}
+        The files of each figure (the report embeds the PNG and links the SVG).
     """
-    import matplotlib.pyplot as plt
+    from granflow.analysis.figures import render_figure
+    from granflow.plotting.files import check_formats
 
-    from granflow.plotting import save_figure
-
+    formats = check_formats(formats, "figure_formats")
     folder = output / FIGURES_DIR
     figures = []
-    for name, title, draw in _figure_specs(result, joint):
-        before = set(plt.get_fignums())
+    for job in figure_jobs(result, joint):
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                drawn, caption = draw()
-                paths = save_figure(drawn, folder, name)
+            figures.append(render_figure(job, folder, formats))
         except Exception as exc:  # a figure that fails must not cost the results
-            warnings_list.append(f"figure {name!r} could not be drawn: {type(exc).__name__}: {exc}")
-            continue
-        finally:  # close what this figure opened, never the caller's own figures
-            for number in set(plt.get_fignums()) - before:
-                plt.close(number)
-        entry = {"name": name, "title": title, "caption": caption}
-        entry.update({suffix: f"{FIGURES_DIR}/{path.name}" for suffix, path in paths.items()})
-        figures.append(entry)
+            warnings_list.append(
+                f"figure {job.name!r} could not be drawn: {type(exc).__name__}: {exc}"
+            )
     return figures
 
 

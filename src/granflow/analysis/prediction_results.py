@@ -49,6 +49,8 @@ class RampComparison(Value):
         How the failure was found.
     predicted_force : float or None
         Predicted F_peak [N] (None without a prediction at this load).
+    predicted_time : float or None
+        When the imposed force reaches it [s], the predicted failure (record's clock).
     F_peak_stderr, F_peak_spread : float or None
         Its standard error and the spread over the preparations [N].
     ratio, z : float or None
@@ -66,6 +68,7 @@ class RampComparison(Value):
     observed: FrozenMap | None = None
     criterion: str | None = None
     predicted_force: float | None = None
+    predicted_time: float | None = None
     F_peak_stderr: float | None = None
     F_peak_spread: float | None = None
     ratio: float | None = None
@@ -81,7 +84,14 @@ class RampComparison(Value):
             out.update(observed=dict(self.observed), criterion=self.criterion)
         if self.predicted_force is not None:
             out.update(
-                predicted={"failure_force": self.predicted_force},
+                predicted={
+                    "failure_force": self.predicted_force,
+                    **(
+                        {"failure_time": self.predicted_time}
+                        if self.predicted_time is not None
+                        else {}
+                    ),
+                },
                 F_peak_stderr=self.F_peak_stderr,
                 F_peak_spread=self.F_peak_spread,
             )
@@ -101,6 +111,7 @@ class RampComparison(Value):
             observed=None if observed is None else FrozenMap(observed),
             criterion=saved.get("criterion"),
             predicted_force=(saved.get("predicted") or {}).get("failure_force"),
+            predicted_time=(saved.get("predicted") or {}).get("failure_time"),
             F_peak_stderr=saved.get("F_peak_stderr"),
             F_peak_spread=saved.get("F_peak_spread"),
             ratio=saved.get("ratio"),

@@ -133,6 +133,22 @@ def _ok(entries, kind):
     return [entry for entry in entries if entry.test == kind and entry.ok]
 
 
+def _reaches(run, force):
+    """The first time [s] the imposed force of a ramp reaches ``force`` [N] (linear
+    interpolation between samples, on the record's clock), or None."""
+    t, imposed = np.asarray(run.t, dtype=float), np.asarray(run.force, dtype=float)
+    keep = np.isfinite(t) & np.isfinite(imposed)
+    t, imposed = t[keep], imposed[keep]
+    above = np.flatnonzero(imposed >= force)
+    if above.size == 0:
+        return None
+    i = int(above[0])
+    if i == 0:
+        return float(t[0])
+    f0, f1 = imposed[i - 1], imposed[i]
+    return float(t[i - 1] + (force - f0) / (f1 - f0) * (t[i] - t[i - 1]))
+
+
 def compare_ramps(entries, startups, basis, forecast):
     """Each stress ramp's observed failure force against the predicted static yield."""
     rows = []
@@ -163,6 +179,7 @@ def compare_ramps(entries, startups, basis, forecast):
             continue
         common.update(
             predicted_force=predicted.F_peak,
+            predicted_time=_reaches(entry.run, predicted.F_peak),
             F_peak_stderr=predicted.stderr,
             F_peak_spread=predicted.F_peak_spread,
         )

@@ -1,9 +1,15 @@
 """The HTML report of a campaign analysis: one self-contained file that opens offline.
 
 :func:`render_report` turns the content of ``results.json`` (see :mod:`granflow.analysis`)
-into ``report.html``: campaign summary, material constants, per-run fits, joint analyses,
-predictions, figures (PNG embedded as base64 data URIs), warnings and provenance. The page has
-no external resources (no fonts, style sheets or scripts) and no JavaScript.
+into ``report.html``: a summary of verdicts first (the material constants with intervals;
+the fits against the noise of their plateaus; the velocity collapse; Amontons' law and its
+test; the preparation spread; the static yield per load; the stress-controlled runs against
+their predictions; every data-quality problem; each line linking to its section, see
+:mod:`granflow.analysis.report_summary`), then the campaign, material constants, per-run fits,
+joint analyses, predictions, the failure forecasts, figures (PNG embedded as base64 data
+URIs), warnings and provenance. The page has no external resources (no fonts, style sheets
+or scripts) and no JavaScript; a print style sheet keeps every column (the run table on
+landscape pages) and puts figures two to a page.
 
 Every quantity in ``results`` is in SI units; the report shows display units (mN, µm, µm/s,
 s, 1/m and 1/µm). Sections whose entry is missing or None are left out; an analysis given as
@@ -13,11 +19,15 @@ Accepted shapes beyond the plain ``to_dict()`` of granflow's results:
 
 * ``analyses["preparation_spread"]`` and ``analyses["model_comparison"]``: one result, a list
   of results (each with an optional ``"name"``, ``"run"`` or ``"preparation"``), or a mapping
-  from a label to a result;
+  from a label to a result; a spread's ``"held"`` (the joint fit with a, α and F_d common to
+  the repeats) is shown where given;
+* ``analyses["goodness_of_fit"]``: ``"runs"`` (name -> ``noise`` [N], ``chi2``) for the run
+  table's σ and χ²ₙ columns and the summary;
 * ``analyses["stress_ramp"]`` and ``analyses["switch"]``: a mapping or a list of mappings with
   an optional ``"run"`` (or ``"name"``) and ``"observed"`` / ``"predicted"`` mappings of
-  quantities, shown side by side with their relative difference; other scalar entries are
-  listed under the table;
+  quantities, shown side by side with the signed difference observed − predicted (in display
+  units and relative to the prediction); other scalar entries are listed under the table by
+  a physicist's name (:data:`granflow.analysis.report_summary.LABELS`);
 * ``analyses["creep"]``: a list of mappings with ``"name"`` (or ``"run"``), an optional
   imposed ``"force"`` (or ``"stress"``, ``"imposed_force"``) [N] and a ``"fit"`` (the
   ``to_dict()`` of :class:`granflow.CurveFitResult`); runs whose own fit is a creep fit are
@@ -51,6 +61,7 @@ from granflow.analysis.formatting import (
     quantity_text,
     real_number,
 )
+from granflow.analysis.report_summary import experiment_view, label_of, summary_view
 from granflow.analysis.report_views import (
     amontons_view,
     as_list,
@@ -80,50 +91,9 @@ __all__ = [
 ]
 
 TEMPLATE = "report.html.j2"
+#: The symbols of the model's parameters in the report's text.
+_SYMBOLS = {"alpha": "α", "Fd": "F_d", "x0": "x₀", "t0": "t₀", "k": "αv"}
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def _comparison_rows(observed, predicted):
-    """Observed against predicted, one row per quantity, with the relative difference."""
-    rows = []
-    for key in list(dict.fromkeys([*observed, *predicted])):
-        seen, model = observed.get(key), predicted.get(key)
-        difference = None
-        if (
-            real_number(seen) is not None
-            and real_number(model) is not None
-            and real_number(seen) != 0
-        ):
-            difference = (real_number(model) - real_number(seen)) / abs(real_number(seen))
-        rows.append(
-            {
-                "quantity": header_label(key),
-                "observed": quantity_text(key, seen, unit=False),
-                "predicted": quantity_text(key, model, unit=False),
-                "difference": format_percent(difference) if difference is not None else DASH,
-            }
-        )
-    return rows
-
-
-def _experiment_view(experiment):
-    """Stress ramp or switch: observed against predicted, per run."""
-    if experiment is None:
-        return None
-    if reason_of(experiment) is not None:
-        return {"reason": reason_of(experiment), "entries": []}
-    entries = []
-    for label, entry in labelled(experiment, keys=("run", "name")):
-        observed, predicted = as_mapping(entry.get("observed")), as_mapping(entry.get("predicted"))
-        entries.append(
-            {
-                "label": label,
-                "reason": reason_of(entry),
-                "rows": _comparison_rows(observed, predicted),
-                "details": scalars(entry, skip=("run", "name", "reason", "error")),
-            }
-        )
-    return {"reason": None, "entries": entries}
 
 
 def _stability_view(stability):
@@ -134,7 +104,7 @@ def _stability_view(stability):
     maps = []
     for label, entry in labelled(stability, keys=("name", "label")):
         if real_number(entry.get("normal_load")) is not None:
-            label = f"F_N = {quantity_text('normal_load', entry['normal_load'])}"
+            label = f"at F_N = {quantity_text('normal_load', entry['normal_load'])}"
         counts = dict(as_mapping(entry.get("counts")))
         if not counts:
             for row in as_list(entry.get("outcome")):
@@ -153,7 +123,9 @@ def _stability_view(stability):
                 "details": scalars(
                     {k: entry.get(k) for k in ("velocity", "method", "clock") if k in entry}
                 ),
-                "params": [(str(k), quantity_text(k, v)) for k, v in params.items()],
+                "params": [
+                    (_SYMBOLS.get(str(k), str(k)), quantity_text(k, v)) for k, v in params.items()
+                ],
             }
         )
     return {"reason": None, "maps": maps}
@@ -165,7 +137,7 @@ def _static_yield_view(rows):
     if reason_of(rows) is not None:
         return {"reason": reason_of(rows), "rows": [], "extra": [], "has_ci95": False}
     rows = [as_mapping(row) for row in as_list(rows)]
-    known = {"normal_load", "F_peak", "stderr", "ci95"}
+    known = {"normal_load", "F_peak", "stderr", "ci95", "velocity"}
     extra = list(
         dict.fromkeys(
             key
@@ -177,7 +149,7 @@ def _static_yield_view(rows):
     return {
         "reason": None,
         "has_ci95": any(isinstance(row.get("ci95"), list | tuple) for row in rows),
-        "extra": [header_label(key) for key in extra],
+        "extra": [label_of(key) for key in extra],
         "rows": [
             {
                 "normal_load": real_number(row.get("normal_load")),
@@ -346,6 +318,7 @@ def _context(results, output_dir, report_dir):
         "creep",
         "stress_ramp",
         "switch",
+        "goodness_of_fit",
     }
     other = [
         (str(k), reason_of(v) or "", scalars(v))
@@ -355,12 +328,12 @@ def _context(results, output_dir, report_dir):
     prediction = {
         "static_yield": _static_yield_view(predictions.get("static_yield")),
         "stability": _stability_view(predictions.get("stability_map")),
-        "ramp": _experiment_view(analyses.get("stress_ramp")),
-        "switch": _experiment_view(analyses.get("switch")),
+        "ramp": experiment_view(analyses.get("stress_ramp")),
+        "switch": experiment_view(analyses.get("switch")),
     }
     figures = _figures_view(results, output_dir, report_dir, problems)
     forecasts, figures = forecast_view(as_list(results.get("forecasts")), figures)
-    return {
+    context = {
         "synthetic": bool(results.get("synthetic")),
         "title": str(campaign.get("name") or campaign.get("title") or "campaign"),
         "date": str(timing.get("finished") or timing.get("started") or ""),
@@ -381,6 +354,8 @@ def _context(results, output_dir, report_dir):
         "warnings": _warnings_view(results, runs, analyses, problems),
         "provenance": _provenance_view(results),
     }
+    context["summary"], context["quality_summary"] = summary_view(results, context)
+    return context
 
 
 # --------------------------------------------------------------------------- rendering

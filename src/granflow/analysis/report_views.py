@@ -127,8 +127,12 @@ def _imposed_force(entry):
 
 
 def runs_view(results):
-    """The run table's rows (an Eq. 3 fit in slip terms per run) and the creep fits."""
+    """The run table's rows (an Eq. 3 fit in slip terms per run, with its plateau noise and
+    normalised χ² where the analysis has them) and the creep fits."""
     runs, creep, names = [], [], set()
+    goodness = as_mapping(
+        as_mapping(as_mapping(results.get("analyses")).get("goodness_of_fit")).get("runs")
+    )
     for index, run in enumerate(as_list(results.get("runs"))):
         run = as_mapping(run)
         name = str(run.get("name") or run.get("source") or f"run {index + 1}")
@@ -154,6 +158,9 @@ def runs_view(results):
             names.add(name)
         elif fit and not failed:
             row["fit"] = _fit_view(fit, velocity)
+            judged = as_mapping(goodness.get(name))
+            row["fit"]["noise"] = real_number(judged.get("noise"))
+            row["fit"]["chi2"] = real_number(judged.get("chi2"))
         runs.append(row)
     analysis = as_mapping(results.get("analyses")).get("creep")
     for index, entry in enumerate(as_list(analysis)):
@@ -328,7 +335,14 @@ def amontons_view(amontons):
         ],
         "joint": {n: _estimate(jp, je, n) for n in ("mu_a", "mu_d", "alpha")},
         "status": _joint_status(joint),
+        "test": _amontons_test(amontons.get("per_load")),
     }
+
+
+def _amontons_test(per_load):
+    from granflow.analysis.report_summary import amontons_test
+
+    return amontons_test(per_load)
 
 
 def labelled(value, keys=("name", "run", "preparation", "label")):
@@ -355,6 +369,7 @@ def spread_view(spread):
         return {"reason": reason_of(spread), "groups": []}
     groups = []
     for label, entry in labelled(spread):
+        label = label if label is None else str(entry.get("preparation") or label)
         domain = entry.get("domain", "slip")
         start_name = "x0" if domain == "slip" else "t0"
         scale, unit = display_unit(start_name)
@@ -373,9 +388,31 @@ def spread_view(spread):
                 "peak_range": (min(peaks), max(peaks)) if peaks else None,
                 "correlation": real_number(entry.get("correlation")),
                 "p_value": entry.get("p_value"),
+                "normal_load": real_number(entry.get("normal_load")),
+                "velocity": real_number(entry.get("velocity")),
+                "held": _held_view(entry.get("held")),
             }
         )
     return {"reason": None, "groups": groups}
+
+
+def _held_view(held):
+    """The joint fit of a group's repeats with a, α and F_d held common, or None."""
+    if not isinstance(held, Mapping):
+        return None
+
+    def pair(key):
+        value = as_list(held.get(key))
+        return (real_number(value[0]), real_number(value[1])) if len(value) == 2 else (None, None)
+
+    return {
+        "a": pair("a"),
+        "alpha": pair("alpha"),
+        "Fd": pair("Fd"),
+        "x0": [real_number(v) for v in as_list(held.get("x0"))],
+        "x0_spread": as_mapping(held.get("x0_spread")),
+        "success": held.get("success") is not False,
+    }
 
 
 def comparison_view(comparison):
@@ -386,6 +423,7 @@ def comparison_view(comparison):
         return {"reason": reason_of(comparison), "groups": []}
     groups = []
     for label, entry in labelled(comparison):
+        label = label or (f"run {entry['run']}" if entry.get("run") else None)
         rows = [as_mapping(row) for row in as_list(entry.get("rows"))]
         groups.append(
             {
@@ -459,6 +497,7 @@ def _forecast_entry(saved, figure):
         "reason": forecast.reason,
         "level": f"{forecast.level:.0%}",
         "observed": format_number(forecast.observed),
+        "converged": forecast.converged,
         "rows": rows,
         "details": details,
         "figure": figure,

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from granflow.analysis.forecasts import retrospective_forecasts
 from granflow.analysis.joint import (
     Startup,
+    goodness_of_fit,
     material_constants,
     mcmc_analysis,
     model_comparison,
@@ -91,6 +92,7 @@ def joint_stage(entries, executor, *, mcmc, seed):
         model_comparison=comparison,
         mcmc=posterior,
         **comparisons,
+        goodness_of_fit=goodness_of_fit(startups),
         errors=FrozenMap(dict(notes.errors)),
     )
     return JointStage(

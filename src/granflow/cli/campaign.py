@@ -15,8 +15,9 @@ _EPILOG_ANALYZE = """examples:
   granflow analyze campaign/ --scheduler tcp://10.0.0.5:8786   (Dask: pip install granflow[dask])
   granflow analyze campaign/ --mcmc --seed 1        (emcee: pip install granflow[mcmc])
   granflow analyze campaign/ --geometry "effective_radius=9mm,mean_radius=8.5mm" --strict
-The manifest lists the export files with normal_load, velocity, preparation, test, ...
-Writes report.html, results.json, tables/ (CSV and Parquet), figures/ (PNG and SVG) and runs/
+The manifest lists the export files with normal_load, velocity, preparation,
+preparation_state, test, ... Writes report.html, results.json, tables/ (CSV and Parquet,
+display units in the column names), figures/ (PNG; --figure-formats png,svg,pdf) and runs/
 (one result per run, written as it finishes). Data-quality problems (a truncated export, NaN
 cells, points a fit left out, a bad manifest entry) are listed per run in results.json and in
 the report's "Data quality" section; --strict makes them errors. Exit code 1 when some runs or
@@ -85,6 +86,13 @@ def _add_execution_options(parser):
     )
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--quiet", action="store_true", help="no progress output")
+    parser.add_argument(
+        "--figure-formats",
+        default="png",
+        metavar="LIST",
+        help="the files of each figure, from png, svg and pdf, e.g. png,svg,pdf (default png; "
+        "each figure is drawn once)",
+    )
 
 
 def add_demo(subparsers):
@@ -125,6 +133,12 @@ def _sigterm_interrupts():
         signal.signal(signal.SIGTERM, previous)
 
 
+def _figure_formats(args):
+    """The --figure-formats list ("png,svg"), checked by analyze."""
+    text = getattr(args, "figure_formats", None) or "png"
+    return tuple(part.strip() for part in text.split(",") if part.strip())
+
+
 def _analyze_and_report(args, campaign):
     # looked up when called, not imported with the module: tests replace it
     from granflow.analysis import analyze
@@ -142,6 +156,7 @@ def _analyze_and_report(args, campaign):
                 seed=args.seed,
                 geometry=getattr(args, "geometry", None),
                 strict=getattr(args, "strict", False),
+                figure_formats=_figure_formats(args),
             )
     except KeyboardInterrupt:
         print(

@@ -34,10 +34,13 @@ if TYPE_CHECKING:
 __all__ = ["MANIFEST_FIELDS", "MAX_MANIFEST_BYTES", "TEST_KINDS", "BadEntry", "read_manifest"]
 
 #: Manifest fields: file (required), interval (default: all), normal_load ("50 mN"), velocity
-#: ("0.86 um/s"), rest_time ("5 min"), preparation, sample, notes, test (one of
-#: :data:`TEST_KINDS`; inferred from the data when absent), switch_time ("60 s"; for a switch
-#: test: when the force was imposed), geometry (the tube, see
-#: :meth:`granflow.Annulus.from_spec`; default the paper's).
+#: ("0.86 um/s"), rest_time ("5 min"), preparation (the run's own preparation, a label),
+#: preparation_state (the protocol it was prepared by: runs at one load and velocity with the
+#: same preparation_state are repeats of one preparation state, whose spread of x0 the
+#: analysis reports; without it, runs with the same preparation label are the repeats),
+#: sample, notes, test (one of :data:`TEST_KINDS`; inferred from the data when absent),
+#: switch_time ("60 s"; for a switch test: when the force was imposed), geometry (the tube,
+#: see :meth:`granflow.Annulus.from_spec`; default the paper's).
 MANIFEST_FIELDS = (
     "file",
     "interval",
@@ -45,6 +48,7 @@ MANIFEST_FIELDS = (
     "velocity",
     "rest_time",
     "preparation",
+    "preparation_state",
     "sample",
     "notes",
     "test",

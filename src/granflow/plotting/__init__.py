@@ -9,7 +9,13 @@ and stability maps in :mod:`granflow.plotting.simulation`, :func:`save_figure` i
 """
 
 from granflow.plotting.files import save_figure
-from granflow.plotting.fits import plot_amontons, plot_collapse, plot_corner, plot_fit
+from granflow.plotting.fits import (
+    plot_amontons,
+    plot_collapse,
+    plot_corner,
+    plot_fit,
+    plot_fit_grid,
+)
 from granflow.plotting.forecast import plot_forecast
 from granflow.plotting.paper import plot_creep, plot_startup, plot_stress_ramp
 from granflow.plotting.simulation import (
@@ -26,6 +32,7 @@ __all__ = [
     "plot_corner",
     "plot_creep",
     "plot_fit",
+    "plot_fit_grid",
     "plot_forecast",
     "plot_simulation",
     "plot_simulation_force",

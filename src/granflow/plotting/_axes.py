@@ -25,6 +25,13 @@ PEAK_COLOR = "C3"  # static yield: F_peak and the predicted failure (red)
 STEADY_COLOR = "C2"  # steady-state friction F_d (green, dashed)
 SWITCH_COLOR = "C1"  # the switch from rate to force control (orange)
 
+# Symbols as mathtext, the same in every label.
+F_D = r"$F_\mathrm{d}$"
+F_N = r"$F_\mathrm{N}$"
+F_PEAK = r"$F_\mathrm{peak}$"
+MU_A = r"$\mu_\mathrm{a}$"
+MU_D = r"$\mu_\mathrm{d}$"
+
 #: Runs named in a legend before the rest are summarised as "+ n more".
 MAX_LEGEND_RUNS = 8
 
@@ -59,6 +66,30 @@ def run_colors(count):
     import matplotlib
 
     return list(matplotlib.colormaps["viridis"](np.linspace(0.0, 0.9, count)))
+
+
+def velocity_colors(count):
+    """Colours of ``count`` ordered velocities: plasma from dark blue to orange, spread so that
+    neighbouring velocities differ in hue (viridis' neighbours are two blues)."""
+    import matplotlib
+
+    return list(matplotlib.colormaps["plasma"](np.linspace(0.0, 0.85, max(count, 1))))[:count]
+
+
+def panel_letter(ax, letter):
+    """A bold panel letter at the upper left corner of ``ax``, outside the frame (left of the
+    tick labels), so that it never covers data, an inset or a legend."""
+    return ax.annotate(
+        letter,
+        xy=(0.0, 1.0),
+        xycoords="axes fraction",
+        xytext=(-26, 2),
+        textcoords="offset points",
+        ha="right",
+        va="bottom",
+        fontweight="bold",
+        fontsize="large",
+    )
 
 
 def run_label(run, width=28):

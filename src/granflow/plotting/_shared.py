@@ -28,6 +28,7 @@ __all__ = [
     "peak_or_none",
     "quasistatic_slip",
     "rising_branch",
+    "scale_to_creep",
     "small_axes",
     "switch_outcome",
     "twin_axes",
@@ -134,6 +135,32 @@ def handles(*axes):
     for ax in axes:
         handles.extend(ax.get_legend_handles_labels()[0])
     return handles
+
+
+def scale_to_creep(slip_ax, t, slip, end):
+    """Scale the slip axis to the slip before ``end`` [s] (three times its largest value),
+    so that the runaway after the failure does not squash the creep before it; the zero
+    stays where align_zeros put it."""
+    before = slip[t <= end]
+    if before.size < 3 or np.max(before) <= 0:
+        return False
+    top = 3.0 * float(np.max(before)) * SLIP_SCALE
+    low, high = slip_ax.get_ylim()
+    if high <= top:
+        return False
+    slip_ax.set_ylim(low * top / high, top)
+    slip_ax.annotate(
+        "runaway ↑",
+        xy=(1.0, 1.0),
+        xycoords="axes fraction",
+        xytext=(-4, -4),
+        textcoords="offset points",
+        ha="right",
+        va="top",
+        fontsize="small",
+        color=SLIP_COLOR,
+    )
+    return True
 
 
 def align_zeros(slip_ax, force_ax, slip, force, peak):

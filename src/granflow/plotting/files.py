@@ -1,10 +1,11 @@
-"""Figures to files: :func:`save_figure` writes PNG and SVG atomically and reproducibly."""
+"""Figures to files: :func:`save_figure` writes PNG, SVG and PDF atomically and reproducibly."""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -15,7 +16,7 @@ if TYPE_CHECKING:
 
     from granflow._typing import PathLike
 
-__all__ = ["save_figure"]
+__all__ = ["FIGURE_FORMATS", "check_formats", "figure_of", "save_figure"]
 
 #: Resolution of the PNG files written by :func:`save_figure` [dots per inch].
 PNG_DPI = 150
@@ -24,7 +25,8 @@ PNG_DPI = 150
 # --------------------------------------------------------------------------- saving
 
 
-def _figure_of(figure):
+def figure_of(figure: Any) -> Figure:
+    """The Figure of a Figure, an Axes or an array of Axes (InvalidParameterError else)."""
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
@@ -48,8 +50,33 @@ def _atomic_save(figure, path, **options):
     write_atomic(path, lambda temporary: figure.savefig(temporary, **options))
 
 
-def save_figure(figure: Figure, directory: PathLike, stem: str) -> dict[str, Path]:
-    """Save a figure as ``DIRECTORY/STEM.png`` (150 dpi) and ``DIRECTORY/STEM.svg``.
+#: The formats :func:`save_figure` writes.
+FIGURE_FORMATS = ("png", "svg", "pdf")
+
+
+def check_formats(formats: str | Sequence[str], name: str = "formats") -> tuple[str, ...]:
+    """``formats`` as a tuple of known figure formats (lower case, no repeats), or
+    InvalidParameterError naming ``name``."""
+    if isinstance(formats, str):
+        formats = [part for part in formats.split(",") if part.strip()]
+    try:
+        found = tuple(dict.fromkeys(str(f).strip().lower().lstrip(".") for f in formats))
+    except TypeError:
+        raise InvalidParameterError(
+            f"{name} must be a sequence of {', '.join(FIGURE_FORMATS)}, got {formats!r}"
+        ) from None
+    unknown = [f for f in found if f not in FIGURE_FORMATS]
+    if unknown or not found:
+        raise InvalidParameterError(
+            f"{name} must name one or more of {', '.join(FIGURE_FORMATS)}, got {formats!r}"
+        )
+    return found
+
+
+def save_figure(
+    figure: Figure, directory: PathLike, stem: str, formats: Sequence[str] = ("png", "svg")
+) -> dict[str, Path]:
+    """Save a figure as ``DIRECTORY/STEM.png`` (150 dpi), ``.svg`` and ``.pdf``.
 
     The files are written atomically and carry no date, so saving the same figure twice
     gives the same files. The figure is not closed (the caller closes it).
@@ -63,11 +90,13 @@ def save_figure(figure: Figure, directory: PathLike, stem: str) -> dict[str, Pat
         Output folder; made (with its parents) when missing.
     stem : str
         File name without extension; no path separators.
+    formats : sequence of {"png", "svg", "pdf"} or str
+        The formats to write (``"png,pdf"`` is read as a list); each is drawn once.
 
     Returns
     -------
     dict
-        ``{"png": Path, "svg": Path}``.
+        ``{format: Path}`` for each format written.
 
     Raises
     ------
@@ -77,7 +106,7 @@ def save_figure(figure: Figure, directory: PathLike, stem: str) -> dict[str, Pat
     """
     import matplotlib
 
-    figure = _figure_of(figure)
+    figure = figure_of(figure)
     if not isinstance(directory, str | os.PathLike):
         raise InvalidParameterError(
             f"directory must be a path (str or os.PathLike), got {type(directory).__name__}"
@@ -86,10 +115,17 @@ def save_figure(figure: Figure, directory: PathLike, stem: str) -> dict[str, Pat
         raise InvalidParameterError(f"stem must be a non-empty file name, got {stem!r}")
     if any(sep in stem for sep in ("/", "\\", os.sep)):
         raise InvalidParameterError(f"stem must be a file name without a folder, got {stem!r}")
+    formats = check_formats(formats)
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    paths = {"png": directory / f"{stem}.png", "svg": directory / f"{stem}.svg"}
-    _atomic_save(figure, paths["png"], format="png", dpi=PNG_DPI, metadata={"Software": None})
-    with matplotlib.rc_context({"svg.hashsalt": stem, "svg.fonttype": "path"}):
-        _atomic_save(figure, paths["svg"], format="svg", metadata={"Date": None})
+    paths = {suffix: directory / f"{stem}.{suffix}" for suffix in formats}
+    if "png" in paths:
+        _atomic_save(figure, paths["png"], format="png", dpi=PNG_DPI, metadata={"Software": None})
+    if "svg" in paths:
+        with matplotlib.rc_context({"svg.hashsalt": stem, "svg.fonttype": "path"}):
+            _atomic_save(figure, paths["svg"], format="svg", metadata={"Date": None})
+    if "pdf" in paths:
+        _atomic_save(
+            figure, paths["pdf"], format="pdf", metadata={"CreationDate": None, "Producer": None}
+        )
     return paths

@@ -10,8 +10,12 @@ import numpy as np
 
 from granflow.errors import InvalidParameterError
 from granflow.plotting._axes import (
+    F_D,
+    F_N,
     FORCE_SCALE,
     FORCE_UNIT,
+    MU_A,
+    MU_D,
     SLIP_SCALE,
     SLIP_UNIT,
     TIME_UNIT,
@@ -23,6 +27,7 @@ from granflow.plotting._axes import (
     new_axes,
     plus_minus,
     run_colors,
+    velocity_colors,
 )
 
 if TYPE_CHECKING:
@@ -33,7 +38,7 @@ if TYPE_CHECKING:
     from granflow.fitting.mcmc import PosteriorResult
     from granflow.fitting.single import FitResult
 
-__all__ = ["plot_amontons", "plot_collapse", "plot_corner", "plot_fit"]
+__all__ = ["plot_amontons", "plot_collapse", "plot_corner", "plot_fit", "plot_fit_grid"]
 
 
 def plot_fit(result: FitResult, ax: Axes | None = None, *, residual_ax: Axes | None = None) -> Axes:
@@ -187,7 +192,6 @@ def plot_collapse(result: CollapseResult, ax: Axes | None = None, *, inset: bool
     InvalidParameterError
         If ``result`` is not a CollapseResult or ``ax`` not an Axes.
     """
-    import matplotlib
     from matplotlib.lines import Line2D
 
     from granflow.fitting.joint import CollapseResult
@@ -201,7 +205,7 @@ def plot_collapse(result: CollapseResult, ax: Axes | None = None, *, inset: bool
     ax = new_axes(check_axes(ax, "ax"), figsize=(6.4, 4.4))
     shared = result.shared
     groups = _velocity_groups(result)
-    palette = matplotlib.colormaps["viridis"](np.linspace(0.0, 0.85, len(result.velocities)))
+    palette = velocity_colors(len(result.velocities))
     fallback = run_colors(len(groups))
     curves = []
     for index, (run, params, group) in enumerate(
@@ -227,7 +231,9 @@ def plot_collapse(result: CollapseResult, ax: Axes | None = None, *, inset: bool
         )
         for color, v in zip(palette, result.velocities, strict=True)
     ]
-    handles.append(Line2D([], [], color="0.3", lw=1.2, label="joint fit: shared a, α, F_d"))
+    handles.append(
+        Line2D([], [], color="0.3", lw=1.2, label=rf"joint fit: shared $a$, $\alpha$, {F_D}")
+    )
     ax.set_xlabel(f"slip x [{SLIP_UNIT}]")
     ax.set_ylabel(f"friction force F [{FORCE_UNIT}]")
     ax.set_xlim(left=0.0)
@@ -247,7 +253,7 @@ def plot_collapse(result: CollapseResult, ax: Axes | None = None, *, inset: bool
 
 def _collapse_inset(ax, curves, top):
     """Inset of the short slips ``0 <= x <= top`` [m] in the lower right of ``ax``."""
-    inset = ax.inset_axes([0.47, 0.13, 0.5, 0.42])
+    inset = ax.inset_axes([0.47, 0.2, 0.5, 0.4])
     highest = 0.0
     for color, x, force, slip, curve in curves:
         near = x <= top
@@ -261,10 +267,10 @@ def _collapse_inset(ax, curves, top):
     inset.set_xlim(0.0, top * SLIP_SCALE)
     if highest > 0:  # the zoom rectangle stays inside the main axes
         inset.set_ylim(0.0, min(1.08 * highest * FORCE_SCALE, ax.get_ylim()[1]))
-    inset.set_title("short slips", fontsize="x-small", pad=2)
-    inset.set_xlabel(f"x [{SLIP_UNIT}]", fontsize="x-small", labelpad=1)
-    inset.set_ylabel(f"F [{FORCE_UNIT}]", fontsize="x-small", labelpad=1)
-    inset.tick_params(labelsize="x-small")
+    inset.set_title("short slips", fontsize="small", pad=2)
+    inset.set_xlabel(f"$x$ [{SLIP_UNIT}]", fontsize="small", labelpad=1)
+    inset.set_ylabel(f"$F$ [{FORCE_UNIT}]", fontsize="small", labelpad=1)
+    inset.tick_params(labelsize="small")
     ax.indicate_inset_zoom(inset, edgecolor="0.5")
     return inset
 
@@ -342,9 +348,14 @@ def plot_amontons(result: AmontonsResult, axes: Sequence[Axes] | None = None) ->
     repeats = sorted({int(row["repeats"]) for row in per_load})
     count = f"{repeats[0]}" if len(repeats) == 1 else f"{repeats[0]}–{repeats[-1]}"
     panels = (
-        ("a", FORCE_SCALE, f"a [{FORCE_UNIT}]", "μ_a"),
-        ("alpha_v" if use_rate else "alpha", 1.0, "α v [1/s]" if use_rate else "α [1/m]", None),
-        ("Fd", FORCE_SCALE, f"F_d [{FORCE_UNIT}]", "μ_d"),
+        ("a", FORCE_SCALE, f"$a$ [{FORCE_UNIT}]", MU_A),
+        (
+            "alpha_v" if use_rate else "alpha",
+            1.0,
+            r"$\alpha v$ [1/s]" if use_rate else r"$\alpha$ [1/m]",
+            None,
+        ),
+        ("Fd", FORCE_SCALE, f"{F_D} [{FORCE_UNIT}]", MU_D),
     )
     span = np.linspace(0.0, loads.max() * 1.1, 50)
     for panel, (ax, (key, scale, label, coefficient)) in enumerate(zip(axes, panels, strict=True)):
@@ -367,16 +378,21 @@ def plot_amontons(result: AmontonsResult, axes: Sequence[Axes] | None = None) ->
                 _through_origin(ax, span, slope, error, scale, coefficient)
         elif coefficient is None:
             _joint_alpha(ax, result.joint, span, velocity if use_rate else 1.0, use_rate)
-        ax.set_xlabel(f"normal load F_N [{FORCE_UNIT}]")
+        ax.set_xlabel(f"normal load {F_N} [{FORCE_UNIT}]")
         ax.set_ylabel(label)
         ax.set_xlim(0.0, span[-1] * FORCE_SCALE)
         highest = np.nanmax(np.concatenate([means + np.nan_to_num(errors), [0.0]]))
-        if coefficient is None:  # a level: room above it for the legend
-            ax.set_ylim(0.0, 1.5 * highest if highest > 0 else None)
-        else:
-            ax.set_ylim(bottom=0.0)
+        # room above the data for the legend, which stays inside the frame
+        ax.set_ylim(0.0, (1.5 if coefficient is None else 1.45) * highest if highest > 0 else None)
         handles, _ = ax.get_legend_handles_labels()
-        ax.legend(handles=handles[::-1], loc="upper left", fontsize="x-small", frameon=False)
+        ax.legend(
+            handles=handles[::-1],
+            loc="upper left",
+            fontsize="x-small",
+            frameon=False,
+            borderaxespad=0.2,
+            handlelength=1.2,
+        )
     return np.array(axes, dtype=object)
 
 
@@ -387,7 +403,7 @@ def _through_origin(ax, span, slope, error, scale, coefficient):
         slope * span * scale,
         "k-",
         lw=1,
-        label=f"{coefficient} F_N, {coefficient} = {plus_minus(slope, band)}",
+        label=f"{coefficient} = {plus_minus(slope, band)}",
     )
     ax.fill_between(
         span * FORCE_SCALE,
@@ -405,8 +421,78 @@ def _joint_alpha(ax, joint, span, factor, rate):
         return
     value = joint.params["alpha"] * factor
     error = joint.stderr.get("alpha", math.nan) * factor
-    name, unit = ("α v", "1/s") if rate else ("α", "1/m")
-    label = f"joint fit: {name} = {plus_minus(value, error)} {unit}"
+    name, unit = (r"$\alpha v$", "1/s") if rate else (r"$\alpha$", "1/m")
+    label = f"joint fit:\n{name} = {plus_minus(value, error)} {unit}"
     ax.plot(span * FORCE_SCALE, np.full(span.size, value), "k-", lw=1, label=label)
     if math.isfinite(error):
         ax.fill_between(span * FORCE_SCALE, value - error, value + error, color="0.85", lw=0)
+
+
+def plot_fit_grid(fits, names=None, *, columns=8, panel_size=(1.5, 1.25)):
+    """Small multiples: every start-up fit in its own small panel, so that none goes unseen.
+
+    Each panel shows the data (grey points) and the fit of Eq. 3 (red line), force [mN]
+    against slip [µm] (or time [s]), titled with the run's name; a fit that did not succeed
+    is titled in red. The axes labels are on the outer panels only.
+
+    Parameters
+    ----------
+    fits : sequence of FitResult
+        The fits (``x``, ``data``, ``best_fit``, ``domain``, ``success``).
+    names : sequence of str, optional
+        A title per fit (default ``"fit 1"``, ``"fit 2"``, ...).
+    columns : int
+        Panels per row.
+    panel_size : (float, float)
+        Width and height of one panel [inch].
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``fits`` is empty or ``names`` does not have one entry per fit.
+    """
+    import matplotlib.pyplot as plt
+
+    fits = list(fits)
+    if not fits:
+        raise InvalidParameterError("fits is empty: give at least one fit")
+    names = [f"fit {i + 1}" for i in range(len(fits))] if names is None else list(names)
+    if len(names) != len(fits):
+        raise InvalidParameterError(f"names has {len(names)} entries for {len(fits)} fits")
+    columns = max(1, min(int(columns), len(fits)))
+    rows = -(-len(fits) // columns)
+    width, height = panel_size[0] * columns + 0.5, panel_size[1] * rows + 0.5
+    figure, axes = plt.subplots(rows, columns, figsize=(width, height), squeeze=False)
+    # fixed margins [inch] rather than a constrained layout: as fast for 50 panels as for 5
+    figure.subplots_adjust(
+        left=0.55 / width,
+        right=1.0 - 0.1 / width,
+        bottom=0.45 / height,
+        top=1.0 - 0.2 / height,
+        wspace=0.35,
+        hspace=0.55,
+    )
+    for index, ax in enumerate(axes.flat):
+        if index >= len(fits):
+            ax.set_axis_off()
+            continue
+        result = fits[index]
+        scale = SLIP_SCALE if getattr(result, "domain", "slip") == "slip" else 1.0
+        x, data = finite(result.x, result.data)
+        step = max(1, x.size // 200)  # enough points to see the scatter, few to draw
+        ax.plot(x[::step] * scale, data[::step] * FORCE_SCALE, ".", ms=1, color="0.6")
+        ax.plot(result.x * scale, result.best_fit * FORCE_SCALE, "-", color="C3", lw=1.0)
+        ok = getattr(result, "success", True)
+        ax.set_title(names[index], fontsize=6, pad=2, color="black" if ok else "C3")
+        ax.tick_params(labelsize=6, length=2, pad=1)
+        ax.set_ylim(bottom=0.0)
+        if index % columns == 0:
+            ax.set_ylabel(f"$F$ [{FORCE_UNIT}]", fontsize=7, labelpad=1)
+        if index + columns >= len(fits):
+            unit = f"$x$ [{SLIP_UNIT}]" if scale == SLIP_SCALE else f"$t$ [{TIME_UNIT}]"
+            ax.set_xlabel(unit, fontsize=7, labelpad=1)
+    return figure

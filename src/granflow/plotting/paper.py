@@ -13,6 +13,8 @@ orange.
 import numpy as np
 
 from granflow.plotting._axes import (
+    F_D,
+    F_PEAK,
     FORCE_COLOR,
     FORCE_SCALE,
     FORCE_UNIT,
@@ -42,6 +44,7 @@ from granflow.plotting._shared import (
     no_slip_note,
     peak_or_none,
     quasistatic_slip,
+    scale_to_creep,
     small_axes,
     twin_axes,
     usable,
@@ -215,7 +218,7 @@ def _slip_inset(parent, t, slip, end, model=None):
     return inset
 
 
-def plot_stress_ramp(run, params=None, ax=None, *, inset=True):
+def plot_stress_ramp(run, params=None, ax=None, *, inset=True, clip_runaway=True):
     """A stress ramp (Fig. 3a): slip (left axis) and imposed force (right axis) against time.
 
     Parameters
@@ -232,8 +235,11 @@ def plot_stress_ramp(run, params=None, ax=None, *, inset=True):
         Axes for the slip; the force goes on its twin. A new figure when None.
     inset : bool
         Magnify the slip before failure in an inset (upper left), when the runaway makes it
-        small in the main axes. The end of that window is the predicted failure (with
-        ``params``), else the first time the slip rate exceeds 50 times its median.
+        small in the main axes. The end of that window is the first of the predicted failure
+        (with ``params``) and the first time the slip rate exceeds 50 times its median.
+    clip_runaway : bool
+        Scale the slip axis to the creep before that time (three times its largest slip),
+        the runaway leaving through the top, marked "runaway ↑".
 
     Returns
     -------
@@ -266,7 +272,7 @@ def plot_stress_ramp(run, params=None, ax=None, *, inset=True):
             color=PEAK_COLOR,
             ls="--",
             lw=1.2,
-            label=f"F_peak = {peak.force * FORCE_SCALE:.3g} {FORCE_UNIT} (rate control)",
+            label=f"{F_PEAK} = {peak.force * FORCE_SCALE:.3g} {FORCE_UNIT} (rate control)",
         )
         failure = crossing_time(t_force, force, peak.force)
         if failure is not None:
@@ -288,10 +294,15 @@ def plot_stress_ramp(run, params=None, ax=None, *, inset=True):
                 label="slip, quasi-static model",
             )
     align_zeros(slip_ax, force_ax, slip, force, peak)
-    end = failure if failure is not None else _runaway_time(t_slip, slip)
+    runaway = _runaway_time(t_slip, slip)
+    ends = [value for value in (failure, runaway) if value is not None]
+    end = min(ends) if ends else None  # the creep before failure ends at the first of them
+    clipped = False
+    if clip_runaway and slip.size and end is not None:
+        clipped = scale_to_creep(slip_ax, t_slip, slip, end)
     if inset and slip.size and end is not None and end > t_slip[0]:
         before = slip[t_slip <= end]
-        if before.size >= 3 and np.ptp(before) < 0.25 * np.ptp(slip):
+        if before.size >= 3 and (clipped or np.ptp(before) < 0.25 * np.ptp(slip)):
             _slip_inset(force_ax, t_slip, slip, end, model)
     legend_above(slip_ax, handles(slip_ax, force_ax), ncols=2)
     return np.array([slip_ax, force_ax])
@@ -365,6 +376,7 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
     fits = as_fits(fits, len(runs), "fits", CurveFitResult)
     params = as_params(params)
     ax = new_axes(check_axes(ax, "ax"), figsize=(6.4, 4.2))
+    from matplotlib import patheffects
     from matplotlib.lines import Line2D
 
     handles, levels = [], []
@@ -381,7 +393,8 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
             x, y = fit.x[order], fit.best_fit[order]
             if log_time:
                 x, y = x[x > 0], y[x > 0]
-            ax.plot(x, y * SLIP_SCALE, "-", color=color, lw=1.5)
+            outline = [patheffects.Stroke(linewidth=3.2, foreground="white"), patheffects.Normal()]
+            ax.plot(x, y * SLIP_SCALE, "-", color=color, lw=1.6, zorder=3, path_effects=outline)
         level = _imposed_force(run)
         label = run_label(run) if level is None else f"F = {level * FORCE_SCALE:.3g} {FORCE_UNIT}"
         if fitted:
@@ -401,7 +414,9 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
     if len(runs) > MAX_LEGEND_RUNS:
         handles.append(Line2D([], [], ls="none", label=f"+ {len(runs) - MAX_LEGEND_RUNS} more"))
     if any(usable(fit) for fit in fits):
-        handles.append(Line2D([], [], color="0.3", label="fit δ = B ln(1 + t/τ_c)"))
+        handles.append(
+            Line2D([], [], color="0.3", label=r"fit $\delta = B \ln(1 + t/\tau_\mathrm{c})$")
+        )
     if log_time:
         ax.set_xscale("log")
     else:
@@ -413,6 +428,6 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
         # the inset takes the upper right: the curves keep the lower half
         ax.set_ylim(0.0, ax.get_ylim()[1] / 0.55)
         _creep_inset(ax, params, levels)
-        handles.append(Line2D([], [], color=STEADY_COLOR, ls="--", label="F_d (inset)"))
+        handles.append(Line2D([], [], color=STEADY_COLOR, ls="--", label=f"{F_D} (inset)"))
     legend_above(ax, handles, ncols=2)
     return ax

@@ -10,6 +10,7 @@ import numpy as np
 from granflow.plotting._axes import (
     FORCE_SCALE,
     FORCE_UNIT,
+    PEAK_COLOR,
     SLIP_SCALE,
     SLIP_UNIT,
     TIME_UNIT,
@@ -123,7 +124,9 @@ def plot_simulation(result: SimulationResult, axes: Sequence[Axes] | None = None
 def plot_stability_map(stability: StabilityMap, ax: Axes | None = None) -> Axes:
     """Fail or stop over switch time and force ratio; colour is the stop slip [µm].
 
-    Failing cells are hatched grey; the method that made the map is in the title.
+    Failing cells are grey; the method that made the map is in the title. The analytic
+    boundary of the quasi-static model (stop below, failure above: F_peak / F(x) before the
+    peak, 1 after it) is a dashed line, the switch time of the peak a red dotted one.
 
     Returns
     -------
@@ -148,4 +151,39 @@ def plot_stability_map(stability: StabilityMap, ax: Axes | None = None) -> Axes:
     ax.set_xlabel(f"switch time [{TIME_UNIT}]")
     ax.set_ylabel("imposed / current force [-]")
     ax.set_title(f"grey: failure ({stability.method}, {stability.clock} clock)", fontsize="medium")
+    _analytic_boundary(ax, stability)
     return ax
+
+
+def _analytic_boundary(ax, stability):
+    """The quasi-static boundary between stop and failure, and the peak of the start-up.
+
+    Switched at the aging coordinate x_s to r times the force F(x_s), the layer slides up the
+    rising branch of F(x) and stops where F(x) = r F(x_s), unless r F(x_s) exceeds the peak:
+    failure above r* = F_peak / F(x_s) before the peak, above r* = 1 after it (the friction
+    ahead only falls). Drawn as a white line, the peak's switch time as a red dashed one.
+    """
+    from granflow.model.friction import NoPeakError, friction_slip, peak
+
+    times = np.asarray(stability.switch_points, dtype=float)
+    slips = np.asarray(stability.switch_slip, dtype=float)
+    keep = np.isfinite(times) & np.isfinite(slips)
+    if keep.sum() < 2 or getattr(stability, "params", None) is None:
+        return
+    times, slips = times[keep], slips[keep]
+    try:
+        top = peak(stability.params)
+    except (NoPeakError, ValueError):
+        return
+    grid = np.linspace(times.min(), times.max(), 300)
+    slip = np.interp(grid, times, slips)
+    ratio = np.where(slip < top.slip, top.force / friction_slip(slip, stability.params), 1.0)
+    ax.plot(grid, ratio, color="white", lw=2.2)
+    ax.plot(grid, ratio, color="black", lw=1.0, ls="--", label="boundary (analytic)")
+    if slips.min() <= top.slip <= slips.max():
+        t_peak = float(np.interp(top.slip, slips, times))
+        ax.axvline(t_peak, color=PEAK_COLOR, ls=":", lw=1.4, label=f"peak ({t_peak:.3g} s)")
+    ratios = np.asarray(stability.stress_ratios, dtype=float)
+    half = 0.5 * float(np.diff(ratios[:2]).sum()) if ratios.size > 1 else 0.01
+    ax.set_ylim(ratios.min() - half, ratios.max() + half)
+    ax.legend(loc="lower right", fontsize="small", framealpha=0.9)

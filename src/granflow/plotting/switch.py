@@ -25,6 +25,7 @@ from granflow.plotting._shared import (
     handles,
     no_slip_note,
     peak_or_none,
+    scale_to_creep,
     switch_outcome,
     twin_axes,
 )
@@ -115,6 +116,7 @@ def plot_switch(
     ax: Axes | None = None,
     *,
     switch_time: float | None = None,
+    clip: bool = True,
 ) -> NDArray[Any]:
     """Switch from rate to force control (Fig. 3c): slip and force against time.
 
@@ -137,6 +139,10 @@ def plot_switch(
         which the velocity is within 5 % of the imposed one (the ``velocity`` metadata, else
         the median of the first ten velocities); none when the run ends at that velocity.
         Without a velocity column, the slip rate over 2 % of the run's duration stands in.
+
+    clip : bool
+        When the slip runs away after the switch, scale the slip axis to the slip before it
+        (three times its largest value), the runaway leaving through the top.
 
     Returns
     -------
@@ -196,5 +202,8 @@ def plot_switch(
             outcome[1] * SLIP_SCALE, color=MODEL_COLOR, ls=":", lw=1.2, label="stop slip (model)"
         )
     align_zeros(slip_ax, force_ax, slip, force, None)
+    if clip and switch is not None and slip.size:
+        # a failure's runaway would squash the slip before the switch: scale to it
+        scale_to_creep(slip_ax, t_slip, slip, switch)
     legend_above(slip_ax, handles(slip_ax, force_ax), ncols=2)
     return np.array([slip_ax, force_ax])

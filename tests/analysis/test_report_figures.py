@@ -1,0 +1,140 @@
+"""Every figure of the report: drawn once, in the formats asked for, with mathtext labels
+and units, and no text outside its frame (matplotlib's tight bounding box)."""
+
+import pickle
+import re
+
+import pytest
+from conftest import write_small_campaign
+
+import granflow.plotting
+from granflow.analysis import analyze, figures
+from granflow.errors import InvalidParameterError
+from granflow.plotting.files import check_formats
+
+#: A symbol written with an underscore outside mathtext ("F_d", "μ_a").
+_LITERAL_SUBSCRIPT = re.compile(r"[A-Za-zμτ]_[A-Za-z0-9]")
+
+
+def _outside_mathtext(text):
+    return re.sub(r"\$[^$]*\$", "", text)
+
+
+def _labels(figure):
+    for ax in figure.axes:
+        for text in (ax.get_xlabel(), ax.get_ylabel()):
+            if text:
+                yield ax, text
+
+
+def _legend_boxes(figure):
+    """(axes box, legend box) in display pixels of each legend that overlaps its axes."""
+    renderer = figure.canvas.get_renderer()
+    for ax in figure.axes:
+        legend = ax.get_legend()
+        if legend is None:
+            continue
+        box, frame = legend.get_window_extent(renderer), ax.get_window_extent(renderer)
+        if box.y0 < frame.y1 - 1:  # inside the axes, not a legend above them
+            yield (frame.x0, frame.y0, frame.x1, frame.y1), (box.x0, box.y0, box.x1, box.y1)
+
+
+@pytest.fixture(scope="module")
+def drawn(tmp_path_factory):
+    """Analyse the small campaign, checking each figure as it is saved."""
+    directory = tmp_path_factory.mktemp("figures")
+    manifest = write_small_campaign(directory / "campaign")
+    seen = {}
+    original = granflow.plotting.save_figure
+
+    def checking(figure, folder, stem, formats=("png", "svg")):
+        figure.canvas.draw()
+        box = figure.get_tightbbox(figure.canvas.get_renderer())
+        width, height = figure.get_size_inches()
+        seen.setdefault(stem, []).append(
+            {
+                "box": (box.x0, box.y0, box.x1, box.y1),
+                "size": (width, height),
+                "labels": list(_labels(figure)),
+                "legends": list(_legend_boxes(figure)),
+                "formats": tuple(formats),
+            }
+        )
+        return original(figure, folder, stem, formats)
+
+    render = figures.render_figure
+
+    def picklable(job, *args, **kwargs):  # each figure can be drawn in another process
+        copy = pickle.loads(pickle.dumps(job))
+        assert copy.draw is job.draw and copy.name == job.name
+        return render(job, *args, **kwargs)
+
+    patch = pytest.MonkeyPatch()
+    patch.setattr(granflow.plotting, "save_figure", checking)
+    patch.setattr(figures, "render_figure", picklable)
+    try:
+        result = analyze(manifest, directory / "out", jobs=1, quiet=True)
+    finally:
+        patch.undo()
+    return result, seen
+
+
+def test_every_figure_is_drawn_once_as_png(drawn):
+    result, seen = drawn
+    names = [figure["name"] for figure in result.results["figures"]]
+    assert {"startup", "collapse", "amontons", "fits", "stress_ramp", "creep", "switch"} <= set(
+        names
+    )
+    assert {"stability_map", "fig2", "fig3"} <= set(names)
+    assert sorted(seen) == sorted(names)
+    assert all(len(calls) == 1 and calls[0]["formats"] == ("png",) for calls in seen.values())
+    files = sorted(p.suffix for p in (result.output / "figures").iterdir())
+    assert set(files) == {".png"} and len(files) == len(names)
+
+
+def test_no_text_outside_any_frame(drawn):
+    _, seen = drawn
+    for name, (call,) in seen.items():
+        x0, y0, x1, y1 = call["box"]
+        width, height = call["size"]
+        tolerance = 0.02  # inch
+        assert x0 >= -tolerance and y0 >= -tolerance, (name, call["box"], call["size"])
+        assert x1 <= width + tolerance and y1 <= height + tolerance, (name, call["box"])
+
+
+def test_legends_inside_the_axes_stay_inside_their_frame(drawn):
+    _, seen = drawn
+    checked = 0
+    for name, (call,) in seen.items():
+        for frame, box in call["legends"]:
+            checked += 1
+            assert box[0] >= frame[0] - 1 and box[2] <= frame[2] + 1, (name, frame, box)
+            assert box[1] >= frame[1] - 1 and box[3] <= frame[3] + 1, (name, frame, box)
+    assert checked >= 3  # the Amontons panels at least
+
+
+def test_axis_labels_carry_units_in_mathtext(drawn):
+    _, seen = drawn
+    for name, (call,) in seen.items():
+        assert call["labels"], name
+        for _, text in call["labels"]:
+            assert "[" in text and "]" in text, (name, text)  # a unit
+            assert not _LITERAL_SUBSCRIPT.search(_outside_mathtext(text)), (name, text)
+
+
+def test_figure_formats_are_checked(tmp_path):
+    assert check_formats("png, SVG,pdf") == ("png", "svg", "pdf")
+    assert check_formats(["pdf", "pdf"]) == ("pdf",)
+    for bad in ("gif", [], "png,jpeg"):
+        with pytest.raises(InvalidParameterError, match="png, svg, pdf"):
+            check_formats(bad)
+    import matplotlib.pyplot as plt
+
+    figure, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    paths = granflow.plotting.save_figure(figure, tmp_path, "line", ("pdf",))
+    plt.close(figure)
+    assert list(paths) == ["pdf"] and paths["pdf"].read_bytes().startswith(b"%PDF")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["line.pdf"]
+    with pytest.raises(InvalidParameterError, match="figure_formats"):
+        analyze(tmp_path / "nothing.yaml", tmp_path / "out", figure_formats=("tiff",))
