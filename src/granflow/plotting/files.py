@@ -12,7 +12,7 @@ import numpy as np
 from granflow.errors import InvalidParameterError
 
 if TYPE_CHECKING:
-    from matplotlib.figure import Figure
+    from matplotlib.figure import Figure, SubFigure
 
     from granflow._typing import PathLike
 
@@ -25,7 +25,7 @@ PNG_DPI = 150
 # --------------------------------------------------------------------------- saving
 
 
-def figure_of(figure: Any) -> Figure:
+def figure_of(figure: Any) -> Figure | SubFigure:
     """The Figure of a Figure, an Axes or an array of Axes (InvalidParameterError else)."""
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
@@ -74,7 +74,7 @@ def check_formats(formats: str | Sequence[str], name: str = "formats") -> tuple[
 
 
 def save_figure(
-    figure: Figure, directory: PathLike, stem: str, formats: Sequence[str] = ("png", "svg")
+    figure: Figure | Any, directory: PathLike, stem: str, formats: Sequence[str] = ("png", "svg")
 ) -> dict[str, Path]:
     """Save a figure as ``DIRECTORY/STEM.png`` (150 dpi), ``.svg`` and ``.pdf``.
 
@@ -106,7 +106,7 @@ def save_figure(
     """
     import matplotlib
 
-    figure = figure_of(figure)
+    whole = figure_of(figure)
     if not isinstance(directory, str | os.PathLike):
         raise InvalidParameterError(
             f"directory must be a path (str or os.PathLike), got {type(directory).__name__}"
@@ -120,12 +120,12 @@ def save_figure(
     directory.mkdir(parents=True, exist_ok=True)
     paths = {suffix: directory / f"{stem}.{suffix}" for suffix in formats}
     if "png" in paths:
-        _atomic_save(figure, paths["png"], format="png", dpi=PNG_DPI, metadata={"Software": None})
+        _atomic_save(whole, paths["png"], format="png", dpi=PNG_DPI, metadata={"Software": None})
     if "svg" in paths:
         with matplotlib.rc_context({"svg.hashsalt": stem, "svg.fonttype": "path"}):
-            _atomic_save(figure, paths["svg"], format="svg", metadata={"Date": None})
+            _atomic_save(whole, paths["svg"], format="svg", metadata={"Date": None})
     if "pdf" in paths:
         _atomic_save(
-            figure, paths["pdf"], format="pdf", metadata={"CreationDate": None, "Producer": None}
+            whole, paths["pdf"], format="pdf", metadata={"CreationDate": None, "Producer": None}
         )
     return paths

@@ -428,7 +428,13 @@ def _joint_alpha(ax, joint, span, factor, rate):
         ax.fill_between(span * FORCE_SCALE, value - error, value + error, color="0.85", lw=0)
 
 
-def plot_fit_grid(fits, names=None, *, columns=8, panel_size=(1.5, 1.25)):
+def plot_fit_grid(
+    fits: Sequence[FitResult],
+    names: Sequence[str] | None = None,
+    *,
+    columns: int = 8,
+    panel_size: tuple[float, float] = (1.5, 1.25),
+) -> Figure:
     """Small multiples: every start-up fit in its own small panel, so that none goes unseen.
 
     Each panel shows the data (grey points) and the fit of Eq. 3 (red line), force [mN]
