@@ -74,6 +74,8 @@ from pathlib import Path
 
 import numpy as np
 
+from granflow._files import write_atomic
+from granflow._json import json_safe
 from granflow._parallel import Executor
 from granflow.analysis.files import (
     FIGURES_DIR,
@@ -104,7 +106,7 @@ from granflow.analysis.runs import (
     ELASTIC_RAMP_TOLERANCE,
     RUNAWAY_FACTOR,
     StartupData,
-    analyse_run,
+    analyse_and_record,
     classify,
     startup_data,
 )
@@ -300,10 +302,14 @@ def analyze(
     output = Path(output)
     reporter = _Progress(quiet, progress)
     stages = {}
-    items, manifest, inputs = load_campaign(source, geometry)
-    stages["read_s"] = time.perf_counter() - clock
+    # one executor for the whole analysis: reading, the per-run work, the joint stage's
+    # parallel parts and the figures all run on the same workers
     executor = Executor(jobs, scheduler)
     try:
+        if executor.forks:
+            _preload()
+        items, manifest, inputs = load_campaign(source, geometry, executor)
+        stages["read_s"] = time.perf_counter() - clock
         output.mkdir(parents=True, exist_ok=True)
         (output / RUNS_DIR).mkdir(exist_ok=True)
         _remove_leftovers(output)
@@ -324,18 +330,21 @@ def analyze(
         joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         stages["joint_s"] = time.perf_counter() - clock_stage
         description = executor.description
+        clock_stage = time.perf_counter()
+        options = {"mcmc": mcmc, "seed": seed, "strict": bool(strict), "reference": reference}
+        result = _assemble(items, entries, manifest, inputs, joint, options)
+        notes = list(result.warnings)
+        content = result.to_dict()  # once: its parts are the slow ones (see _with_results)
+        tables = write_tables(output, content, notes)
+        reporter.line("figures")
+        figures = make_figures(output, result, joint, notes, executor)
     finally:
         executor.close()
-    clock_stage = time.perf_counter()
-    options = {"mcmc": mcmc, "seed": seed, "strict": bool(strict), "reference": reference}
-    result = _assemble(items, entries, manifest, inputs, joint, options)
-    notes = list(result.warnings)
-    tables = write_tables(output, result.to_dict(), notes)
-    reporter.line("figures")
-    figures = make_figures(output, result, joint, notes)
     result = replace(
         result, warnings=tuple(notes), figures=tuple(figures), tables=FrozenMap(tables)
     )
+    changed = {"warnings": result.warnings, "figures": result.figures, "tables": result.tables}
+    content = {**content, **json_safe(changed)}
     _remove_stale_records(output, items)
     stages["outputs_s"] = time.perf_counter() - clock_stage
     timing = {
@@ -350,9 +359,30 @@ def analyze(
     }
     result = replace(result, output=output, fitted_now=len(todo), reused=reused)
     reporter.line("report")
-    report = write_report(output, replace(result, timing=_finished(timing, clock)))
-    result = replace(result, timing=_finished(timing, clock), report=report)
+    report = write_report(
+        output, _with_results(replace(result, timing=_finished(timing, clock)), content)
+    )
+    result = _with_results(replace(result, timing=_finished(timing, clock), report=report), content)
     write_json(output / RESULTS_FILE, result.results)
+    return result
+
+
+def _preload():
+    """Import the plotting stack before the local workers start: forked workers then begin
+    with it, instead of each importing it again for its first figure (the analysis needs it
+    in this process too when it runs alone, so this costs nothing that one job does not)."""
+    import matplotlib.pyplot  # noqa: F401
+
+    import granflow.plotting  # noqa: F401
+
+
+def _with_results(result, content):
+    """``result`` with its ``results`` (``results.json``'s content) filled in from
+    ``content``, its ``to_dict()`` computed once: ``to_dict`` does not depend on the timing,
+    the output folder or the report, which are all that differ between the result the report
+    shows and the one returned, and encoding the joint analyses' results again and again is
+    what makes it slow on a large campaign."""
+    vars(result)["results"] = {**content, "timing": json_safe(result.timing)}
     return result
 
 
@@ -406,20 +436,22 @@ def _run_all(todo, executor, output, reporter):
     """Analyse the runs of ``todo``, saving each result (atomically) as soon as it is ready:
     ``to_dict(include_arrays=True)``, which ``from_dict`` turns back into the same result."""
     reporter.start(len(todo))
-    tasks = [(item.run, item.kind, options) for item, options in todo]
+    tasks = [
+        (item.run, item.kind, options, {RUN_RECORD_MARKER: ANALYSIS_VERSION, "key": item.key})
+        for item, options in todo
+    ]
     try:
-        for position, result in executor.run(analyse_run, tasks):
+        for position, outcome in executor.run(analyse_and_record, tasks):
             item = todo[position][0]
-            if isinstance(result, Exception):  # the worker died: not saved, retried on resume
-                reason = f"the worker failed: {type(result).__name__}: {result}"
+            if isinstance(outcome, Exception):  # the worker died: not saved, retried on resume
+                reason = f"the worker failed: {type(outcome).__name__}: {outcome}"
                 item.result = FailedRun(reason=reason)
             else:
-                record = {
-                    RUN_RECORD_MARKER: ANALYSIS_VERSION,
-                    "key": item.key,
-                    **result.to_dict(include_arrays=True),
-                }
-                write_json(output / RUNS_DIR / f"{item.key}.json", record)
+                result, text = outcome  # the record, encoded by the worker (as write_json)
+                write_atomic(
+                    output / RUNS_DIR / f"{item.key}.json",
+                    lambda temporary, text=text: temporary.write_text(text, encoding="utf-8"),
+                )
                 item.result = result
             reporter.step(item.name)
     finally:

@@ -4,8 +4,6 @@ Tables are built from ``results.json``'s content (the ``to_dict()`` of the campa
 :class:`~granflow.analysis.result.AnalysisResult`); figures from the result's objects.
 """
 
-import warnings
-
 from granflow._files import write_atomic
 from granflow.analysis.files import FIGURES_DIR, TABLES_DIR
 from granflow.model.units import display_unit, si_unit, to_display
@@ -326,7 +324,7 @@ def _display_load(load):
     return f"F_N = {to_display('normal_load', load):.4g} {display_unit('normal_load')}"
 
 
-def make_figures(output, result, joint, warnings_list):
+def make_figures(output, result, joint, warnings_list, executor=None):
     """Draw every figure the campaign allows into OUTPUT/figures (PNG and SVG, each written
     atomically); returns the entries of results["figures"].
 
@@ -339,28 +337,22 @@ def make_figures(output, result, joint, warnings_list):
         What the joint stage found (the start-ups and the representative one).
     warnings_list : list of str
         Figures that could not be drawn are added to it.
+    executor : granflow._parallel.Executor, optional
+        Draws the figures in parallel (:mod:`granflow.analysis.render`); default in this
+        process.
     """
-    import matplotlib.pyplot as plt
+    from granflow.analysis.render import render_figures
 
-    from granflow.plotting import save_figure
-
-    folder = output / FIGURES_DIR
+    specs = _figure_specs(result, joint)
+    outcomes = render_figures(_figure_specs, (result, joint), output / FIGURES_DIR, executor)
     figures = []
-    for name, title, draw in _figure_specs(result, joint):
-        before = set(plt.get_fignums())
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                drawn, caption = draw()
-                paths = save_figure(drawn, folder, name)
-        except Exception as exc:  # a figure that fails must not cost the results
-            warnings_list.append(f"figure {name!r} could not be drawn: {type(exc).__name__}: {exc}")
+    for (name, title, _), outcome in zip(specs, outcomes, strict=True):
+        if isinstance(outcome, str):  # a figure that fails must not cost the results
+            warnings_list.append(f"figure {name!r} could not be drawn: {outcome}")
             continue
-        finally:  # close what this figure opened, never the caller's own figures
-            for number in set(plt.get_fignums()) - before:
-                plt.close(number)
+        caption, files = outcome
         entry = {"name": name, "title": title, "caption": caption}
-        entry.update({suffix: f"{FIGURES_DIR}/{path.name}" for suffix, path in paths.items()})
+        entry.update({suffix: f"{FIGURES_DIR}/{file}" for suffix, file in files.items()})
         figures.append(entry)
     return figures
 
