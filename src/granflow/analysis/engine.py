@@ -368,12 +368,17 @@ def analyze(
 
 
 def _preload():
-    """Import the plotting stack before the local workers start: forked workers then begin
-    with it, instead of each importing it again for its first figure (the analysis needs it
-    in this process too when it runs alone, so this costs nothing that one job does not)."""
+    """Load what every worker needs before the local workers start: forked workers then
+    begin with it, instead of each loading it again for its first task (the unit registry
+    for reading, the plotting stack for the figures). The analysis needs all of it in this
+    process too when it runs alone, so this costs nothing that one job does not."""
     import matplotlib.pyplot  # noqa: F401
+    import pandas  # noqa: F401
 
     import granflow.plotting  # noqa: F401
+    from granflow.model.units import unit_registry
+
+    unit_registry()
 
 
 def _with_results(result, content):

@@ -97,8 +97,9 @@ def manifest_runs(path, geometry=None, *, executor=None):
         The tube of entries that do not declare one (:meth:`granflow.Annulus.from_spec`);
         default the paper's. An entry's (or the manifest's defaults') ``geometry`` wins.
     executor : granflow._parallel.Executor, optional
-        Reads the files in parallel (each file once, however many entries name it); default
-        one after the other in this process. The result is the same either way.
+        Reads the files in parallel on its local processes (each file once, however many
+        entries name it); default, and with a Dask scheduler, one after the other in this
+        process. The result is the same either way.
 
     Returns
     -------
@@ -145,8 +146,9 @@ def _read_file(key):
 
 
 def _read_files(keys, executor):
-    """``_read_file`` of each key, in order, through ``executor`` when there is one."""
-    if executor is None or len(keys) < 2:
+    """``_read_file`` of each key, in order, through ``executor`` when it runs on this
+    machine's processes (a Dask cluster's workers may not see the files: read here)."""
+    if executor is None or executor.scheduler is not None or len(keys) < 2:
         return [_read_file(key) for key in keys]
     found = dict(executor.run(_read_file, keys))
     out = []
