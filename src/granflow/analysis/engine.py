@@ -84,6 +84,7 @@ from granflow.analysis.files import (
     RUN_RECORD_MARKER,
     RUNS_DIR,
     TABLES_DIR,
+    dump_json,
     read_json,
     write_json,
 )
@@ -106,7 +107,7 @@ from granflow.analysis.runs import (
     ELASTIC_RAMP_TOLERANCE,
     RUNAWAY_FACTOR,
     StartupData,
-    analyse_and_record,
+    analyse_run,
     classify,
     startup_data,
 )
@@ -446,7 +447,7 @@ def _run_all(todo, executor, output, reporter):
         for item, options in todo
     ]
     try:
-        for position, outcome in executor.run(analyse_and_record, tasks):
+        for position, outcome in executor.run(_analyse_and_record, tasks):
             item = todo[position][0]
             if isinstance(outcome, Exception):  # the worker died: not saved, retried on resume
                 reason = f"the worker failed: {type(outcome).__name__}: {outcome}"
@@ -461,6 +462,19 @@ def _run_all(todo, executor, output, reporter):
             reporter.step(item.name)
     finally:
         reporter.finish()
+
+
+def _analyse_and_record(task):
+    """Analyse one run and encode the record that saves it, both in the worker.
+
+    ``task = (run, kind, options, header)``; returns ``(result, text)``: the result of
+    :func:`~granflow.analysis.runs.analyse_run` and the JSON text of
+    ``{**header, **result.to_dict(include_arrays=True)}`` as :func:`write_json` writes it,
+    so that encoding the records runs in parallel too.
+    """
+    run, kind, options, header = task
+    result = analyse_run((run, kind, options))
+    return result, dump_json({**header, **result.to_dict(include_arrays=True)})
 
 
 def _remove_stale_records(output, items):

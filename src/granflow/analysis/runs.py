@@ -31,7 +31,6 @@ __all__ = [
     "ELASTIC_RAMP_TOLERANCE",
     "RUNAWAY_FACTOR",
     "StartupData",
-    "analyse_and_record",
     "analyse_run",
     "classify",
     "increasing_time",
@@ -454,18 +453,3 @@ def analyse_run(task):
         return FailedRun(reason=str(exc))
     except Exception as exc:  # a batch reports what failed and goes on with the rest
         return FailedRun(reason=f"{type(exc).__name__}: {exc}")
-
-
-def analyse_and_record(task):
-    """Analyse one run and encode the record that saves it, both in the worker.
-
-    ``task = (run, kind, options, header)``; returns ``(result, text)``: the result of
-    :func:`analyse_run` and the JSON text of ``{**header, **result.to_dict(include_arrays=True)}``
-    (:func:`granflow.analysis.files.dump_json`), which the main process writes as it is, so
-    that encoding the records runs in parallel too.
-    """
-    from granflow.analysis.files import dump_json
-
-    run, kind, options, header = task
-    result = analyse_run((run, kind, options))
-    return result, dump_json({**header, **result.to_dict(include_arrays=True)})
