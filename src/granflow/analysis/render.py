@@ -14,6 +14,9 @@ Rendering is deterministic (no dates in the files, SVG ids salted by the figure'
 the files are the same whichever process draws them and however many there are.
 """
 
+import itertools
+import os
+import pickle
 import tempfile
 import warnings
 from dataclasses import dataclass, field
@@ -32,8 +35,9 @@ class FigureJob:
     ----------
     build : callable
         A module-level function: ``build(*args)`` returns the list of ``(name, title, draw)``.
-    args : tuple
-        Its arguments.
+    args : tuple or bytes
+        Its arguments, or their pickle (pickled once for all the jobs of a call, rather
+        than once per job: a campaign's result and joint stage are megabytes).
     position : int
         Which spec of the list this job draws.
     save : callable
@@ -41,13 +45,21 @@ class FigureJob:
         figure's files and returns ``{suffix: path}`` (:func:`granflow.plotting.save_figure`).
     options : dict
         Keyword arguments for ``save``.
+    token : str
+        Names the arguments: a worker that already unpickled them for an earlier job of
+        the same call reuses them.
     """
 
     build: object
-    args: tuple
+    args: object
     position: int
     save: object
     options: dict = field(default_factory=dict)
+    token: str = ""
+
+
+_UNPICKLED = {}  # token -> arguments, in a worker: the last call's only
+_CALLS = itertools.count()
 
 
 def render_figures(build, args, folder, executor=None, *, save=None, **options):
@@ -58,7 +70,8 @@ def render_figures(build, args, folder, executor=None, *, save=None, **options):
     build : callable
         A module-level function returning the list of ``(name, title, draw)``.
     args : tuple
-        Its (picklable) arguments.
+        Its (picklable) arguments; pickled once for all the jobs when they go to other
+        processes.
     folder : pathlib.Path
         Where the files go (made when missing).
     executor : granflow._parallel.Executor, optional
@@ -77,8 +90,13 @@ def render_figures(build, args, folder, executor=None, *, save=None, **options):
     if save is None:
         from granflow.plotting import save_figure as save
     count = len(build(*args))
+    args = tuple(args)
+    elsewhere = executor is not None and (executor.jobs > 1 or executor.scheduler is not None)
+    if elsewhere and count > 1:  # pickled once here, not once per job
+        args = pickle.dumps(args, protocol=pickle.HIGHEST_PROTOCOL)
+    token = f"{os.getpid()}-{next(_CALLS)}"
     jobs = [
-        FigureJob(build, tuple(args), position, save, dict(options)) for position in range(count)
+        FigureJob(build, args, position, save, dict(options), token) for position in range(count)
     ]
     if executor is None:
         outcomes = dict(enumerate(map(_render, jobs)))
@@ -108,7 +126,7 @@ def _render(job):
     """Draw one figure: ``(caption, {suffix: (file name, bytes)})``, or why it failed (str)."""
     import matplotlib.pyplot as plt
 
-    name, _, draw = job.build(*job.args)[job.position]
+    name, _, draw = job.build(*_arguments(job))[job.position]
     before = set(plt.get_fignums())
     try:
         with warnings.catch_warnings():
@@ -126,3 +144,15 @@ def _render(job):
         for number in set(plt.get_fignums()) - before:
             plt.close(number)
     return caption, files
+
+
+def _arguments(job):
+    """The job's arguments, unpickled once per worker and call."""
+    if not isinstance(job.args, bytes):
+        return job.args
+    found = _UNPICKLED.get(job.token)
+    if found is None:
+        found = pickle.loads(job.args)
+        _UNPICKLED.clear()
+        _UNPICKLED[job.token] = found
+    return found
