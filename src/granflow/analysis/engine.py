@@ -244,10 +244,12 @@ def analyze(
         Output folder (made if missing). granflow writes ``results.json``, ``report.html``,
         ``runs/``, ``tables/`` and ``figures/`` there and touches nothing else.
     jobs : int, optional
-        Local worker processes for the per-run work and the stability map; default every
-        core; 1 runs everything in this process.
+        Local worker processes for reading the files, the per-run work, the stability map,
+        the forecasts and the figures; default every core; 1 runs everything in this
+        process. The results and files are the same whatever the number.
     scheduler : str or dask.distributed.Client or cluster, optional
-        Run the per-run work on Dask distributed instead: a scheduler address
+        Run the per-run work, the stability map, the forecasts and the figures on Dask
+        distributed instead (the files are read in this process): a scheduler address
         (``"tcp://host:8786"``), a Client, or a cluster object (``LocalCluster``). Needs
         the extra ``granflow[dask]``, and granflow installed on the workers.
     resume : bool
