@@ -85,7 +85,9 @@ class Executor:
             return False
         import multiprocessing
 
-        return multiprocessing.get_start_method() == "fork"
+        # without fixing the start method as a side effect (the first listed is the default)
+        method = multiprocessing.get_start_method(allow_none=True)
+        return (method or multiprocessing.get_all_start_methods()[0]) == "fork"
 
     def _local_pool(self):
         if self._pool is None:

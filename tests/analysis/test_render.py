@@ -127,3 +127,26 @@ def test_json_safe_fast_paths_follow_the_rule():
     out = json_safe(value)
     assert repr(out) == repr(_reference_json_safe(value))
     assert json.dumps(out, allow_nan=False)
+
+
+def test_asking_whether_workers_fork_leaves_the_start_method_open():
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    source = Path(__file__).resolve().parents[2] / "src"
+    code = (
+        "import multiprocessing\n"
+        "from granflow._parallel import Executor\n"
+        "print(Executor(1).forks, Executor(2).forks in (True, False))\n"
+        "print(multiprocessing.get_start_method(allow_none=True))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**os.environ, "PYTHONPATH": str(source)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert out.stdout.split() == ["False", "True", "None"]
