@@ -131,7 +131,8 @@ def main():
         f"Python {platform.python_version()}, load average {os.getloadavg()[0]:.2f}"
     )
     single(args.repeats)
-    batch(args.batch, args.jobs)
+    if args.batch:
+        batch(args.batch, args.jobs)
 
 
 if __name__ == "__main__":

@@ -13,8 +13,8 @@ Rows (one thread unless said):
 * ``kernel.eq3_loop`` after NumPy's ``s`` and ``exp`` (the two-pass kernel it replaces);
 * ``granflow.friction_time`` (1 thread and all threads) -- the public function;
 * on one scalar: the naive formula on a float64 (``math`` and ``scipy.special.expi``), the
-  compiled scalar paths ``kernel.general_value`` and ``kernel.eq3_scalar``, and
-  ``granflow.friction_time(float)``.
+  compiled scalar paths ``kernel.general_value``, ``kernel.eq3_scalar`` and
+  ``kernel.eq3_default``, and ``granflow.friction_time(float)`` / ``friction_slip(float)``.
 """
 
 import math
@@ -121,16 +121,27 @@ def scalars():
         for _ in range(SCALAR_CALLS):
             kernel.eq3_scalar(t, VELOCITY, lowest, T0, p.a, p.alpha, p.Fd, p.x0, 0.0, True, False)
 
+    def default():
+        for _ in range(SCALAR_CALLS):
+            kernel.eq3_default(t, VELOCITY, p.a, p.alpha, p.Fd, p.x0)
+
     def public():
         for _ in range(SCALAR_CALLS):
             gf.friction_time(t, PARAMS, VELOCITY)
+
+    def public_slip():
+        x = t * VELOCITY
+        for _ in range(SCALAR_CALLS):
+            gf.friction_slip(x, PARAMS)
 
     best = interleaved(
         {
             "naive formula on a float64 (math + expi)": naive,
             "kernel.general_value (the simulator's)": general,
             "kernel.eq3_scalar (the model functions')": scalar,
+            "kernel.eq3_default (the defaults' path)": default,
             "granflow.friction_time(float)": public,
+            "granflow.friction_slip(float)": public_slip,
         },
         repeats=7,
     )

@@ -7,7 +7,24 @@ position, so that callers order them by their input, never by completion. With o
 one task) everything runs in this process, with no pool.
 """
 
+import copyreg
+from types import MappingProxyType
+
 from granflow.errors import InvalidParameterError
+
+
+def _mapping_proxy(mapping):
+    """Rebuild a read-only mapping after pickling."""
+    return MappingProxyType(mapping)
+
+
+def _reduce_mapping_proxy(proxy):
+    return _mapping_proxy, (dict(proxy),)
+
+
+# Tasks and their results may hold read-only mappings (the options of a simulation or a
+# stability map): pickle them by value, so that they travel to and from the workers.
+copyreg.pickle(MappingProxyType, _reduce_mapping_proxy)
 
 
 def check_jobs(jobs, name="jobs"):
@@ -59,6 +76,18 @@ class Executor:
         if self._client is not None:
             return f"dask {self._client.scheduler.address}"
         return f"local, {self.jobs} process{'es' if self.jobs > 1 else ''}"
+
+    @property
+    def forks(self):
+        """Whether the work goes to local processes started by fork (which begin with what
+        this process has imported and loaded at the moment they start)."""
+        if self._client is not None or self.jobs == 1 or self._pool is not None:
+            return False
+        import multiprocessing
+
+        # without fixing the start method as a side effect (the first listed is the default)
+        method = multiprocessing.get_start_method(allow_none=True)
+        return (method or multiprocessing.get_all_start_methods()[0]) == "fork"
 
     def _local_pool(self):
         if self._pool is None:

@@ -62,16 +62,16 @@ def drawn(tmp_path_factory):
         )
         return original(figure, folder, stem, formats)
 
-    render = figures.render_figure
+    draw = figures.draw_figure
 
-    def picklable(job, *args, **kwargs):  # each figure can be drawn in another process
+    def picklable(job):  # each figure can be drawn in another process
         copy = pickle.loads(pickle.dumps(job))
         assert copy.draw is job.draw and copy.name == job.name
-        return render(job, *args, **kwargs)
+        return draw(job)
 
     patch = pytest.MonkeyPatch()
     patch.setattr(granflow.plotting, "save_figure", checking)
-    patch.setattr(figures, "render_figure", picklable)
+    patch.setattr(figures, "draw_figure", picklable)
     try:
         result = analyze(manifest, directory / "out", jobs=1, quiet=True)
     finally:

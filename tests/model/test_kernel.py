@@ -176,6 +176,30 @@ def test_scalar_path_is_the_fused_pass_at_one_point():
         assert math.isnan(kernel.eq3_scalar(bad, *args))
 
 
+def test_default_scalar_path_of_the_model_functions():
+    """friction_time / friction_slip on a float (kernel.eq3_default) against 40-digit mpmath,
+    and the same errors as the array path where the fast path gives way."""
+    p = gf.Params(A, ALPHA, FD, X0)
+    velocity = 0.86e-6
+    t0 = X0 / velocity
+    for t in (t0, t0 * (1 - 1e-13), 1.001 * t0, 3 * t0, 37.5, 1e4, 1e7):
+        expected = float(reference(max(t, t0) * velocity, A, ALPHA, FD, X0))
+        assert gf.friction_time(t, p, velocity) == pytest.approx(expected, rel=1e-13)
+        assert gf.friction_slip(t * velocity, p) == pytest.approx(expected, rel=1e-13)
+        assert type(gf.friction_time(t, p, velocity)) is float
+    with pytest.raises(gf.InvalidParameterError, match="below the initial state"):
+        gf.friction_time(0.5 * t0, p, velocity)
+    with pytest.raises(gf.InvalidParameterError, match="below the initial state"):
+        gf.friction_slip(0.5 * X0, p)
+    with pytest.raises(gf.InvalidParameterError, match="finite"):
+        gf.friction_time(math.nan, p, velocity)
+    for bad in (0.0, -velocity, math.nan, math.inf):
+        with pytest.raises(gf.InvalidParameterError, match="velocity"):
+            gf.friction_time(37.5, p, bad)
+    with pytest.raises(gf.InvalidParameterError, match="params"):
+        gf.friction_time(37.5, (A, ALPHA, FD, X0), velocity)
+
+
 def test_normal_equations_match_the_jacobian_loop():
     rng = np.random.default_rng(0)
     z = np.concatenate([[0.5 * X0, X0], np.geomspace(1.0001 * X0, 1e-3, 1000)])

@@ -80,6 +80,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from granflow._files import write_atomic
+from granflow._json import json_safe
 from granflow._parallel import Executor
 from granflow._progress import RunProgress, silenced
 from granflow.analysis.files import (
@@ -89,6 +91,7 @@ from granflow.analysis.files import (
     RUN_RECORD_MARKER,
     RUNS_DIR,
     TABLES_DIR,
+    dump_json,
     read_json,
     write_json,
 )
@@ -157,7 +160,7 @@ def _own_files(output):
     previous = read_json(output / RESULTS_FILE)
     if isinstance(previous, dict) and "granflow_version" in previous:
         listed = [RESULTS_FILE, REPORT_FILE]
-        listed += [f.get(k) for f in previous.get("figures", []) for k in ("png", "svg")]
+        listed += [f.get(k) for f in previous.get("figures", []) for k in ("png", "svg", "pdf")]
         listed += [p for t in previous.get("tables", {}).values() for p in t.values()]
         for relative in listed:
             if isinstance(relative, str) and (output / relative).is_file():
@@ -207,10 +210,12 @@ def analyze(
         Output folder (made if missing). granflow writes ``results.json``, ``report.html``,
         ``runs/``, ``tables/`` and ``figures/`` there and touches nothing else.
     jobs : int, optional
-        Local worker processes for the per-run work and the stability map; default every
-        core; 1 runs everything in this process.
+        Local worker processes for reading the files, the per-run work, the stability map,
+        the forecasts and the figures; default every core; 1 runs everything in this
+        process. The results and files are the same whatever the number.
     scheduler : str or dask.distributed.Client or cluster, optional
-        Run the per-run work on Dask distributed instead: a scheduler address
+        Run the per-run work, the stability map, the forecasts and the figures on Dask
+        distributed instead (the files are read in this process): a scheduler address
         (``"tcp://host:8786"``), a Client, or a cluster object (``LocalCluster``). Needs
         the extra ``granflow[dask]``, and granflow installed on the workers.
     resume : bool
@@ -273,10 +278,14 @@ def analyze(
     output = Path(output)
     reporter = RunProgress(quiet, progress)
     stages = {}
-    items, manifest, inputs = load_campaign(source, geometry)
-    stages["read_s"] = time.perf_counter() - clock
+    # one executor for the whole analysis: reading, the per-run work, the joint stage's
+    # parallel parts and the figures all run on the same workers
     executor = Executor(jobs, scheduler)
     try:
+        if executor.forks:
+            _preload()
+        items, manifest, inputs = load_campaign(source, geometry, executor)
+        stages["read_s"] = time.perf_counter() - clock
         output.mkdir(parents=True, exist_ok=True)
         (output / RUNS_DIR).mkdir(exist_ok=True)
         _remove_leftovers(output)
@@ -298,18 +307,21 @@ def analyze(
             joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         stages["joint_s"] = time.perf_counter() - clock_stage
         description = executor.description
+        clock_stage = time.perf_counter()
+        options = {"mcmc": mcmc, "seed": seed, "strict": bool(strict), "reference": reference}
+        result = _assemble(items, entries, manifest, inputs, joint, options)
+        notes = list(result.warnings)
+        content = result.to_dict()  # once: its parts are the slow ones (see _with_results)
+        tables = write_tables(output, content, notes)
+        reporter.line("figures")
+        figures = make_figures(output, result, joint, notes, figure_formats, executor)
     finally:
         executor.close()
-    clock_stage = time.perf_counter()
-    options = {"mcmc": mcmc, "seed": seed, "strict": bool(strict), "reference": reference}
-    result = _assemble(items, entries, manifest, inputs, joint, options)
-    notes = list(result.warnings)
-    tables = write_tables(output, result.to_dict(), notes)
-    reporter.line("figures")
-    figures = make_figures(output, result, joint, notes, figure_formats)
     result = replace(
         result, warnings=tuple(notes), figures=tuple(figures), tables=FrozenMap(tables)
     )
+    changed = {"warnings": result.warnings, "figures": result.figures, "tables": result.tables}
+    content = {**content, **json_safe(changed)}
     _remove_stale_records(output, items)
     stages["outputs_s"] = time.perf_counter() - clock_stage
     timing = {
@@ -324,9 +336,35 @@ def analyze(
     }
     result = replace(result, output=output, fitted_now=len(todo), reused=reused)
     reporter.line("report")
-    report = write_report(output, replace(result, timing=_finished(timing, clock)))
-    result = replace(result, timing=_finished(timing, clock), report=report)
+    report = write_report(
+        output, _with_results(replace(result, timing=_finished(timing, clock)), content)
+    )
+    result = _with_results(replace(result, timing=_finished(timing, clock), report=report), content)
     write_json(output / RESULTS_FILE, result.results)
+    return result
+
+
+def _preload():
+    """Load what every worker needs before the local workers start: forked workers then
+    begin with it, instead of each loading it again for its first task (the unit registry
+    for reading, the plotting stack for the figures). The analysis needs all of it in this
+    process too when it runs alone, so this costs nothing that one job does not."""
+    import matplotlib.pyplot  # noqa: F401
+    import pandas  # noqa: F401
+
+    import granflow.plotting  # noqa: F401
+    from granflow.model.units import unit_registry
+
+    unit_registry()
+
+
+def _with_results(result, content):
+    """``result`` with its ``results`` (``results.json``'s content) filled in from
+    ``content``, its ``to_dict()`` computed once: ``to_dict`` does not depend on the timing,
+    the output folder or the report, which are all that differ between the result the report
+    shows and the one returned, and encoding the joint analyses' results again and again is
+    what makes it slow on a large campaign."""
+    vars(result)["results"] = {**content, "timing": json_safe(result.timing)}
     return result
 
 
@@ -380,24 +418,39 @@ def _run_all(todo, executor, output, reporter):
     """Analyse the runs of ``todo``, saving each result (atomically) as soon as it is ready:
     ``to_dict(include_arrays=True)``, which ``from_dict`` turns back into the same result."""
     reporter.start(len(todo))
-    tasks = [(item.run, item.kind, options) for item, options in todo]
+    tasks = [
+        (item.run, item.kind, options, {RUN_RECORD_MARKER: ANALYSIS_VERSION, "key": item.key})
+        for item, options in todo
+    ]
     try:
-        for position, result in executor.run(analyse_run, tasks):
+        for position, outcome in executor.run(_analyse_and_record, tasks):
             item = todo[position][0]
-            if isinstance(result, Exception):  # the worker died: not saved, retried on resume
-                reason = f"the worker failed: {type(result).__name__}: {result}"
+            if isinstance(outcome, Exception):  # the worker died: not saved, retried on resume
+                reason = f"the worker failed: {type(outcome).__name__}: {outcome}"
                 item.result = FailedRun(reason=reason)
             else:
-                record = {
-                    RUN_RECORD_MARKER: ANALYSIS_VERSION,
-                    "key": item.key,
-                    **result.to_dict(include_arrays=True),
-                }
-                write_json(output / RUNS_DIR / f"{item.key}.json", record)
+                result, text = outcome  # the record, encoded by the worker (as write_json)
+                write_atomic(
+                    output / RUNS_DIR / f"{item.key}.json",
+                    lambda temporary, text=text: temporary.write_text(text, encoding="utf-8"),
+                )
                 item.result = result
             reporter.step(item.name)
     finally:
         reporter.finish()
+
+
+def _analyse_and_record(task):
+    """Analyse one run and encode the record that saves it, both in the worker.
+
+    ``task = (run, kind, options, header)``; returns ``(result, text)``: the result of
+    :func:`~granflow.analysis.runs.analyse_run` and the JSON text of
+    ``{**header, **result.to_dict(include_arrays=True)}`` as :func:`write_json` writes it,
+    so that encoding the records runs in parallel too.
+    """
+    run, kind, options, header = task
+    result = analyse_run((run, kind, options))
+    return result, dump_json({**header, **result.to_dict(include_arrays=True)})
 
 
 def _remove_stale_records(output, items):

@@ -3,7 +3,8 @@
 :func:`figure_jobs` lists the figures a campaign allows as :class:`FigureJob` values: a name,
 a title, a caption and a drawing function of plain, picklable inputs (runs, fits, results,
 parameters), so that each figure can be drawn on its own, in this process or another.
-:func:`render_figure` draws one job once and writes it in the formats asked for.
+:func:`draw_figure` draws one job; :mod:`granflow.analysis.render` draws them all through
+the executor and writes each once, in the formats asked for.
 
 The figures tell the paper's story: Fig. 2a the preparations (three repeats of one
 preparation state, with their a, αv and t0), Fig. 2b the velocity collapse of one
@@ -15,10 +16,8 @@ multi-panel figures (Fig. 2 and Fig. 3 at a journal's double-column width, panel
 """
 
 import math
-import warnings
 from dataclasses import dataclass, field
 
-from granflow.analysis.files import FIGURES_DIR
 from granflow.model.units import display_unit, to_display
 
 __all__ = [
@@ -26,8 +25,8 @@ __all__ = [
     "FigureJob",
     "draw_fig2",
     "draw_fig3",
+    "draw_figure",
     "figure_jobs",
-    "render_figure",
 ]
 
 #: A journal's double-column width [inch] (178 mm).
@@ -62,27 +61,10 @@ def _figure(drawn):
     return figure_of(drawn)
 
 
-def render_figure(job, folder, formats=("png",)):
-    """Draw ``job`` once and save it in ``formats``; returns its ``results["figures"]`` entry.
-
-    The figures the drawing opened are closed, whatever happens; an exception propagates.
-    """
-    import matplotlib.pyplot as plt
-
-    from granflow.plotting import save_figure
-
-    before = set(plt.get_fignums())
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            figure = _figure(job.draw(**job.inputs))
-            paths = save_figure(figure, folder, job.name, formats)
-    finally:  # close what this figure opened, never the caller's own figures
-        for number in set(plt.get_fignums()) - before:
-            plt.close(number)
-    entry = {"name": job.name, "title": job.title, "caption": job.caption}
-    entry.update({suffix: f"{FIGURES_DIR}/{path.name}" for suffix, path in paths.items()})
-    return entry
+def draw_figure(job):
+    """Draw ``job``: ``(figure, caption)``. Closing the figure is the caller's (see
+    :func:`granflow.analysis.render.render_figures`)."""
+    return _figure(job.draw(**job.inputs)), job.caption
 
 
 # --------------------------------------------------------------------------- drawing

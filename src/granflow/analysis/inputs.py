@@ -135,14 +135,14 @@ def _run_name(run, source):
     return f"{source}#{run.meta.get('interval', 1)}"
 
 
-def _items_from_manifest(manifest, geometry):
+def _items_from_manifest(manifest, geometry, executor=None):
     """Items in manifest order: each entry's runs, or why the entry gave none (under the
     entry's own label: ``file#interval`` as the manifest asks for it)."""
     from granflow.io.campaign import manifest_runs
 
     folder = manifest.parent
     items, inputs = [], []
-    for entry in manifest_runs(manifest, geometry):
+    for entry in manifest_runs(manifest, geometry, executor=executor):
         relative = None if entry.file is None else relative_path(entry.file, folder)
         if relative is not None and relative not in inputs:
             inputs.append(relative)
@@ -164,11 +164,12 @@ def _run_item(run, folder):
     )
 
 
-def load_campaign(source, geometry=None):
+def load_campaign(source, geometry=None, executor=None):
     """(items, manifest path or None, input files relative to the manifest folder).
 
     ``geometry`` (a spec for :meth:`granflow.Annulus.from_spec`) is the tube of the manifest
     entries that declare none; a Campaign's runs are already converted, so it takes none.
+    ``executor`` (a :class:`granflow._parallel.Executor`) reads the files in parallel.
     """
     from granflow.io.campaign import Campaign
 
@@ -183,7 +184,7 @@ def load_campaign(source, geometry=None):
         inputs = list(dict.fromkeys(item.source for item in items if item.source))
         return items, None, inputs
     manifest = _find_manifest(source)
-    items, inputs = _items_from_manifest(manifest, geometry)
+    items, inputs = _items_from_manifest(manifest, geometry, executor)
     return items, manifest, [manifest.name, *inputs]
 
 

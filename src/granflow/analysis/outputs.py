@@ -255,7 +255,19 @@ def figure_jobs(result, joint):
     return jobs[:at] + _forecast_jobs(result.forecasts) + jobs[at:]
 
 
-def make_figures(output, result, joint, warnings_list, formats=("png",)):
+def _figure_specs(result, joint):
+    """``(name, title, draw)`` for every figure, ``draw() -> (figure, caption)``: what
+    :func:`granflow.analysis.render.render_figures` draws, here or in a worker (which
+    rebuilds the list from the pickled result and joint stage)."""
+    from granflow.analysis import figures
+
+    return [
+        (job.name, job.title, lambda job=job: figures.draw_figure(job))
+        for job in figure_jobs(result, joint)
+    ]
+
+
+def make_figures(output, result, joint, warnings_list, formats=("png",), executor=None):
     """Draw every figure the campaign allows into OUTPUT/figures, each once, in ``formats``
     (each file written atomically); returns the entries of results["figures"].
 
@@ -270,20 +282,27 @@ def make_figures(output, result, joint, warnings_list, formats=("png",)):
         Figures that could not be drawn are added to it.
     formats : sequence of {"png", "svg", "pdf"}
         The files of each figure (the report embeds the PNG and links the SVG).
+    executor : granflow._parallel.Executor, optional
+        Draws the figures in parallel (:mod:`granflow.analysis.render`); default in this
+        process.
     """
-    from granflow.analysis.figures import render_figure
+    from granflow.analysis.render import render_figures
     from granflow.plotting.files import check_formats
 
     formats = check_formats(formats, "figure_formats")
-    folder = output / FIGURES_DIR
+    specs = _figure_specs(result, joint)
+    outcomes = render_figures(
+        _figure_specs, (result, joint), output / FIGURES_DIR, executor, formats=formats
+    )
     figures = []
-    for job in figure_jobs(result, joint):
-        try:
-            figures.append(render_figure(job, folder, formats))
-        except Exception as exc:  # a figure that fails must not cost the results
-            warnings_list.append(
-                f"figure {job.name!r} could not be drawn: {type(exc).__name__}: {exc}"
-            )
+    for (name, title, _), outcome in zip(specs, outcomes, strict=True):
+        if isinstance(outcome, str):  # a figure that fails must not cost the results
+            warnings_list.append(f"figure {name!r} could not be drawn: {outcome}")
+            continue
+        caption, files = outcome
+        entry = {"name": name, "title": title, "caption": caption}
+        entry.update({suffix: f"{FIGURES_DIR}/{file}" for suffix, file in files.items()})
+        figures.append(entry)
     return figures
 
 

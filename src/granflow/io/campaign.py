@@ -95,7 +95,7 @@ def _entry_geometry(entry, geometry):
     return annulus, geometry_label(annulus, declared is not None)
 
 
-def manifest_runs(path, geometry=None):
+def manifest_runs(path, geometry=None, *, executor=None):
     """Every entry of a manifest with its runs, reading each file once per geometry.
 
     Parameters
@@ -105,6 +105,10 @@ def manifest_runs(path, geometry=None):
     geometry : granflow.Annulus, str or mapping, optional
         The tube of entries that do not declare one (:meth:`granflow.Annulus.from_spec`);
         default the paper's. An entry's (or the manifest's defaults') ``geometry`` wins.
+    executor : granflow._parallel.Executor, optional
+        Reads the files in parallel on its local processes (each file once, however many
+        entries name it); default, and with a Dask scheduler, one after the other in this
+        process. The result is the same either way.
 
     Returns
     -------
@@ -117,47 +121,83 @@ def manifest_runs(path, geometry=None):
     granflow.FileFormatError
         A manifest that cannot be read as a whole (see :func:`read_manifest`).
     """
-    from granflow.io import read_runs
     from granflow.model.geometry import Annulus
 
     path = Path(path)
     if geometry is not None:
         geometry = Annulus.from_spec(geometry)
-    files, out = {}, []
+    planned, files = [], {}
     for entry in read_manifest(path, errors="collect"):
         if isinstance(entry, BadEntry):
-            file = None if entry.file is None else path.parent / entry.file
-            out.append(EntryRuns(entry.label, file, entry.interval, (), entry.reason))
+            planned.append((entry, None))
             continue
-        file, interval = path.parent / entry["file"], entry.get("interval")
-        label = entry["file"] if interval is None else f"{entry['file']}#{interval}"
         try:
             annulus, described = _entry_geometry(entry, geometry)
-            cache_key = (str(file), annulus)
-            if cache_key not in files:
-                try:
-                    files[cache_key] = read_runs(file, geometry=annulus)
-                except GranflowError as exc:
-                    files[cache_key] = exc
-            found = files[cache_key]
-            if isinstance(found, GranflowError):
-                raise found
-            if interval is not None:
-                found = [run for run in found if run.meta["interval"] == interval]
-                if not found:
-                    raise FileFormatError(
-                        f"{file}: no interval {interval} (the file has {len(files[cache_key])})"
-                    )
-            if not found:
-                raise FileFormatError(f"{file}: the file holds no run")
         except GranflowError as exc:
-            out.append(EntryRuns(label, file, interval, (), str(exc)))
+            planned.append((entry, exc))
             continue
-        extra = {k: v for k, v in entry.items() if k not in ("file", "interval", "geometry")}
-        extra.update(manifest=str(path), geometry=described)
-        runs = tuple(replace(run, meta={**run.meta, **extra}) for run in found)
-        out.append(EntryRuns(label, file, interval, runs))
+        cache_key = (str(path.parent / entry["file"]), annulus)
+        files.setdefault(cache_key, None)
+        planned.append((entry, (cache_key, described)))
+    files = dict(zip(files, _read_files(list(files), executor), strict=True))
+    return [_entry_runs(path, entry, plan, files) for entry, plan in planned]
+
+
+def _read_file(key):
+    """The runs of one file ``(file, annulus)``, or the GranflowError that reading it raised."""
+    from granflow.io import read_runs
+
+    file, annulus = key
+    try:
+        return read_runs(file, geometry=annulus)
+    except GranflowError as exc:
+        return exc
+
+
+def _read_files(keys, executor):
+    """``_read_file`` of each key, in order, through ``executor`` when it runs on this
+    machine's processes (a Dask cluster's workers may not see the files: read here)."""
+    if executor is None or executor.scheduler is not None or len(keys) < 2:
+        return [_read_file(key) for key in keys]
+    found = dict(executor.run(_read_file, keys))
+    out = []
+    for position, key in enumerate(keys):
+        value = found[position]
+        if isinstance(value, Exception) and not isinstance(value, GranflowError):
+            # a worker that died (or a bug): read the file here, where a bug raises
+            value = _read_file(key)
+        out.append(value)
     return out
+
+
+def _entry_runs(path, entry, plan, files):
+    """The :class:`EntryRuns` of one manifest entry, its file already read."""
+    if isinstance(entry, BadEntry):
+        file = None if entry.file is None else path.parent / entry.file
+        return EntryRuns(entry.label, file, entry.interval, (), entry.reason)
+    file, interval = path.parent / entry["file"], entry.get("interval")
+    label = entry["file"] if interval is None else f"{entry['file']}#{interval}"
+    try:
+        if isinstance(plan, GranflowError):
+            raise plan
+        cache_key, described = plan
+        found = files[cache_key]
+        if isinstance(found, GranflowError):
+            raise found
+        if interval is not None:
+            found = [run for run in found if run.meta["interval"] == interval]
+            if not found:
+                raise FileFormatError(
+                    f"{file}: no interval {interval} (the file has {len(files[cache_key])})"
+                )
+        if not found:
+            raise FileFormatError(f"{file}: the file holds no run")
+    except GranflowError as exc:
+        return EntryRuns(label, file, interval, (), str(exc))
+    extra = {k: v for k, v in entry.items() if k not in ("file", "interval", "geometry")}
+    extra.update(manifest=str(path), geometry=described)
+    runs = tuple(replace(run, meta={**run.meta, **extra}) for run in found)
+    return EntryRuns(label, file, interval, runs)
 
 
 @dataclass(frozen=True, eq=False)

@@ -178,6 +178,10 @@ def friction_slip(
     >>> round(friction_slip(20e-6, p) * 1e3, 4)  # mN, near the peak
     13.7829
     """
+    if type(x) is float and type(params) is Params and F_init is None and below == "raise":
+        value = kernel.eq3_default(x, 1.0, params.a, params.alpha, params.Fd, params.x0)
+        if value == value:  # the scalar path with the defaults (NaN: the checks say why)
+            return value
     _check_params(params)
     return _evaluate(x, params, _check_f_init(F_init), below=below)
 
@@ -221,6 +225,17 @@ def friction_time(
     >>> round(friction_time(24.0, p, 0.86e-6) * 1e3, 6)  # mN
     13.782683
     """
+    if (
+        type(t) is float
+        and type(velocity) is float
+        and type(params) is Params
+        and F_init is None
+        and below == "raise"
+        and 0.0 < velocity < math.inf
+    ):  # the scalar path with the defaults, checked in place: no per-call overhead
+        value = kernel.eq3_default(t, velocity, params.a, params.alpha, params.Fd, params.x0)
+        if value == value:
+            return value
     _check_params(params)
     velocity = check.positive(velocity, "velocity", "m/s")
     return _evaluate(

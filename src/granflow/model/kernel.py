@@ -354,6 +354,20 @@ def eq3_scalar(z, scale, lowest, z0, a, alpha, Fd, x0, offset, paper, hold):
 
 
 @compiled
+def eq3_default(z, scale, a, alpha, Fd, x0):
+    """F at one z >= x0 / scale with the paper's initial force: :func:`eq3_scalar` with the
+    model functions' defaults (``F_init=None``, ``below="raise"``) and six arguments, since
+    each argument costs the dispatcher a type check on a call from Python. NaN where z is
+    not finite or lies below x0 / scale by more than 1e-12 relative (the caller names why)."""
+    z0 = x0 / scale
+    if not (z >= z0 * (1.0 - 1e-12) and z < math.inf):
+        return math.nan
+    start = curve_start(alpha, x0)
+    s = alpha * (scale * z)
+    return point_value(s, math.exp(start[0] - s), a, Fd, 0.0, True, False, start)
+
+
+@compiled
 def jacobian_loop(z, a, alpha, Fd, x0, offset, paper, hold, F, J):
     """F and the columns d/da, d/dalpha, d/dFd, d/dx0, d/dF_init of J (n by 5) at z."""
     start = curve_start(alpha, x0)

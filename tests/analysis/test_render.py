@@ -1,0 +1,152 @@
+"""Figures rendered through the executor (granflow.analysis.render) and the parallel pipeline:
+the same files and the same results whatever the number of processes."""
+
+import json
+from types import MappingProxyType
+
+import numpy as np
+import pytest
+from conftest import write_small_campaign
+
+from granflow._json import json_safe
+from granflow._parallel import Executor
+from granflow.analysis import analyze
+from granflow.analysis.render import render_figures
+from granflow.io.campaign import manifest_runs
+
+
+def _line(slope):
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(figsize=(3, 2))
+    axes.plot(np.arange(50.0), slope * np.arange(50.0), "o-")
+    return figure, f"slope {slope}"
+
+
+def _broken():
+    raise ValueError("no data to draw")
+
+
+def _specs(slopes, broken_at):
+    """Module-level builder: one figure per slope, the one at ``broken_at`` failing."""
+    specs = []
+    for position, slope in enumerate(slopes):
+        draw = _broken if position == broken_at else (lambda slope=slope: _line(slope))
+        specs.append((f"line_{position}", f"Line {position}", draw))
+    return specs
+
+
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_figures_through_the_executor_match_in_process_ones(tmp_path, jobs):
+    args = ((1.0, 2.0, 3.0, 4.0), 2)
+    serial = render_figures(_specs, args, tmp_path / "serial")
+    with Executor(jobs) as executor:
+        parallel = render_figures(_specs, args, tmp_path / "parallel", executor)
+    assert parallel == serial
+    assert [outcome[0] for outcome in serial if not isinstance(outcome, str)] == [
+        "slope 1.0",
+        "slope 2.0",
+        "slope 4.0",
+    ]
+    assert serial[2] == "ValueError: no data to draw"  # the failure costs only its figure
+    written = sorted(path.name for path in (tmp_path / "parallel").iterdir())
+    assert written == sorted(f"line_{i}.{s}" for i in (0, 1, 3) for s in ("png", "svg"))
+    for name in written:
+        assert (tmp_path / "parallel" / name).read_bytes() == (
+            tmp_path / "serial" / name
+        ).read_bytes()
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_read_only_mappings_travel_to_the_workers():
+    proxy = MappingProxyType({"hold": 1.0, "ramp": (2.0, 3.0)})
+    with Executor(2) as executor:
+        back = executor.map(dict, [proxy, proxy])
+    assert back == [{"hold": 1.0, "ramp": (2.0, 3.0)}] * 2
+
+
+def test_manifest_read_in_parallel_is_the_same(tmp_path):
+    manifest = write_small_campaign(tmp_path / "campaign")
+    serial = manifest_runs(manifest)
+    with Executor(2) as executor:
+        parallel = manifest_runs(manifest, executor=executor)
+    assert [e.label for e in parallel] == [e.label for e in serial]
+    assert [e.reason for e in parallel] == [e.reason for e in serial]
+    for one, other in zip(serial, parallel, strict=True):
+        assert len(one.runs) == len(other.runs)
+        for a, b in zip(one.runs, other.runs, strict=True):
+            assert dict(a.meta) == dict(b.meta)
+            for column in ("t", "slip", "velocity", "force"):
+                np.testing.assert_array_equal(getattr(a, column), getattr(b, column))
+
+
+def test_analysis_files_are_identical_across_jobs(tmp_path):
+    manifest = write_small_campaign(tmp_path / "campaign")
+    outputs = {jobs: tmp_path / f"out{jobs}" for jobs in (1, 2)}
+    for jobs, output in outputs.items():
+        result = analyze(manifest, output, jobs=jobs, quiet=True)
+        stored = json.loads((output / "results.json").read_text(encoding="utf-8"))
+        assert stored == {**result.to_dict(), "timing": stored["timing"]}
+    names = sorted(p.relative_to(outputs[1]) for p in outputs[1].rglob("*") if p.is_file())
+    assert names == sorted(p.relative_to(outputs[2]) for p in outputs[2].rglob("*") if p.is_file())
+    figures = [name for name in names if name.parts[0] == "figures"]
+    assert figures, "the campaign draws figures"
+    for name in names:
+        if name.parts[0] in ("figures", "runs", "tables"):
+            assert (outputs[1] / name).read_bytes() == (outputs[2] / name).read_bytes(), name
+
+
+def _reference_json_safe(value):
+    """The rule of json_safe written plainly (one isinstance chain, no fast paths)."""
+    from collections.abc import Mapping
+
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bool | int | str) or value is None:
+        return value
+    if isinstance(value, float):
+        return value if np.isfinite(value) else None
+    if isinstance(value, Mapping):
+        return {str(key): _reference_json_safe(item) for key, item in value.items()}
+    if isinstance(value, list | tuple | np.ndarray):
+        return [_reference_json_safe(item) for item in value]
+    return str(value)
+
+
+def test_json_safe_fast_paths_follow_the_rule():
+    value = {
+        1: 2.0,
+        "nan": float("nan"),
+        "inf": [float("-inf"), np.float32("inf"), np.float64(3.5)],
+        "arrays": (np.array([1.0, np.nan]), np.array([[1, 2], [3, 4]]), np.array([True])),
+        "empty": np.array([], dtype=float),
+        "proxy": MappingProxyType({"x": np.arange(3.0)}),
+        "other": [None, True, np.bool_(False), np.int64(7), 1 + 2j, object],
+        2.5: "key",
+    }
+    out = json_safe(value)
+    assert repr(out) == repr(_reference_json_safe(value))
+    assert json.dumps(out, allow_nan=False)
+
+
+def test_asking_whether_workers_fork_leaves_the_start_method_open():
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    source = Path(__file__).resolve().parents[2] / "src"
+    code = (
+        "import multiprocessing\n"
+        "from granflow._parallel import Executor\n"
+        "print(Executor(1).forks, Executor(2).forks in (True, False))\n"
+        "print(multiprocessing.get_start_method(allow_none=True))\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**os.environ, "PYTHONPATH": str(source)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert out.stdout.split() == ["False", "True", "None"]
