@@ -58,7 +58,7 @@ class FigureJob:
     token: str = ""
 
 
-_UNPICKLED = {}  # token -> arguments, in a worker: the last call's only
+_UNPICKLED: dict[str, object] = {}  # token -> arguments, in a worker: the last call's only
 _CALLS = itertools.count()
 
 
