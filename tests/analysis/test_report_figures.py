@@ -138,3 +138,16 @@ def test_figure_formats_are_checked(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["line.pdf"]
     with pytest.raises(InvalidParameterError, match="figure_formats"):
         analyze(tmp_path / "nothing.yaml", tmp_path / "out", figure_formats=("tiff",))
+
+
+def test_every_fit_is_on_a_page_of_at_most_48_panels_and_none_is_lost():
+    from types import SimpleNamespace
+
+    startups = [SimpleNamespace(fit=f"fit {i}", name=f"run{i}") for i in range(100)]
+    jobs = figures._fit_pages(startups)
+    assert [job.name for job in jobs] == ["fits", "fits_2", "fits_3"]
+    assert [len(job.inputs["fits"]) for job in jobs] == [48, 48, 4]
+    assert [n for job in jobs for n in job.inputs["names"]] == [s.name for s in startups]
+    assert "runs 97–100 of 100" in jobs[2].caption and "page 3 of 3" in jobs[2].title
+    (single,) = figures._fit_pages(startups[:48])
+    assert single.name == "fits" and single.title == "Every start-up fit"

@@ -314,6 +314,37 @@ def _startup_job(result, joint):
     )
 
 
+#: Start-up fits on one page of small multiples (6 rows of 8): a campaign of hundreds of runs
+#: gets several pages, which the executor draws side by side.
+FITS_PER_PAGE = 48
+
+
+def _fit_pages(startups):
+    """The small-multiples pages of every start-up fit: ``fits``, ``fits_2``, ..."""
+    pages = [startups[i : i + FITS_PER_PAGE] for i in range(0, len(startups), FITS_PER_PAGE)]
+    jobs = []
+    for number, page in enumerate(pages, start=1):
+        first = (number - 1) * FITS_PER_PAGE + 1
+        which = (
+            f" (runs {first}–{first + len(page) - 1} of {len(startups)})" if len(pages) > 1 else ""
+        )
+        caption = (
+            f"Every start-up fit{which or f' ({len(page)} runs)'}: data (grey) and Eq. 3 (red), "
+            "force against slip; a fit that did not converge is titled in red."
+        )
+        jobs.append(
+            FigureJob(
+                "fits" if number == 1 else f"fits_{number}",
+                "Every start-up fit"
+                + (f", page {number} of {len(pages)}" if len(pages) > 1 else ""),
+                caption,
+                draw_fit_grid,
+                {"fits": [s.fit for s in page], "names": [s.name for s in page]},
+            )
+        )
+    return jobs
+
+
 def figure_jobs(result, joint):
     """The figures the campaign allows, as :class:`FigureJob` values in report order.
 
@@ -365,22 +396,7 @@ def figure_jobs(result, joint):
             )
         )
         fig2["amontons"] = analyses.amontons.result
-    if joint.startups:
-        fits = [s.fit for s in joint.startups]
-        names = [s.name for s in joint.startups]
-        caption = (
-            f"Every start-up fit ({len(fits)} runs): data (grey) and Eq. 3 (red), force "
-            "against slip; a fit that did not converge is titled in red."
-        )
-        jobs.append(
-            FigureJob(
-                "fits",
-                "Every start-up fit",
-                caption,
-                draw_fit_grid,
-                {"fits": fits, "names": names},
-            )
-        )
+    jobs += _fit_pages(joint.startups)
     jobs += _stress_jobs(result, fig3)
     if fig2:
         jobs.append(
