@@ -14,7 +14,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from granflow._format import DASH, format_number, format_value_error, real_number
+from granflow._format import (
+    DASH,
+    format_interval,
+    format_number,
+    format_value_error,
+    real_number,
+)
 from granflow._json import json_safe
 from granflow.analysis.files import RESULTS_FILE
 from granflow.analysis.forecasts import RunForecast
@@ -410,10 +416,11 @@ def _material_lines(material):
     for name in MATERIAL_CONSTANTS:
         estimate = getattr(material, name)
         unit = f" {display_unit(name)}" if display_unit(name) else ""
-        low, high = estimate.ci95
+        interval = format_interval(list(estimate.ci95))  # digits enough for its two ends
+        interval = "[n/a, n/a]" if interval == DASH else interval.replace(DASH, "n/a")
         lines.append(
             f"  {name:<5} = {_value_error(estimate.value, estimate.stderr)}{unit}   "
-            f"95%: [{_number(low)}, {_number(high)}]"
+            f"95%: {interval}"
         )
     return lines
 
