@@ -119,6 +119,8 @@ from granflow.analysis.runs import (
     startup_data,
 )
 from granflow.analysis.stage import joint_stage
+from granflow.analysis.values import frozen_json
+from granflow.analysis.velocity_steps import campaign_velocity_steps, velocity_step_entries
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 
@@ -162,6 +164,8 @@ def _own_files(output):
         listed = [RESULTS_FILE, REPORT_FILE]
         listed += [f.get(k) for f in previous.get("figures", []) for k in ("png", "svg", "pdf")]
         listed += [p for t in previous.get("tables", {}).values() for p in t.values()]
+        steps = previous.get("velocity_steps") or {}
+        listed += [r.get("figure") for r in steps.get("records", [])]
         for relative in listed:
             if isinstance(relative, str) and (output / relative).is_file():
                 files.append(output / relative)
@@ -306,10 +310,21 @@ def analyze(
         with silenced():  # one bar per campaign: none from the stability map or MCMC
             joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         stages["joint_s"] = time.perf_counter() - clock_stage
+        reporter.line("velocity steps")
+        clock_stage = time.perf_counter()
+        velocity_steps = campaign_velocity_steps(manifest, output, FIGURES_DIR)
+        inputs += [e["file"] for e in velocity_step_entries(manifest) if e["file"] not in inputs]
+        stages["velocity_steps_s"] = time.perf_counter() - clock_stage
         description = executor.description
         clock_stage = time.perf_counter()
         options = {"mcmc": mcmc, "seed": seed, "strict": bool(strict), "reference": reference}
         result = _assemble(items, entries, manifest, inputs, joint, options)
+        failed = [f"failed: {f['name']}: {f['reason']}" for f in velocity_steps.get("failed", ())]
+        result = replace(
+            result,
+            velocity_steps=frozen_json(json_safe(velocity_steps), tuple),
+            warnings=result.warnings + tuple(failed),
+        )
         notes = list(result.warnings)
         content = result.to_dict()  # once: its parts are the slow ones (see _with_results)
         tables = write_tables(output, content, notes)

@@ -62,6 +62,7 @@ from granflow.analysis.formatting import (
     real_number,
 )
 from granflow.analysis.report_summary import experiment_view, label_of, summary_view
+from granflow.analysis.report_velocity_steps import velocity_steps_line, velocity_steps_view
 from granflow.analysis.report_views import (
     amontons_view,
     as_list,
@@ -354,7 +355,14 @@ def _context(results, output_dir, report_dir):
         "warnings": _warnings_view(results, runs, analyses, problems),
         "provenance": _provenance_view(results),
     }
+    context["velocity_steps"] = velocity_steps_view(
+        results, lambda found: _figures_view(found, output_dir, report_dir, problems)
+    )
     context["summary"], context["quality_summary"] = summary_view(results, context)
+    line = velocity_steps_line(context["velocity_steps"])
+    if line is not None:
+        status, text, link = line
+        context["summary"].append({"status": status, "text": text, "link": link})
     return context
 
 

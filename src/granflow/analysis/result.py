@@ -193,6 +193,10 @@ class AnalysisResult(Value):
         Table name to its files (relative to ``output``).
     provenance : mapping
         Version, Python, input files with their SHA-256, options.
+    velocity_steps : mapping
+        The rate-and-state fits and model comparison of the manifest's velocity-step records
+        (:func:`granflow.analysis.velocity_steps.campaign_velocity_steps`: ``records`` and
+        ``failed``); empty without any. Its failures are among :attr:`failed_runs`.
     timing : mapping
         Dates, durations, jobs, scheduler, runs fitted now or reused (not in ``to_dict``).
     output : pathlib.Path or None
@@ -215,6 +219,7 @@ class AnalysisResult(Value):
     figures: tuple = ()
     tables: FrozenMap = field(default_factory=FrozenMap)
     provenance: FrozenMap = field(default_factory=FrozenMap)
+    velocity_steps: FrozenMap = field(default_factory=FrozenMap)
     timing: FrozenMap = field(default_factory=FrozenMap, repr=False)
     output: Path | None = None
     fitted_now: int = 0
@@ -245,6 +250,7 @@ class AnalysisResult(Value):
                 "figures": list(self.figures),
                 "tables": self.tables,
                 "provenance": self.provenance,
+                "velocity_steps": self.velocity_steps,
             }
         )
 
@@ -273,6 +279,7 @@ class AnalysisResult(Value):
             figures=frozen_json(saved["figures"], tuple),
             tables=frozen_json(saved["tables"], tuple),
             provenance=frozen_json(saved["provenance"], tuple),
+            velocity_steps=frozen_json(saved.get("velocity_steps", {}), tuple),
             timing=frozen_json(saved.get("timing", {}), tuple),
             output=None if output is None else Path(output),
         )
@@ -293,7 +300,8 @@ class AnalysisResult(Value):
     def failed_runs(self) -> list[dict[str, Any]]:
         """The runs that could not be analysed: ``name``, ``source``, ``interval``, ``stage``,
         ``reason``."""
-        return [entry.failure() for entry in self.runs if not entry.ok]
+        failed = [entry.failure() for entry in self.runs if not entry.ok]
+        return failed + [dict(f) for f in self.velocity_steps.get("failed", ())]
 
     @property
     def exit_code(self) -> int:
@@ -419,8 +427,7 @@ def _material_lines(material):
         interval = format_interval(list(estimate.ci95))  # digits enough for its two ends
         interval = "[n/a, n/a]" if interval == DASH else interval.replace(DASH, "n/a")
         lines.append(
-            f"  {name:<5} = {_value_error(estimate.value, estimate.stderr)}{unit}   "
-            f"95%: {interval}"
+            f"  {name:<5} = {_value_error(estimate.value, estimate.stderr)}{unit}   95%: {interval}"
         )
     return lines
 

@@ -14,11 +14,22 @@ reads: ``model_comparison`` (one entry per record, with ``label``, ``rows``, ``b
 
 import math
 from pathlib import Path
+from typing import Any
 
+from granflow._typing import PathLike
 from granflow.errors import GranflowError
 from granflow.io.velocity_steps import is_velocity_step_file
 
-__all__ = ["is_velocity_step_file", "velocity_step_section"]
+__all__ = [
+    "VELOCITY_STEP_TEST",
+    "campaign_velocity_steps",
+    "is_velocity_step_file",
+    "velocity_step_entries",
+    "velocity_step_section",
+]
+
+#: The manifest's ``test`` of a velocity-step record.
+VELOCITY_STEP_TEST = "velocity_steps"
 
 
 def _parameter_table(fit):
@@ -47,7 +58,14 @@ def _parameter_table(fit):
     }
 
 
-def velocity_step_section(paths, output_dir, *, law="aging", correlated_noise=True):
+def velocity_step_section(
+    paths: Any,
+    output_dir: PathLike,
+    *,
+    law: str = "aging",
+    correlated_noise: bool = True,
+    first_index: int = 1,
+) -> dict[str, Any]:
     """Fit, compare and draw every velocity-step record of ``paths``.
 
     Parameters
@@ -60,6 +78,8 @@ def velocity_step_section(paths, output_dir, *, law="aging", correlated_noise=Tr
         The rate-and-state law of the fit shown and tabled.
     correlated_noise : bool
         Uncertainties scaled by the residuals' correlation time (real records).
+    first_index : int
+        The number of the first record's figure.
 
     Returns
     -------
@@ -78,7 +98,7 @@ def velocity_step_section(paths, output_dir, *, law="aging", correlated_noise=Tr
     output_dir = Path(output_dir)
     output_dir.mkdir(parents=True, exist_ok=True)
     section = {"model_comparison": [], "figures": [], "fits": {}, "problems": []}
-    for index, path in enumerate(paths, start=1):
+    for index, path in enumerate(paths, start=first_index):
         label = Path(path).name
         try:
             record = rsf.read_velocity_steps(path)
@@ -112,3 +132,94 @@ def velocity_step_section(paths, output_dir, *, law="aging", correlated_noise=Tr
             }
         )
     return section
+
+
+def velocity_step_entries(manifest: PathLike | None) -> list[dict[str, str]]:
+    """The manifest's velocity-step records (``test: velocity_steps``), in manifest order.
+
+    Parameters
+    ----------
+    manifest : path-like or None
+        The campaign's manifest (None: a Campaign, which holds none).
+
+    Returns
+    -------
+    list of dict
+        ``file`` (as the manifest writes it, relative to its folder) and ``law`` (default
+        ``"aging"``). Entries the manifest cannot use are failed runs of the campaign already.
+    """
+    if manifest is None:
+        return []
+    from granflow.io.manifest import BadEntry, read_manifest
+
+    return [
+        {"file": str(entry["file"]), "law": str(entry.get("law") or "aging")}
+        for entry in read_manifest(manifest, errors="collect")
+        if not isinstance(entry, BadEntry) and entry.get("test") == VELOCITY_STEP_TEST
+    ]
+
+
+def campaign_velocity_steps(
+    manifest: PathLike | None, output: PathLike, figures_dir: str = "figures"
+) -> dict[str, Any]:
+    """Fit, compare and draw the velocity-step records a campaign's manifest names.
+
+    One record after the other, in manifest order and in this process, so the result does not
+    depend on the number of workers; a record that cannot be read or fitted fails alone.
+
+    Parameters
+    ----------
+    manifest : path-like or None
+        The campaign's manifest (:func:`velocity_step_entries`).
+    output : path-like
+        The analysis's output folder; the figures go to ``output/figures_dir``.
+    figures_dir : str
+        The figures' folder, relative to ``output``.
+
+    Returns
+    -------
+    dict
+        Empty without velocity-step records; otherwise ``records`` (one per record analysed:
+        ``name``, ``law``, ``fit`` (the parameter table), ``comparison`` (rows, best by AIC and
+        BIC) and ``figure`` (the PNG relative to ``output``)) and ``failed`` (``name``,
+        ``source``, ``interval``, ``stage``, ``reason``, as the failed runs).
+    """
+    entries = velocity_step_entries(manifest)
+    if not entries:
+        return {}
+    folder = Path(manifest).parent  # type: ignore[arg-type]
+    records, failed = [], []
+    for index, entry in enumerate(entries, start=1):
+        name, path = entry["file"], folder / entry["file"]
+        try:
+            section = velocity_step_section(
+                [path], Path(output) / figures_dir, law=entry["law"], first_index=index
+            )
+        except Exception as exc:  # any error: the record fails alone, named
+            section = {"problems": [f"{path.name}: {type(exc).__name__}: {exc}"]}
+        if section["problems"] or not section.get("fits"):
+            reasons = [p.removeprefix(f"{path.name}: ") for p in section["problems"]]
+            failed.append(
+                {
+                    "name": name,
+                    "source": name,
+                    "interval": None,
+                    "stage": VELOCITY_STEP_TEST,
+                    "reason": "; ".join(reasons) or "no fit",
+                }
+            )
+            continue
+        (comparison,) = section["model_comparison"]
+        comparison = {k: v for k, v in comparison.items() if k != "label"}
+        figure = section["figures"][0]
+        records.append(
+            {
+                "name": name,
+                "law": entry["law"],
+                "fit": section["fits"][path.name],
+                "comparison": comparison,
+                "figure": f"{figures_dir}/{figure['png']}",
+                "caption": figure["caption"],
+            }
+        )
+    return {"records": records, "failed": failed}

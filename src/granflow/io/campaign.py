@@ -131,6 +131,8 @@ def manifest_runs(path, geometry=None, *, executor=None):
         if isinstance(entry, BadEntry):
             planned.append((entry, None))
             continue
+        if entry.get("test") == "velocity_steps":
+            continue  # a rate-and-state record, no rheometer export: the analysis reads it
         try:
             annulus, described = _entry_geometry(entry, geometry)
         except GranflowError as exc:

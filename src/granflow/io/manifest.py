@@ -31,7 +31,14 @@ from granflow.errors import FileFormatError, GranflowError, InvalidParameterErro
 if TYPE_CHECKING:
     from granflow._typing import PathLike
 
-__all__ = ["MANIFEST_FIELDS", "MAX_MANIFEST_BYTES", "TEST_KINDS", "BadEntry", "read_manifest"]
+__all__ = [
+    "MANIFEST_FIELDS",
+    "MAX_MANIFEST_BYTES",
+    "RSF_LAWS",
+    "TEST_KINDS",
+    "BadEntry",
+    "read_manifest",
+]
 
 #: Manifest fields: file (required), interval (default: all), normal_load ("50 mN"), velocity
 #: ("0.86 um/s"), rest_time ("5 min"), preparation (the run's own preparation, a label),
@@ -40,7 +47,8 @@ __all__ = ["MANIFEST_FIELDS", "MAX_MANIFEST_BYTES", "TEST_KINDS", "BadEntry", "r
 #: analysis reports; without it, runs with the same preparation label are the repeats),
 #: sample, notes, test (one of :data:`TEST_KINDS`; inferred from the data when absent),
 #: switch_time ("60 s"; for a switch test: when the force was imposed), geometry (the tube,
-#: see :meth:`granflow.Annulus.from_spec`; default the paper's).
+#: see :meth:`granflow.Annulus.from_spec`; default the paper's), law (for a ``velocity_steps``
+#: record: the rate-and-state law of its fit shown, one of :data:`RSF_LAWS`; default aging).
 MANIFEST_FIELDS = (
     "file",
     "interval",
@@ -54,10 +62,15 @@ MANIFEST_FIELDS = (
     "test",
     "switch_time",
     "geometry",
+    "law",
 )
 #: What a run is: a rate-controlled start-up (Fig. 2), a stress ramp (Fig. 3a), creep under a
 #: constant stress (Fig. 3b), or a switch from rate to stress control (Fig. 3c).
-TEST_KINDS = ("startup", "ramp", "creep", "switch")
+#: ``velocity_steps`` is a rate-and-state velocity-step record (time, displacement, friction;
+#: :func:`granflow.io.read_velocity_steps`), fitted and compared apart from the runs.
+TEST_KINDS = ("startup", "ramp", "creep", "switch", "velocity_steps")
+#: The rate-and-state laws a ``velocity_steps`` entry may name.
+RSF_LAWS = ("aging", "slip")
 #: The largest manifest read [bytes] (1 MiB: tens of thousands of entries).
 MAX_MANIFEST_BYTES = 1 << 20
 #: Physical quantities: True where the value must be positive, False where it may be zero.
@@ -240,6 +253,10 @@ def _field(key, value):
             raise InvalidParameterError(
                 f"test must be one of {', '.join(TEST_KINDS)}, got {value!r}"
             )
+    if key == "law":
+        value = str(value).strip().lower()
+        if value not in RSF_LAWS:
+            raise InvalidParameterError(f"law must be one of {', '.join(RSF_LAWS)}, got {value!r}")
     return str(value)
 
 
