@@ -97,7 +97,7 @@ def velocity_step_section(
 
     output_dir = Path(output_dir)
     output_dir.mkdir(parents=True, exist_ok=True)
-    section = {"model_comparison": [], "figures": [], "fits": {}, "problems": []}
+    section: dict[str, Any] = {"model_comparison": [], "figures": [], "fits": {}, "problems": []}
     for index, path in enumerate(paths, start=first_index):
         label = Path(path).name
         try:
