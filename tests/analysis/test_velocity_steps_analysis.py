@@ -2,6 +2,7 @@
 the model comparison in results.json, the report's section and its summary line, a broken
 record failing alone, and the same results with --jobs 2 and --resume."""
 
+import json
 import re
 
 import numpy as np
@@ -12,6 +13,7 @@ from conftest import SMALL_NOISE, SMALL_TRUTH, shared_data
 import granflow as gf
 from granflow import rsf
 from granflow.analysis.result import AnalysisResult
+from granflow.cli import main
 
 #: The synthetic truth of the velocity-step record (aging law, velocity weakening).
 TRUTH = {"a": 0.008, "b": 0.012, "Dc": 20e-6}
@@ -123,6 +125,7 @@ def test_results_round_trip(analysed):
     again = AnalysisResult.from_dict(result.to_dict())
     assert again.to_dict() == result.to_dict()
     assert again.velocity_steps["records"][0]["name"] == "steps.txt"
+    assert "velocity steps steps.txt: a - b = " in result.summary()
 
 
 def test_report_has_the_section_and_the_summary_line(analysed):
@@ -149,15 +152,19 @@ def test_jobs_and_resume_give_identical_results(analysed, tmp_path):
     assert _without_timing(again.results) == _without_timing(result.results)
 
 
-def test_the_real_record_in_a_campaign(tmp_path):
-    """The sepiolite record analysed in a campaign: the slip law is preferred by AIC, as
-    compare_models alone finds (tests/rsf/test_rsf_compare.py)."""
+def test_the_real_record_through_the_command(tmp_path, capsys):
+    """The sepiolite record analysed by ``granflow analyze``: the slip law is preferred by
+    AIC, as compare_models alone finds (tests/rsf/test_rsf_compare.py), and the command's
+    summary states it."""
     path = shared_data("rate-state-velocity-steps", "velstep3_TR2_exp013_sepiolite.txt")
     manifest = _campaign(
         tmp_path / "campaign", [{"file": str(path), "test": "velocity_steps", "law": "slip"}]
     )
-    result = gf.analyze(manifest, tmp_path / "out", jobs=1, quiet=True)
-    [record] = result.results["velocity_steps"]["records"]
-    assert result.failed_runs == []
+    code = main(["analyze", str(manifest), "-o", str(tmp_path / "out"), "--jobs", "1", "--quiet"])
+    assert code == 0
+    results = json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
+    [record] = results["velocity_steps"]["records"]
+    assert results["failed_runs"] == []
     assert record["comparison"]["best_aic"] == "rsf_slip"
     assert record["fit"]["success"] is True
+    assert f"velocity steps {path}: a - b = " in capsys.readouterr().out

@@ -37,6 +37,15 @@ one whose force stays level is a creep test.
   runaway as above, relative to the nominal velocity), *stop* (last velocity below 1 % of
   the nominal one) or *creep*.
 
+**Velocity-step records.** A manifest entry with ``test: velocity_steps`` is a rate-and-state
+record (time, load-point displacement, friction; :func:`granflow.io.read_velocity_steps`),
+never read as a rheometer export: after the joint stage, in this process and in manifest
+order, it is fitted by rate-and-state friction with the entry's ``law`` (default aging) and
+compared with the other law and the paper's Eq. 2 with and without the direct effect
+(:func:`granflow.analysis.velocity_steps.campaign_velocity_steps`); ``results.json`` holds
+them under ``velocity_steps``, the report in its section ``#velocity-steps``. A record that
+cannot be read or fitted is a failed run (stage ``velocity_steps``), the rest analysed.
+
 A run that cannot be analysed (an error, or a fit with ``success=False``) is a failed run; a
 file that cannot be read is one too; the rest goes on.
 

@@ -328,6 +328,12 @@ class AnalysisResult(Value):
             lines.append(f"  synthetic truth: {inside} the 95 % intervals")
         lines += _prediction_lines(self.predictions, self.analyses)
         lines += [forecast.summary() for forecast in self.forecasts]
+        for record in self.velocity_steps.get("records", ()):
+            fit, best = record["fit"], record["comparison"].get("best_aic")
+            lines.append(
+                f"velocity steps {record['name']}: a - b = {_number(fit['a_minus_b'], 3)} "
+                f"({record['law']} law), best by AIC: {best}"
+            )
         for name, reason in self.analyses.errors.items():
             lines.append(f"joint analysis failed: {name.replace('_', ' ')}: {reason}")
         lines += _quality_lines(self.runs, self.campaign)
