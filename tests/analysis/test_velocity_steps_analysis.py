@@ -168,3 +168,18 @@ def test_the_real_record_through_the_command(tmp_path, capsys):
     assert record["comparison"]["best_aic"] == "rsf_slip"
     assert record["fit"]["success"] is True
     assert f"velocity steps {path}: a - b = " in capsys.readouterr().out
+
+
+def test_the_manifest_takes_velocity_steps_and_checks_the_law(tmp_path):
+    from granflow.io.manifest import BadEntry, read_manifest
+
+    manifest = tmp_path / "manifest.yaml"
+    manifest.write_text(
+        "runs:\n"
+        "  - {file: a.txt, test: velocity_steps, law: Slip}\n"
+        "  - {file: b.txt, test: velocity_steps, law: dieterich}\n",
+        encoding="utf-8",
+    )
+    good, bad = read_manifest(manifest, errors="collect")
+    assert good["test"] == "velocity_steps" and good["law"] == "slip"
+    assert isinstance(bad, BadEntry) and "law must be one of aging, slip" in bad.reason
