@@ -155,6 +155,21 @@ class ModelComparison(ValueEquality):
         return pd.DataFrame(list(self.rows)).set_index("model")
 
 
+def failed_row(model: str, formula: str, nfree: int, reason: object) -> dict[str, Any]:
+    """The comparison's row of a model that could not be fitted (``reason``: the exception
+    or a sentence)."""
+    return {
+        "model": model,
+        "formula": formula,
+        "nfree": nfree,
+        "chisqr": None,
+        "aic": None,
+        "bic": None,
+        "success": False,
+        "message": str(reason),
+    }
+
+
 def _log_aging(x, a, F1):
     return F1 + a * np.log(x / x[0])
 
@@ -306,18 +321,7 @@ def compare_models(
         except GranflowError as exc:
             fits[model] = None
             nfree = {"eq3": 4, "log_aging": 2, "exponential": 3}[model]
-            rows.append(
-                {
-                    "model": model,
-                    "formula": _FORMULAS[model],
-                    "nfree": nfree,
-                    "chisqr": None,
-                    "aic": None,
-                    "bic": None,
-                    "success": False,
-                    "message": str(exc),
-                }
-            )
+            rows.append(failed_row(model, _FORMULAS[model], nfree, exc))
             continue
         fits[model] = result
         rows.append(

@@ -32,6 +32,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from granflow.errors import GranflowError
+from granflow.fitting.compare import failed_row
 from granflow.fitting.creep import fit_curve
 from granflow.fitting.engine import Model
 from granflow.fitting.rsf_fit import fit as fit_rsf
@@ -89,16 +90,7 @@ def _row(model, result, extra_free=0):
 
 
 def _failed(model, nfree, exc):
-    return {
-        "model": model,
-        "formula": FORMULAS.get(model, model),
-        "nfree": nfree,
-        "chisqr": None,
-        "aic": None,
-        "bic": None,
-        "success": False,
-        "message": str(exc),
-    }
+    return failed_row(model, FORMULAS.get(model, model), nfree, exc)
 
 
 def _constant(x, mu_d):
