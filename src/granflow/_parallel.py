@@ -4,7 +4,7 @@
 :func:`granflow.analyze`. ``map`` returns results in the order of the input; ``run`` yields
 them as each task finishes (so that they can be saved at once) together with the task's
 position, so that callers order them by their input, never by completion. With one job (or
-one task) everything runs in this process, with no pool.
+one task, unless the executor isolates) everything runs in this process, with no pool.
 """
 
 import copyreg
@@ -45,11 +45,15 @@ class Executor:
         Local worker processes (1: in this process).
     scheduler : str or distributed.Client, optional
         A Dask scheduler address (``"tcp://host:8786"``) or a client; overrides ``jobs``.
+    isolate : bool
+        With local workers, send every task to them, even a task alone (which otherwise
+        runs in this process): what the tasks load stays out of this process.
     """
 
-    def __init__(self, jobs=1, scheduler=None):
+    def __init__(self, jobs=1, scheduler=None, *, isolate=False):
         self.jobs = check_jobs(jobs)
         self.scheduler = scheduler
+        self.isolate = bool(isolate)
         self._pool = None
         self._client = None
         self._own_client = False
@@ -77,18 +81,6 @@ class Executor:
             return f"dask {self._client.scheduler.address}"
         return f"local, {self.jobs} process{'es' if self.jobs > 1 else ''}"
 
-    @property
-    def forks(self):
-        """Whether the work goes to local processes started by fork (which begin with what
-        this process has imported and loaded at the moment they start)."""
-        if self._client is not None or self.jobs == 1 or self._pool is not None:
-            return False
-        import multiprocessing
-
-        # without fixing the start method as a side effect (the first listed is the default)
-        method = multiprocessing.get_start_method(allow_none=True)
-        return (method or multiprocessing.get_all_start_methods()[0]) == "fork"
-
     def _local_pool(self):
         if self._pool is None:
             from concurrent.futures import ProcessPoolExecutor
@@ -109,7 +101,7 @@ class Executor:
             for future in as_completed(futures):
                 yield where[future.key], _outcome(future.result)
             return
-        if self.jobs == 1 or len(tasks) == 1:
+        if self.jobs == 1 or (len(tasks) == 1 and not self.isolate):
             for position, task in enumerate(tasks):
                 yield position, function(task)
             return
@@ -121,12 +113,30 @@ class Executor:
         for future in as_completed(futures):
             yield futures[future], _outcome(future.result)
 
+    def call(self, function, argument):
+        """``function(argument)`` on a local worker, so that what it loads stays there (with
+        one job, or a Dask cluster, in this process); an exception it raises is raised here."""
+        if self._client is not None or self.jobs == 1:
+            return function(argument)
+        return self._local_pool().submit(function, argument).result()
+
+    def recycle(self):
+        """End the local workers: the next tasks go to new ones, started from this process
+        as it is then (forked, where that is the start method), so that what one stage's
+        tasks loaded (pandas for reading, the compiled kernels for fitting, matplotlib for
+        drawing) does not pile up in the workers of the next. Nothing changes on a Dask
+        cluster or with one job."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+            self._futures = []
+
     def map(self, function, items, chunksize=1):
         """``[function(item) for item in items]``, on the same workers, in input order."""
         items = list(items)
         if self._client is not None:
             return self._client.gather(self._client.map(function, items, pure=False))
-        if self.jobs == 1 or len(items) <= 1:
+        if self.jobs == 1 or not items or (len(items) == 1 and not self.isolate):
             return [function(item) for item in items]
         return list(self._local_pool().map(function, items, chunksize=chunksize))
 

@@ -2,6 +2,7 @@
 the same files and the same results whatever the number of processes."""
 
 import json
+import os
 from types import MappingProxyType
 
 import numpy as np
@@ -129,18 +130,65 @@ def test_json_safe_fast_paths_follow_the_rule():
     assert json.dumps(out, allow_nan=False)
 
 
-def test_asking_whether_workers_fork_leaves_the_start_method_open():
-    import os
+_MARKED = []  # in a worker: whether an earlier task ran there
+
+
+def _pid(_):
+    return os.getpid()
+
+
+def _mark(_):
+    seen = bool(_MARKED)
+    _MARKED.append(True)
+    return seen
+
+
+def _marked(_):
+    return bool(_MARKED)
+
+
+def _fail(_):
+    raise ValueError("no such table")
+
+
+def test_an_isolating_executor_sends_even_one_task_to_a_worker():
+    here = os.getpid()
+    with Executor(2) as executor:
+        assert executor.map(_pid, [0]) == [here]
+        assert list(executor.run(_pid, [0])) == [(0, here)]
+    with Executor(2, isolate=True) as executor:
+        assert executor.map(_pid, [0]) != [here]
+        assert dict(executor.run(_pid, [0]))[0] != here
+        assert executor.call(_pid, 0) != here
+        with pytest.raises(ValueError, match="no such table"):
+            executor.call(_fail, 0)
+    with Executor(1, isolate=True) as executor:
+        assert executor.call(_pid, 0) == here
+        assert executor.map(_pid, [0, 1]) == [here, here]
+
+
+def test_recycled_workers_begin_without_what_earlier_tasks_left():
+    with Executor(2) as executor:
+        # one worker runs the four tasks in one chunk: it remembers the earlier ones
+        assert executor.map(_mark, range(4), chunksize=4) == [False, True, True, True]
+        executor.recycle()
+        assert executor.map(_marked, range(4)) == [False] * 4
+    assert not _MARKED  # and none of it ran here
+
+
+def test_a_parallel_analysis_leaves_pandas_and_matplotlib_to_the_workers(tmp_path):
     import subprocess
     import sys
     from pathlib import Path
 
+    manifest = write_small_campaign(tmp_path / "campaign")
     source = Path(__file__).resolve().parents[2] / "src"
     code = (
-        "import multiprocessing\n"
-        "from granflow._parallel import Executor\n"
-        "print(Executor(1).forks, Executor(2).forks in (True, False))\n"
-        "print(multiprocessing.get_start_method(allow_none=True))\n"
+        "import sys\n"
+        "from granflow.analysis import analyze\n"
+        f"result = analyze({str(manifest)!r}, {str(tmp_path / 'out')!r}, jobs=2, quiet=True)\n"
+        "print(len(result.figures) > 0, sorted(result.tables) != [])\n"
+        "print('pandas' in sys.modules, 'matplotlib' in sys.modules)\n"
     )
     out = subprocess.run(
         [sys.executable, "-c", code],
@@ -149,4 +197,4 @@ def test_asking_whether_workers_fork_leaves_the_start_method_open():
         text=True,
         check=True,
     )
-    assert out.stdout.split() == ["False", "True", "None"]
+    assert out.stdout.split() == ["True", "True", "False", "False"]

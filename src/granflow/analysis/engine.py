@@ -292,12 +292,12 @@ def analyze(
     reporter = RunProgress(quiet, progress)
     stages = {}
     # one executor for the whole analysis: reading, the per-run work, the joint stage's
-    # parallel parts and the figures all run on the same workers
-    executor = Executor(jobs, scheduler)
+    # parallel parts, the tables and the figures all run on it; its local workers are
+    # recycled between stages, so that no worker holds two stages' stacks
+    executor = Executor(jobs, scheduler, isolate=True)
     try:
-        if executor.forks:
-            _preload()
         items, manifest, inputs = load_campaign(source, geometry, executor)
+        executor.recycle()
         stages["read_s"] = time.perf_counter() - clock
         output.mkdir(parents=True, exist_ok=True)
         (output / RUNS_DIR).mkdir(exist_ok=True)
@@ -312,12 +312,14 @@ def analyze(
             reporter.line(f"reusing {reused} saved run results from {output / RUNS_DIR}")
         clock_stage = time.perf_counter()
         _run_all(todo, executor, output, reporter)
+        executor.recycle()
         stages["runs_s"] = time.perf_counter() - clock_stage
         reporter.line("joint analyses and predictions")
         clock_stage = time.perf_counter()
         entries = tuple(run_entry(item, index, strict) for index, item in enumerate(items))
         with silenced():  # one bar per campaign: none from the stability map or MCMC
             joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
+        executor.recycle()
         stages["joint_s"] = time.perf_counter() - clock_stage
         reporter.line("velocity steps")
         clock_stage = time.perf_counter()
@@ -336,7 +338,8 @@ def analyze(
         )
         notes = list(result.warnings)
         content = result.to_dict()  # once: its parts are the slow ones (see _with_results)
-        tables = write_tables(output, content, notes)
+        tables = write_tables(output, content, notes, executor)
+        executor.recycle()
         reporter.line("figures")
         figures = make_figures(output, result, joint, notes, figure_formats, executor)
     finally:
@@ -366,20 +369,6 @@ def analyze(
     result = _with_results(replace(result, timing=_finished(timing, clock), report=report), content)
     write_json(output / RESULTS_FILE, result.results)
     return result
-
-
-def _preload():
-    """Load what every worker needs before the local workers start: forked workers then
-    begin with it, instead of each loading it again for its first task (the unit registry
-    for reading, the plotting stack for the figures). The analysis needs all of it in this
-    process too when it runs alone, so this costs nothing that one job does not."""
-    import matplotlib.pyplot  # noqa: F401
-    import pandas  # noqa: F401
-
-    import granflow.plotting  # noqa: F401
-    from granflow.model.units import unit_registry
-
-    unit_registry()
 
 
 def _with_results(result, content):

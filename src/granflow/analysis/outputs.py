@@ -4,6 +4,8 @@ Tables are built from ``results.json``'s content (the ``to_dict()`` of the campa
 :class:`~granflow.analysis.result.AnalysisResult`); figures from the result's objects.
 """
 
+from pathlib import Path
+
 from granflow._files import write_atomic
 from granflow.analysis.files import FIGURES_DIR, TABLES_DIR
 from granflow.model.units import si_unit
@@ -13,6 +15,7 @@ __all__ = [
     "draw_forecast",
     "figure_jobs",
     "make_figures",
+    "table_files",
     "write_report",
     "write_tables",
 ]
@@ -151,16 +154,49 @@ def with_units(rows):
     return converted
 
 
-def write_tables(output, results, warnings_list):
+def write_tables(output, results, warnings_list, executor=None):
     """CSV and Parquet of runs, loads, material and predictions; returns results["tables"].
 
     Quantities are in display units with the unit in the column name (``normal_load_mN``,
     ``x0_um``, ``alpha_per_m``); the material table keeps SI values with a ``unit`` column.
+    The tables are built by :func:`table_files` as one task of ``executor`` (default in this
+    process), so that pandas is loaded there, not here, and written here, each atomically.
     """
-    import pandas as pd
-
+    files, notes = table_files(results) if executor is None else executor.call(table_files, results)
+    warnings_list += notes
     folder = output / TABLES_DIR
     folder.mkdir(exist_ok=True)
+    written = {}
+    for name, contents in files.items():
+        paths = {}
+        for suffix, content in contents.items():
+            paths[suffix] = f"{TABLES_DIR}/{name}.{suffix}"
+            write_atomic(
+                output / paths[suffix],
+                lambda temporary, c=content: Path(temporary).write_bytes(c),
+            )
+        written[name] = paths
+    return written
+
+
+def table_files(results):
+    """The tables of :func:`write_tables` as file contents.
+
+    Parameters
+    ----------
+    results : dict
+        ``results.json``'s content.
+
+    Returns
+    -------
+    (dict, list of str)
+        ``{table: {"csv": bytes, "parquet": bytes}}`` (CSV only without pyarrow) and the
+        notes for the warnings (why there is no Parquet).
+    """
+    import io
+
+    import pandas as pd
+
     tables = {
         "runs": _runs_table(results["runs"]),
         "loads": _loads_table(results),
@@ -180,33 +216,27 @@ def write_tables(output, results, warnings_list):
             for i, point in enumerate(stability["switch_points"])
             for j, ratio in enumerate(stability["stress_ratios"])
         ]
+    notes = []
     try:
         import pyarrow  # noqa: F401
 
         parquet = True
     except ImportError:
         parquet = False
-        warnings_list.append(
+        notes.append(
             "tables written as CSV only: Parquet needs pyarrow (pip install granflow[parquet])"
         )
-    written = {}
+    files = {}
     for name, rows in tables.items():
         frame = pd.DataFrame(rows if name == "material" else with_units(rows))
-        paths = {"csv": f"{TABLES_DIR}/{name}.csv"}
-        write_atomic(
-            output / paths["csv"],
-            lambda temporary, f=frame: f.to_csv(temporary, index=False, float_format="%.17g"),
-        )
+        text = frame.to_csv(index=False, float_format="%.17g")
+        files[name] = {"csv": text.encode("utf-8")}
         if parquet:
-            paths["parquet"] = f"{TABLES_DIR}/{name}.parquet"
-            write_atomic(
-                output / paths["parquet"],
-                lambda temporary, f=frame: f.astype(
-                    {c: "string" for c in f.columns if f[c].dtype == object}
-                ).to_parquet(temporary, index=False),
-            )
-        written[name] = paths
-    return written
+            strings = {c: "string" for c in frame.columns if frame[c].dtype == object}
+            buffer = io.BytesIO()
+            frame.astype(strings).to_parquet(buffer, index=False)
+            files[name]["parquet"] = buffer.getvalue()
+    return files, notes
 
 
 # --------------------------------------------------------------------------- figures and report

@@ -159,7 +159,7 @@ def _read_file(key):
 def _read_files(keys, executor):
     """``_read_file`` of each key, in order, through ``executor`` when it runs on this
     machine's processes (a Dask cluster's workers may not see the files: read here)."""
-    if executor is None or executor.scheduler is not None or len(keys) < 2:
+    if executor is None or executor.scheduler is not None or not keys:
         return [_read_file(key) for key in keys]
     found = dict(executor.run(_read_file, keys))
     out = []
