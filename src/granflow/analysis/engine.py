@@ -68,6 +68,14 @@ each ramp's observed failure force against the predicted F_peak; each switch's o
 outcome against :func:`granflow.simulate` (quasi-static, slip clock) with the run's own
 start-up fit (or the material constants at its load).
 
+**Processes.** With local workers (``jobs`` > 1) every task runs on a worker, even one
+alone, and the workers are ended between stages (reading, per-run work, the joint stage's
+stability map and forecasts, the tables, the figures), so that the next stage's workers
+start from this process without what the last stage's loaded: no process holds pandas
+(reading, tables), matplotlib (figures) and the compiled kernels all at once, and this
+process loads neither pandas nor matplotlib (it runs the joint fits, so it holds the
+kernels). With ``jobs=1`` everything runs in this process, which then holds all of it.
+
 **Results on disk.** Each run's result is written atomically to ``OUTPUT/runs/<key>.json`` as
 soon as it is ready; the key hashes the run's file name, interval, metadata and data and the
 analysis options, so ``resume=True`` reuses exactly the results that still match. Everything
@@ -224,8 +232,10 @@ def analyze(
         ``runs/``, ``tables/`` and ``figures/`` there and touches nothing else.
     jobs : int, optional
         Local worker processes for reading the files, the per-run work, the stability map,
-        the forecasts and the figures; default every core; 1 runs everything in this
-        process. The results and files are the same whatever the number.
+        the forecasts, the tables and the figures; default every core; 1 runs everything
+        in this process (for debugging; it then holds pandas, matplotlib and the compiled
+        kernels at once: a higher peak memory than any one process of a parallel
+        analysis). The results and files are the same whatever the number.
     scheduler : str or dask.distributed.Client or cluster, optional
         Run the per-run work, the stability map, the forecasts and the figures on Dask
         distributed instead (the files are read in this process): a scheduler address
