@@ -31,6 +31,13 @@ from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem, Solu
 from granflow.fitting.profile import profile_interval
 from granflow.fitting.results import FrozenMap, read_only
 from granflow.fitting.rsf_forward import Window, noise_scatter
+from granflow.fitting.rsf_periodic import (
+    best_wavelength,
+    fit_amplitudes,
+    harmonic_names,
+    periodic_terms,
+    periodicity_check,
+)
 from granflow.fitting.rsf_result import RateStateFitResult
 from granflow.fitting.statistics import WALD_Z, fit_statistics
 from granflow.simulation.protocol import Protocol
@@ -49,6 +56,7 @@ _RANGES = {
     "a": (1e-7, 1.0),
     "Dc": (1e-12, 1.0),
     "st": (1e-3, 1e15),
+    "wa": (1e-9, 1.0),
 }  # Levenberg-Marquardt runs from this many of the best-ranked starts
 
 
@@ -199,6 +207,160 @@ def _step_estimates(window, y):
     k = max(k, 10 * abs(b - a) / Dc if b > a else 0.0, 1e-12)
     return mu_before, (a, b, Dc, k)
 
+class _Setup:
+    """What the engine's problems of one fit share: the data, the windows, the names of the
+    rate-and-state parameters (``names``), the held values and the search ranges."""
+
+    def __init__(self, t, friction, record, ranges, names, local_names, count, fixed, search, sigma):
+        self.t, self.friction, self.record, self.ranges = t, friction, record, ranges
+        self.names, self.local_names, self.count = list(names), local_names, count
+        self.fixed, self.search, self.sigma = fixed, search, sigma
+
+    def names_with(self, harmonics):
+        """The parameter names of a fit with ``harmonics`` periodic terms (0: none)."""
+        periodic = ["wavelength", *harmonic_names(harmonics)] if harmonics else []
+        return self.names + periodic
+
+    def problem(self, start, harmonics):
+        """The engine's :class:`Problem` (one curve per window; slots a, stiffness, b.., Dc..,
+        mu0, slope, then wavelength, cos1, sin1, ...), its parameters at ``start``."""
+        count, record, fixed = self.count, self.record, self.fixed
+        names = self.names_with(harmonics)
+        periodic = names[len(self.names) :]
+        slots = (
+            "a",
+            "stiffness",
+            *[f"{p}{i}" for i in range(1, count + 1) for p in ("b", "Dc")],
+            "mu0",
+            "slope",
+            *periodic,
+        )
+        rsf_slots = 2 + 2 * count
+        log = tuple(
+            s in ("a", "stiffness", "wavelength") or s.startswith("Dc") for s in slots
+        )
+        lookup = {float(w.t[0]): w for w in record}
+        free_slots = set()
+        for mn, sn in self.local_names:
+            if mn not in fixed:
+                free_slots.add("mu0")
+            if sn not in fixed:
+                free_slots.add("slope")
+        for s, n in zip(slots[:rsf_slots], self.names, strict=False):
+            if n not in fixed:
+                free_slots.add(s)
+
+        def unpack(values):
+            a, k = values[0], values[1]
+            pairs = [(values[2 + 2 * i], values[3 + 2 * i]) for i in range(count)]
+            return values[rsf_slots], a, k, pairs, values[rsf_slots + 1]
+
+        def position(window, z):
+            if z.size == window.t.size:
+                return window.position
+            return np.interp(z, window.t, window.position)
+
+        def function(z, *values):
+            window = lookup[float(z[0])]
+            mu0, a, k, pairs, slope = unpack(values)
+            out = window.friction(mu0, a, k, pairs, 0.0, local=z - window.start)
+            if slope:
+                out = out + slope * np.interp(z, window.t, window.displacement)
+            if periodic:
+                extra = values[rsf_slots + 2 :]
+                out = out + periodic_terms(position(window, z), extra[0], extra[1:])
+            return out
+
+        def jacobian(z, *values):
+            window = lookup[float(z[0])]
+            mu0, a, k, pairs, slope = unpack(values)
+            wanted = [("k" if s == "stiffness" else s) for s in slots if s in free_slots]
+            base, columns = window.jacobian(mu0, a, k, pairs, slope, wanted)
+            J = np.zeros((z.size, len(slots)))
+            for m, s in enumerate(slots[: rsf_slots + 2]):
+                key = "k" if s == "stiffness" else s
+                if key in columns:
+                    J[:, m] = columns[key]
+            if periodic:
+                extra = values[rsf_slots + 2 :]
+                term, columns = periodic_terms(
+                    position(window, z), extra[0], extra[1:], with_jacobian=True
+                )
+                base = base + term
+                J[:, rsf_slots + 2 :] = columns
+            return base, J
+
+        model = Model(slots=slots, function=function, jacobian=jacobian, log=log)
+        parameters = []
+        for i, name in enumerate(names):
+            positive = name in ("a", "stiffness", "wavelength") or name.startswith("Dc")
+            parameters.append(
+                GlobalParameter(
+                    name=name,
+                    value=float(start[i]),
+                    log=positive,
+                    fixed=name in fixed,
+                    lower=self.search[name[:2]][0] if positive else -math.inf,
+                    upper=self.search[name[:2]][1] if positive else math.inf,
+                )
+            )
+        weights = 1.0 / self.sigma if self.sigma is not None else 1.0
+        curves = []
+        for (lo, hi, _), (mn, sn) in zip(self.ranges, self.local_names, strict=True):
+            links = [
+                names.index(s if s in names else {"b1": "b", "Dc1": "Dc"}.get(s, s))
+                for s in slots[:rsf_slots]
+            ]
+            links += [names.index(mn), names.index(sn), *(names.index(n) for n in periodic)]
+            curves.append(
+                Curve(
+                    self.t[lo:hi],
+                    self.friction[lo:hi],
+                    np.full(hi - lo, weights),
+                    tuple((i, 1.0) for i in links),
+                )
+            )
+        return Problem(curves, parameters, model)
+
+
+def _with_periodic(setup, problem, solution, periodic, harmonics, position):
+    """The fit with the periodic term, from the fit without it: the wavelength is the given
+    one, or the periodogram's peak of its residuals against load-point displacement; the
+    amplitudes are the linear least-squares ones of those residuals at that wavelength (so
+    every parameter starts next to its optimum, and no guess is needed); then
+    Levenberg-Marquardt over all of them. Returns (names, problem, solution)."""
+    values = problem.values(solution.x)
+    residuals = np.concatenate([c.y for c in problem.curves]) - np.concatenate(
+        problem.best_fit(values)
+    )
+    if "wavelength" in setup.fixed:
+        wavelength = float(setup.fixed["wavelength"])
+    elif periodic is True:
+        wavelength = best_wavelength(position, residuals, harmonics)
+        if wavelength is None:
+            raise InvalidDataError(
+                f"the load point moves {np.ptp(position):.3g} m in the fit windows: too "
+                "little for three periods of a wavelength the sampling resolves; give "
+                "periodic=<wavelength [m]>"
+            )
+    else:
+        wavelength = float(periodic)
+    amplitudes = fit_amplitudes(position, residuals, wavelength, harmonics)
+    names = setup.names_with(harmonics)
+    start = dict(zip(setup.names, values, strict=True))
+    start.update(zip(names[len(setup.names) :], [wavelength, *amplitudes], strict=True))
+    start.update({n: v for n, v in setup.fixed.items() if n in start})
+    full = setup.problem([start[n] for n in names], harmonics)
+    u, _, converged, steps, hessian = full.lm(
+        full.internal([start[n] for n in names]), max_iter=4 * _MAX_STEPS, rtol=1e-9
+    )
+    nfev = solution.nfev + steps
+    if converged and solution.status > 0:
+        message = f"{solution.message}, then with the periodic term"
+        return names, full, Solution(u, 1, message, nfev, hessian)
+    message = f"Levenberg-Marquardt did not converge with the periodic term in {steps} steps"
+    return names, full, Solution(u, 0, message, nfev, hessian)
+
 
 def fit(
     t: Any,
@@ -213,6 +375,8 @@ def fit(
     sigma: float | None = None,
     profile: bool = True,
     correlated_noise: bool = False,
+    periodic: bool | float | None = None,
+    harmonics: int = 2,
 ) -> RateStateFitResult:
     """Fit a rate-and-state spring-slider to velocity steps, with no initial guess.
 
@@ -247,6 +411,18 @@ def fit(
         Scale the covariance and the profile threshold by the residuals' integrated
         correlation time (:func:`correlation_time`; at least 1): for real records, whose
         residuals (instrument filters, slow wander) are not white. Default: white noise.
+    periodic : bool or float, optional
+        Fit an apparatus ripple periodic in load-point displacement d (a drive screw, a gear)
+        jointly with the friction: ``sum_h cos_h cos(2 pi h d / wavelength) + sin_h
+        sin(2 pi h d / wavelength)``, h = 1 .. ``harmonics``, d since the protocol's start
+        [m] (:mod:`granflow.fitting.rsf_periodic`). ``True``: the wavelength starts at the
+        peak of the periodogram of the residuals of the fit without it; a float: it starts
+        at this wavelength [m]. Either way it is fitted, with the amplitudes (parameters
+        ``wavelength`` [m], ``cos1``, ``sin1``, ``cos2``, ``sin2``, ... [-]); hold it with
+        ``fixed={"wavelength": ...}``. Default (None, False): no ripple term; the result's
+        ``periodicity`` then says whether the residuals hold one.
+    harmonics : int
+        Harmonics of the ripple (fitted with ``periodic``, and searched by the check).
 
     Returns
     -------
@@ -277,6 +453,16 @@ def fit(
             raise InvalidParameterError(
                 f"law must be 'aging', 'slip' or 'prz', got {name!r} (nagata needs c)"
             )
+    if harmonics is True or not isinstance(harmonics, int | np.integer) or harmonics < 1:
+        raise InvalidParameterError(f"harmonics must be a positive integer, got {harmonics!r}")
+    harmonics = int(harmonics)
+    if periodic is None or periodic is False:
+        terms = 0
+    elif periodic is True:
+        terms = harmonics
+    else:
+        periodic = check.positive(periodic, "periodic", "m")
+        terms = harmonics
     pieces = _pieces(protocol)
     if t[0] < 0 or t[-1] > pieces[-1, 1] * (1 + 1e-12):
         raise InvalidDataError(
@@ -294,13 +480,14 @@ def fit(
     shared = ["a", "stiffness", *[n for pair in names_states for n in pair]]
     names = shared + [n for pair in local_names for n in pair]
     fixed = dict(fixed or {})
-    unknown = sorted(set(fixed) - set(names))
+    known = names + (["wavelength", *harmonic_names(terms)] if terms else [])
+    unknown = sorted(set(fixed) - set(known))
     if unknown:
-        raise InvalidParameterError(f"fixed names unknown parameters {unknown}; known: {names}")
+        raise InvalidParameterError(f"fixed names unknown parameters {unknown}; known: {known}")
     if not detrend:
         for _, slope in local_names:
             fixed.setdefault(slope, 0.0)
-    for name in ("a", "stiffness", *[dc for _, dc in names_states]):
+    for name in ("a", "stiffness", "wavelength", *[dc for _, dc in names_states]):
         if name in fixed:
             check.positive(fixed[name], name)
     noise = noise_scatter(friction)
@@ -332,84 +519,19 @@ def fit(
                 values.update(fixed)
                 starts.append([values[n] for n in names])
 
-    # the engine: one curve per window, slots a, stiffness, b.., Dc.., mu0, slope
-    slots = (
-        "a",
-        "stiffness",
-        *[f"{p}{i}" for i in range(1, count + 1) for p in ("b", "Dc")],
-        "mu0",
-        "slope",
-    )
-    log = tuple(s in ("a", "stiffness") or s.startswith("Dc") for s in slots)
-    lookup = {float(w.t[0]): w for w in record}
-    free_slots = set()
-    for mn, sn in local_names:
-        if mn not in fixed:
-            free_slots.add("mu0")
-        if sn not in fixed:
-            free_slots.add("slope")
-    for s, n in zip(slots[:-2], shared, strict=True):
-        if n not in fixed:
-            free_slots.add(s)
-
-    def unpack(values):
-        a, k = values[0], values[1]
-        pairs = [(values[2 + 2 * i], values[3 + 2 * i]) for i in range(count)]
-        return values[-2], a, k, pairs, values[-1]
-
-    def function(z, *values):
-        window = lookup[float(z[0])]
-        mu0, a, k, pairs, slope = unpack(values)
-        local = z - window.start
-        out = window.friction(mu0, a, k, pairs, 0.0, local=local)
-        if slope:
-            out = out + slope * np.interp(z, window.t, window.displacement)
-        return out
-
-    def jacobian(z, *values):
-        window = lookup[float(z[0])]
-        mu0, a, k, pairs, slope = unpack(values)
-        wanted = [("k" if s == "stiffness" else s) for s in slots if s in free_slots]
-        base, columns = window.jacobian(mu0, a, k, pairs, slope, wanted)
-        J = np.zeros((z.size, len(slots)))
-        for m, s in enumerate(slots):
-            key = "k" if s == "stiffness" else s
-            if key in columns:
-                J[:, m] = columns[key]
-        return base, J
-
-    model = Model(slots=slots, function=function, jacobian=jacobian, log=log)
-    parameters = []
     search = dict(_RANGES)
     # the rise after a step unresolved by the sampling gives a lower bound of k: allow 1e4
     # times more (a machine stiffer than that is rigid at any sampling), not an overflow
     search["st"] = (_RANGES["st"][0], min(_RANGES["st"][1], 1e4 * k0))
-    for i, name in enumerate(names):
-        positive = name in ("a", "stiffness") or name.startswith("Dc")
-        parameters.append(
-            GlobalParameter(
-                name=name,
-                value=float(starts[0][i]),
-                log=positive,
-                fixed=name in fixed,
-                lower=search[name[:2]][0] if positive else -math.inf,
-                upper=search[name[:2]][1] if positive else math.inf,
-            )
+    setup = _Setup(t, friction, record, ranges, names, local_names, count, fixed, search, sigma)
+    scaled_noise = noise * (1.0 if sigma is None else 1.0 / sigma)
+    problem = setup.problem(starts[0], harmonics=0)
+    solution = _multistart(problem, starts, scaled_noise)
+    load_point = np.concatenate([w.position for w in record])
+    if terms:
+        names, problem, solution = _with_periodic(
+            setup, problem, solution, periodic, terms, load_point
         )
-    weights = 1.0 / sigma if sigma is not None else 1.0
-    curves = []
-    for (lo, hi, _), (mn, sn) in zip(ranges, local_names, strict=True):
-        links = [
-            names.index(s if s in names else {"b1": "b", "Dc1": "Dc"}.get(s, s)) for s in slots[:-2]
-        ]
-        links += [names.index(mn), names.index(sn)]
-        curves.append(
-            Curve(
-                t[lo:hi], friction[lo:hi], np.full(hi - lo, weights), tuple((i, 1.0) for i in links)
-            )
-        )
-    problem = Problem(curves, parameters, model)
-    solution = _multistart(problem, starts, noise * (1.0 if sigma is None else 1.0 / sigma))
     values = problem.values(solution.x)
     stats = fit_statistics(
         problem, values, names, sigma_known=sigma is not None, hessian=solution.hessian
@@ -466,7 +588,13 @@ def fit(
     if correlated_noise:
         message += f"; covariance scaled by the residuals' correlation time, {tau:.3g} points"
     units = {
-        n: ("1/m" if n.startswith(("stiffness", "slope")) else "m" if n.startswith("Dc") else "")
+        n: (
+            "1/m"
+            if n.startswith(("stiffness", "slope"))
+            else "m"
+            if n.startswith(("Dc", "wavelength"))
+            else ""
+        )
         for n in names
     }
     velocity = np.concatenate([w.velocity for w in record])
@@ -495,7 +623,10 @@ def fit(
         best_fit=read_only(stats.best_fit),
         residuals=read_only(stats.residuals),
         load_point_velocity=read_only(velocity),
+        load_point_displacement=read_only(load_point),
         source=str(meta.get("source") or ""),
+        harmonics=terms,
+        periodicity=FrozenMap(periodicity_check(load_point, stats.residuals, harmonics)),
     )
 
 
