@@ -207,12 +207,14 @@ def _step_estimates(window, y):
     k = max(k, 10 * abs(b - a) / Dc if b > a else 0.0, 1e-12)
     return mu_before, (a, b, Dc, k)
 
+
 class _Setup:
     """What the engine's problems of one fit share: the data, the windows, the names of the
     rate-and-state parameters (``names``), the held values and the search ranges."""
 
-    def __init__(self, t, friction, record, ranges, names, local_names, count, fixed, search, sigma):
-        self.t, self.friction, self.record, self.ranges = t, friction, record, ranges
+    def __init__(self, data, record, ranges, names, local_names, count, fixed, search, sigma):
+        self.t, self.friction = data
+        self.record, self.ranges = record, ranges
         self.names, self.local_names, self.count = list(names), local_names, count
         self.fixed, self.search, self.sigma = fixed, search, sigma
 
@@ -236,9 +238,7 @@ class _Setup:
             *periodic,
         )
         rsf_slots = 2 + 2 * count
-        log = tuple(
-            s in ("a", "stiffness", "wavelength") or s.startswith("Dc") for s in slots
-        )
+        log = tuple(s in ("a", "stiffness", "wavelength") or s.startswith("Dc") for s in slots)
         lookup = {float(w.t[0]): w for w in record}
         free_slots = set()
         for mn, sn in self.local_names:
@@ -523,7 +523,7 @@ def fit(
     # the rise after a step unresolved by the sampling gives a lower bound of k: allow 1e4
     # times more (a machine stiffer than that is rigid at any sampling), not an overflow
     search["st"] = (_RANGES["st"][0], min(_RANGES["st"][1], 1e4 * k0))
-    setup = _Setup(t, friction, record, ranges, names, local_names, count, fixed, search, sigma)
+    setup = _Setup((t, friction), record, ranges, names, local_names, count, fixed, search, sigma)
     scaled_noise = noise * (1.0 if sigma is None else 1.0 / sigma)
     problem = setup.problem(starts[0], harmonics=0)
     solution = _multistart(problem, starts, scaled_noise)

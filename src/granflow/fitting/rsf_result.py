@@ -131,9 +131,7 @@ class RateStateFitResult(FitOutcome):
         from granflow.fitting.rsf_periodic import harmonic_names, periodic_terms
 
         amplitudes = [self.params[n] for n in harmonic_names(self.harmonics)]
-        return periodic_terms(
-            self.load_point_displacement, self.params["wavelength"], amplitudes
-        )
+        return periodic_terms(self.load_point_displacement, self.params["wavelength"], amplitudes)
 
     def ripple_amplitudes(self) -> dict[str, float]:
         """Amplitude [-] of each harmonic of the fitted ripple, ``sqrt(cos_h^2 + sin_h^2)``,
