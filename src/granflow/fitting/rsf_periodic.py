@@ -96,20 +96,71 @@ def wavelength_range(position, scatter_points=25, cycles=3.0):
     return max(scatter_points * spacing, 1e-300), span / cycles
 
 
-def _reduction(position, residuals, wavelengths, harmonics):
-    """Sum of squares removed by a constant plus the harmonics at each wavelength."""
+def _reduction(position, residuals, wavelengths, harmonics, uniform=False):
+    """Sum of squares removed by a constant plus the harmonics at each wavelength.
+
+    ``uniform``: the wavelengths are uniform in 1 / lambda, so that exp(i phi) at one is
+    that at the one before times a fixed factor per point (a product, not an exponential).
+
+    The normal equations need only the sums of cos(k phi) and sin(k phi), k = 1 .. 2H, over
+    the points, and those of y cos(h phi), y sin(h phi) (products of harmonics are sums of
+    harmonics): one complex exponential per point and wavelength, its powers, and two matrix
+    products per block of wavelengths.
+    """
     y = residuals - residuals.mean()
+    n = y.size
+    size = 1 + 2 * harmonics
     total = np.empty(len(wavelengths))
+    step = None
+    if uniform and len(wavelengths) > 1:
+        step = np.exp(2j * math.pi * position * (1.0 / wavelengths[1] - 1.0 / wavelengths[0]))
     for start in range(0, len(wavelengths), _CHUNK):
-        block = np.asarray(wavelengths[start : start + _CHUNK])
-        phase = 2.0 * math.pi * position[:, None] / block[None, :]
-        columns = [np.ones_like(phase)]
-        for h in range(1, harmonics + 1):
-            columns += [np.cos(h * phase), np.sin(h * phase)]
-        X = np.stack(columns, axis=2)  # (n, chunk, 1 + 2H)
-        gram = np.einsum("nwi,nwj->wij", X, X)
-        moment = np.einsum("nwi,n->wi", X, y)
-        ridge = 1e-12 * gram[:, :1, :1] * np.eye(gram.shape[1])
+        block = np.asarray(wavelengths[start : start + _CHUNK], dtype=float)
+        if step is None:
+            unit = np.exp(2j * math.pi * position[None, :] / block[:, None])  # (chunk, n)
+        else:
+            unit = np.empty((block.size, n), dtype=complex)
+            unit[0] = np.exp(2j * math.pi * position / block[0])
+            for j in range(1, block.size):
+                np.multiply(unit[j - 1], step, out=unit[j])
+        power = np.ones_like(unit)
+        # sums[k] = sum of exp(i k phi), k = 0 .. 2H; moments[h] = sum of y exp(i h phi)
+        sums = [np.full(block.size, complex(n))]
+        moments = [np.zeros(block.size, dtype=complex)]
+        for k in range(1, 2 * harmonics + 1):
+            power = power * unit
+            sums.append(power.sum(axis=1))
+            if k <= harmonics:
+                moments.append(power @ y)
+        sums = np.array(sums)  # (2H + 1, chunk)
+
+        def cc(h, g):  # sum cos(h phi) cos(g phi)
+            return 0.5 * (sums[h + g].real + sums[abs(h - g)].real)
+
+        def ss(h, g):
+            return 0.5 * (sums[abs(h - g)].real - sums[h + g].real)
+
+        def sc(h, g):  # sum sin(h phi) cos(g phi)
+            return 0.5 * (sums[h + g].imag + np.sign(h - g) * sums[abs(h - g)].imag)
+
+        gram = np.empty((block.size, size, size))
+        moment = np.zeros((block.size, size))
+        # columns: 1, cos 1, sin 1, cos 2, sin 2, ... (1 = cos 0)
+        for i in range(size):
+            hi, si = (i + 1) // 2, i % 2 == 0 and i > 0
+            for j in range(size):
+                hj, sj = (j + 1) // 2, j % 2 == 0 and j > 0
+                if si and sj:
+                    gram[:, i, j] = ss(hi, hj)
+                elif si:
+                    gram[:, i, j] = sc(hi, hj)
+                elif sj:
+                    gram[:, i, j] = sc(hj, hi)
+                else:
+                    gram[:, i, j] = cc(hi, hj)
+            if i:
+                moment[:, i] = moments[hi].imag if si else moments[hi].real
+        ridge = 1e-12 * n * np.eye(size)
         solved = np.linalg.solve(gram + ridge, moment[:, :, None])[:, :, 0]
         total[start : start + block.size] = np.einsum("wi,wi->w", solved, moment)
     return total
@@ -141,6 +192,7 @@ def displacement_periodogram(position, residuals, harmonics=2, wavelengths=None)
     """
     position = np.asarray(position, dtype=float)
     residuals = np.asarray(residuals, dtype=float)
+    uniform = wavelengths is None
     if wavelengths is None:
         shortest, longest = wavelength_range(position)
         span = float(np.ptp(position))
@@ -152,7 +204,8 @@ def displacement_periodogram(position, residuals, harmonics=2, wavelengths=None)
     variance = float(np.sum((residuals - residuals.mean()) ** 2))
     if not variance > 0:
         return wavelengths, np.zeros(wavelengths.size)
-    return wavelengths, _reduction(position, residuals, wavelengths, harmonics) / variance
+    removed = _reduction(position, residuals, wavelengths, harmonics, uniform=uniform)
+    return wavelengths, removed / variance
 
 
 def _refine(position, residuals, wavelengths, power, harmonics):
