@@ -68,7 +68,7 @@ def test_the_term_and_its_wavelength_derivative():
     amplitudes = [4e-4, -3e-4, 1.5e-4, 2e-5]
     term, jacobian = periodic_terms(x, 3e-5, amplitudes, with_jacobian=True)
     h = 1e-12
-    numeric = (periodic_terms(x, 3e-5 + h, amplitudes) - periodic_terms(x, 3e-5 - h, amplitudes))
+    numeric = periodic_terms(x, 3e-5 + h, amplitudes) - periodic_terms(x, 3e-5 - h, amplitudes)
     np.testing.assert_allclose(jacobian[:, 0], numeric / (2 * h), rtol=1e-5, atol=1e-3)
     np.testing.assert_allclose(term, jacobian[:, 1:] @ amplitudes)
 

@@ -96,6 +96,40 @@ def wavelength_range(position, scatter_points=25, cycles=3.0):
     return max(scatter_points * spacing, 1e-300), span / cycles
 
 
+def _normal_equations(sums, moments, harmonics):
+    """J^T J and J^T y of the columns 1, cos phi, sin phi, cos 2 phi, ... per wavelength, from
+    ``sums[k]`` = sum of exp(i k phi) (k = 0 .. 2H) and ``moments[h]`` = sum of
+    y exp(i h phi) (h = 0 .. H)."""
+
+    def cc(h, g):  # sum of cos(h phi) cos(g phi)
+        return 0.5 * (sums[h + g].real + sums[abs(h - g)].real)
+
+    def ss(h, g):
+        return 0.5 * (sums[abs(h - g)].real - sums[h + g].real)
+
+    def sc(h, g):  # sum of sin(h phi) cos(g phi)
+        return 0.5 * (sums[h + g].imag + np.sign(h - g) * sums[abs(h - g)].imag)
+
+    size = 1 + 2 * harmonics
+    gram = np.empty((sums.shape[1], size, size))
+    moment = np.zeros((sums.shape[1], size))
+    for i in range(size):
+        hi, si = (i + 1) // 2, i % 2 == 0 and i > 0
+        for j in range(size):
+            hj, sj = (j + 1) // 2, j % 2 == 0 and j > 0
+            if si and sj:
+                gram[:, i, j] = ss(hi, hj)
+            elif si:
+                gram[:, i, j] = sc(hi, hj)
+            elif sj:
+                gram[:, i, j] = sc(hj, hi)
+            else:
+                gram[:, i, j] = cc(hi, hj)
+        if i:
+            moment[:, i] = moments[hi].imag if si else moments[hi].real
+    return gram, moment
+
+
 def _reduction(position, residuals, wavelengths, harmonics, uniform=False):
     """Sum of squares removed by a constant plus the harmonics at each wavelength.
 
@@ -134,32 +168,7 @@ def _reduction(position, residuals, wavelengths, harmonics, uniform=False):
                 moments.append(power @ y)
         sums = np.array(sums)  # (2H + 1, chunk)
 
-        def cc(h, g):  # sum cos(h phi) cos(g phi)
-            return 0.5 * (sums[h + g].real + sums[abs(h - g)].real)
-
-        def ss(h, g):
-            return 0.5 * (sums[abs(h - g)].real - sums[h + g].real)
-
-        def sc(h, g):  # sum sin(h phi) cos(g phi)
-            return 0.5 * (sums[h + g].imag + np.sign(h - g) * sums[abs(h - g)].imag)
-
-        gram = np.empty((block.size, size, size))
-        moment = np.zeros((block.size, size))
-        # columns: 1, cos 1, sin 1, cos 2, sin 2, ... (1 = cos 0)
-        for i in range(size):
-            hi, si = (i + 1) // 2, i % 2 == 0 and i > 0
-            for j in range(size):
-                hj, sj = (j + 1) // 2, j % 2 == 0 and j > 0
-                if si and sj:
-                    gram[:, i, j] = ss(hi, hj)
-                elif si:
-                    gram[:, i, j] = sc(hi, hj)
-                elif sj:
-                    gram[:, i, j] = sc(hj, hi)
-                else:
-                    gram[:, i, j] = cc(hi, hj)
-            if i:
-                moment[:, i] = moments[hi].imag if si else moments[hi].real
+        gram, moment = _normal_equations(sums, moments, harmonics)
         ridge = 1e-12 * n * np.eye(size)
         solved = np.linalg.solve(gram + ridge, moment[:, :, None])[:, :, 0]
         total[start : start + block.size] = np.einsum("wi,wi->w", solved, moment)
