@@ -145,3 +145,57 @@ def test_bad_settings_are_named():
 def test_the_check_of_a_short_record_is_empty():
     x = np.linspace(0.0, 1e-5, 30)
     assert periodicity_check(x, np.sin(x * 1e5)) == {}
+
+
+def _write_record(path, seed=11):
+    """The rippled step of :func:`_record` in the real files' format (time and displacement
+    offset, displacement in µm)."""
+    t, mu, _ = _record(seed)
+    rows = ["Time(s)\tDispl(microns)\tFriction"]
+    rows += [
+        f"{1000.0 + ti:.4f}\t{5000.0 + di * 1e6:.5f}\t{mi:.6f}"
+        for ti, di, mi in zip(t, _displacement(t), mu, strict=True)
+    ]
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+
+
+def test_the_fit_command_takes_periodic(tmp_path, capsys):
+    from granflow.cli import main
+
+    path = tmp_path / "rippled.txt"
+    _write_record(path)
+    assert main(["fit", str(path), "--model", "rsf", "--periodic", "--json"]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    assert payload["harmonics"] == 2
+    assert payload["params"]["wavelength"] == pytest.approx(WAVELENGTH, rel=0.01)
+    command = ["fit", str(path), "--model", "rsf", "--periodic", "31um", "--harmonics", "1"]
+    assert main(command) == 0
+    assert "ripple" in capsys.readouterr().out
+    assert main(["fit", str(path), "--model", "rsf", "--periodic", "31"]) == 2
+    assert "--periodic" in capsys.readouterr().err
+
+
+def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
+    from granflow.analysis.velocity_steps import campaign_velocity_steps
+    from granflow.io.manifest import BadEntry, read_manifest
+
+    _write_record(tmp_path / "rippled.txt")
+    manifest = tmp_path / "manifest.yaml"
+    manifest.write_text(
+        "runs:\n"
+        "  - {file: rippled.txt, test: velocity_steps, periodic: true}\n"
+        "  - {file: rippled.txt, test: velocity_steps}\n"
+        "  - {file: b.txt, test: velocity_steps, periodic: 30 um}\n"
+        "  - {file: c.txt, test: velocity_steps, periodic: 30}\n",
+        encoding="utf-8",
+    )
+    entries = read_manifest(manifest, errors="collect")
+    assert entries[0]["periodic"] is True and entries[2]["periodic"] == pytest.approx(30e-6)
+    assert isinstance(entries[3], BadEntry) and "has no unit" in entries[3].reason
+    section = campaign_velocity_steps(manifest, tmp_path / "out")
+    with_ripple, without = section["records"][:2]
+    assert with_ripple["fit"]["harmonics"] == 2
+    assert "fitted with it" in with_ripple["caption"]
+    wavelength = {row["name"]: row for row in with_ripple["fit"]["parameters"]}["wavelength"]
+    assert wavelength["value"] == pytest.approx(WAVELENGTH, rel=0.01) and wavelength["unit"] == "m"
+    assert without["fit"]["harmonics"] == 0 and "consider periodic: true" in without["caption"]
