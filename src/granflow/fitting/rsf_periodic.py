@@ -165,7 +165,9 @@ def _reduction(position, residuals, wavelengths, harmonics, uniform=False):
             power = power * unit
             sums.append(power.sum(axis=1))
             if k <= harmonics:
-                moments.append(power @ y)
+                # real and imaginary parts apart: a complex matrix-vector product takes
+                # a hundred times longer in some BLAS builds
+                moments.append(power.real @ y + 1j * (power.imag @ y))
         sums = np.array(sums)  # (2H + 1, chunk)
 
         gram, moment = _normal_equations(sums, moments, harmonics)
