@@ -32,6 +32,8 @@ __all__ = [
 
 #: Frequency grid of the periodogram: points per resolution width 1 / span.
 _OVERSAMPLE = 5
+#: At most this many trial wavelengths (the shortest searched rises where more would be needed).
+_MAX_TRIALS = 2000
 #: A component counts as significant below this false-alarm probability.
 FALSE_ALARM = 1e-3
 _CHUNK = 64  # wavelengths per block of the periodogram (memory: points x chunk x columns)
@@ -194,7 +196,8 @@ def displacement_periodogram(position, residuals, harmonics=2, wavelengths=None)
         Harmonics fitted at each wavelength.
     wavelengths : array_like, optional
         Trial wavelengths [m]; default: uniform in 1 / lambda over
-        :func:`wavelength_range`, five per resolution width 1 / span.
+        :func:`wavelength_range`, five per resolution width 1 / span, at most 2000 (from the
+        longest down).
 
     Returns
     -------
@@ -209,7 +212,9 @@ def displacement_periodogram(position, residuals, harmonics=2, wavelengths=None)
         span = float(np.ptp(position))
         if not longest > shortest:
             return np.empty(0), np.empty(0)
-        frequencies = np.arange(1.0 / longest, 1.0 / shortest, 1.0 / (_OVERSAMPLE * span))
+        step = 1.0 / (_OVERSAMPLE * span)
+        highest = min(1.0 / shortest, 1.0 / longest + _MAX_TRIALS * step)
+        frequencies = np.arange(1.0 / longest, highest, step)
         wavelengths = 1.0 / frequencies
     wavelengths = np.asarray(wavelengths, dtype=float)
     variance = float(np.sum((residuals - residuals.mean()) ** 2))
@@ -280,10 +285,12 @@ def periodicity_check(position, residuals, harmonics=2):
         ``rms`` [-] (its root mean square), ``fraction`` (of the residual variance it
         removes), ``false_alarm`` (probability), ``significant`` (false alarm below
         :data:`FALSE_ALARM`); an empty dict where the displacement covers fewer than three
-        periods of any wavelength searched.
+        periods of any wavelength searched, or the residuals are not finite.
     """
     position = np.asarray(position, dtype=float)
     residuals = np.asarray(residuals, dtype=float)
+    if not (np.all(np.isfinite(residuals)) and np.all(np.isfinite(position))):
+        return {}
     wavelengths, power = displacement_periodogram(position, residuals, harmonics)
     if power.size < 3:
         return {}
@@ -306,8 +313,8 @@ def periodicity_check(position, residuals, harmonics=2):
         single = float(stats.chi2.sf(peak / background * stats.chi2.median(dof), dof))
     else:
         single = 0.0 if peak > 0 else 1.0
-    shortest, longest = wavelength_range(position)
-    trials = max(span * (1.0 / shortest - 1.0 / longest), 1.0)
+    # independent wavelengths searched: the frequency range over the resolution width
+    trials = max(span * (1.0 / wavelengths.min() - 1.0 / wavelengths.max()), 1.0)
     false_alarm = float(-np.expm1(trials * np.log1p(-min(single, 1.0 - 1e-16))))
     return {
         "wavelength": wavelength,
