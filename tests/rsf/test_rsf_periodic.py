@@ -199,3 +199,9 @@ def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
     wavelength = {row["name"]: row for row in with_ripple["fit"]["parameters"]}["wavelength"]
     assert wavelength["value"] == pytest.approx(WAVELENGTH, rel=0.01) and wavelength["unit"] == "m"
     assert without["fit"]["harmonics"] == 0 and "consider periodic: true" in without["caption"]
+    # the report's verdict line says which fit carries the ripple
+    from granflow.analysis.report_velocity_steps import velocity_steps_line, velocity_steps_view
+
+    view = velocity_steps_view({"velocity_steps": section}, lambda d: d["figures"])
+    _, text, _ = velocity_steps_line(view)
+    assert text.count("with the apparatus ripple") == 1
