@@ -134,7 +134,7 @@ def velocity_step_section(
         entry = comparison.to_dict(include_arrays=False)
         entry.pop("fits", None)
         section["model_comparison"].append({"label": label, **entry})
-        fit = comparison.fits.get(f"rsf_{law}")
+        fit: Any = comparison.fits.get(f"rsf_{law}")
         if fit is None:
             section["problems"].append(f"{label}: the {law} law could not be fitted")
             continue
