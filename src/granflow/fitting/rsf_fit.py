@@ -14,6 +14,10 @@ gives the stiffness. Levenberg-Marquardt runs from the best few of a small grid 
 Several steps of one record are fitted jointly: one window per step (by default the record
 cut half-way between steps), each window starting at steady sliding with its own mu0 (and
 trend), sharing a, b, Dc and k.
+
+An apparatus ripple periodic in load-point displacement (``periodic=``) is fitted after the
+fit without it, from its residuals (:func:`granflow.fitting.rsf_problem.with_periodic`), and
+every fit's residuals are checked for one (:mod:`granflow.fitting.rsf_periodic`).
 """
 
 from __future__ import annotations
