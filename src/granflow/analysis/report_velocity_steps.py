@@ -75,6 +75,7 @@ def velocity_steps_view(
                 "a_minus_b": _number(fit.get("a_minus_b"), 3),
                 "a_minus_b_ci": _number(1.96 * (real_number(fit.get("a_minus_b_stderr")) or 0), 2),
                 "rms_ratio": _ratio(fit),
+                "ripple": bool(fit.get("harmonics")),
                 "comparison": comparison["groups"][0] if comparison else None,
             }
         )
@@ -99,7 +100,8 @@ def velocity_steps_line(view: Mapping[str, Any] | None) -> tuple[str, str, str] 
         comparison = record["comparison"] or {}
         parts.append(
             f"{record['name']}: a − b = {record['a_minus_b']} ± {record['a_minus_b_ci']} "
-            f"({record['law']} law, residual RMS {record['rms_ratio']} × the scatter), "
+            f"({record['law']} law{' with the apparatus ripple' if record.get('ripple') else ''}"
+            f", residual RMS {record['rms_ratio']} × the scatter), "
             f"best by AIC {comparison.get('best_aic', '—')}"
         )
     parts += [f"{name} failed" for name, _ in view["failed"]]

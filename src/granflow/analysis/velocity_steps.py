@@ -54,8 +54,28 @@ def _parameter_table(fit):
         "a_minus_b_stderr": fit.a_minus_b_stderr,
         "residual_rms": fit.residual_rms,
         "scatter": fit.noise,
+        "harmonics": fit.harmonics,
+        "periodicity": dict(fit.periodicity),
         "parameters": rows,
     }
+
+
+def _ripple_caption(fit):
+    """The caption's words on a ripple periodic in load-point displacement: the fitted one,
+    or one the residuals hold (with the advice to fit it)."""
+    if fit.harmonics:
+        return (
+            f"; a ripple of wavelength {fit.params['wavelength'] * 1e6:.4g} µm in load-point "
+            "displacement fitted with it"
+        )
+    check = fit.periodicity
+    if check and check["significant"]:
+        return (
+            f"; the residuals hold a ripple of wavelength {check['wavelength'] * 1e6:.4g} µm "
+            f"in load-point displacement (amplitude {check['amplitude']:.2g}): consider "
+            "periodic: true"
+        )
+    return ""
 
 
 def velocity_step_section(
@@ -65,6 +85,7 @@ def velocity_step_section(
     law: str = "aging",
     correlated_noise: bool = True,
     first_index: int = 1,
+    periodic: bool | float | None = None,
 ) -> dict[str, Any]:
     """Fit, compare and draw every velocity-step record of ``paths``.
 
@@ -80,6 +101,10 @@ def velocity_step_section(
         Uncertainties scaled by the residuals' correlation time (real records).
     first_index : int
         The number of the first record's figure.
+    periodic : bool or float, optional
+        Fit the shown (and tabled) fit with an apparatus ripple periodic in load-point
+        displacement (:func:`granflow.rsf.fit`'s ``periodic``: True, or a wavelength [m]);
+        the model comparison's fits stay without it, all alike.
 
     Returns
     -------
@@ -109,10 +134,16 @@ def velocity_step_section(
         entry = comparison.to_dict(include_arrays=False)
         entry.pop("fits", None)
         section["model_comparison"].append({"label": label, **entry})
-        fit = comparison.fits.get(f"rsf_{law}")
+        fit: Any = comparison.fits.get(f"rsf_{law}")
         if fit is None:
             section["problems"].append(f"{label}: the {law} law could not be fitted")
             continue
+        if periodic:
+            try:
+                fit = rsf.fit(record, law=law, correlated_noise=correlated_noise, periodic=periodic)
+            except GranflowError as exc:
+                section["problems"].append(f"{label}: with the ripple: {exc}")
+                continue
         section["fits"][label] = _parameter_table(fit)
         top, _ = fit.plot()
         name = f"velocity_step_{index}"
@@ -127,6 +158,7 @@ def velocity_step_section(
                     f"load point {' → '.join(f'{v * 1e6:.3g}' for v in record.velocities)} µm/s; "
                     f"a − b = {fit.a_minus_b:.4g} ± {1.96 * fit.a_minus_b_stderr:.2g}; residual "
                     f"RMS {ratio:.2f} × the scatter; best by AIC: {comparison.best_aic}"
+                    f"{_ripple_caption(fit)}"
                 ),
                 "png": f"{name}.png",
             }
@@ -134,7 +166,7 @@ def velocity_step_section(
     return section
 
 
-def velocity_step_entries(manifest: PathLike | None) -> list[dict[str, str]]:
+def velocity_step_entries(manifest: PathLike | None) -> list[dict[str, Any]]:
     """The manifest's velocity-step records (``test: velocity_steps``), in manifest order.
 
     Parameters
@@ -145,15 +177,20 @@ def velocity_step_entries(manifest: PathLike | None) -> list[dict[str, str]]:
     Returns
     -------
     list of dict
-        ``file`` (as the manifest writes it, relative to its folder) and ``law`` (default
-        ``"aging"``). Entries the manifest cannot use are failed runs of the campaign already.
+        ``file`` (as the manifest writes it, relative to its folder), ``law`` (default
+        ``"aging"``) and ``periodic`` (True, False or a wavelength [m]; default False).
+        Entries the manifest cannot use are failed runs of the campaign already.
     """
     if manifest is None:
         return []
     from granflow.io.manifest import BadEntry, read_manifest
 
     return [
-        {"file": str(entry["file"]), "law": str(entry.get("law") or "aging")}
+        {
+            "file": str(entry["file"]),
+            "law": str(entry.get("law") or "aging"),
+            "periodic": entry.get("periodic", False),
+        }
         for entry in read_manifest(manifest, errors="collect")
         if not isinstance(entry, BadEntry) and entry.get("test") == VELOCITY_STEP_TEST
     ]
@@ -193,7 +230,11 @@ def campaign_velocity_steps(
         name, path = entry["file"], folder / entry["file"]
         try:
             section = velocity_step_section(
-                [path], Path(output) / figures_dir, law=entry["law"], first_index=index
+                [path],
+                Path(output) / figures_dir,
+                law=entry["law"],
+                first_index=index,
+                periodic=entry["periodic"],
             )
         except Exception as exc:  # any error: the record fails alone, named
             section = {"problems": [f"{path.name}: {type(exc).__name__}: {exc}"]}

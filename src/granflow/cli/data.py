@@ -214,6 +214,8 @@ _EPILOG_FIT = """examples:
   granflow fit run1.txt --window 1s:600s --geometry outer_radius=15mm,inner_radius=12.5mm
   granflow fit velstep.txt --model rsf --law aging  (a velocity-step record: a, b, Dc, k)
   granflow fit velstep.txt --model rsf --law slip --detrend --steps 68.6s --json
+  granflow fit velstep.txt --model rsf --law slip --periodic --window 785s:1485s
+                                                  (an apparatus ripple in load-point slip)
 A plain CSV needs a force column and a time or slip column, each with its unit in the header:
 'time [s]', 't (min)', 'slip [µm]', 'force [mN]', or granflow's own 't_s', 'force_N'. The
 data-quality problems the reader found are printed with the fit and kept in --json's
@@ -355,6 +357,20 @@ def add_fit(subparsers):
         action="store_true",
         help="scale the uncertainties by the residuals' correlation time (real records)",
     )
+    rsf.add_argument(
+        "--periodic",
+        nargs="?",
+        const="auto",
+        metavar="WAVELENGTH",
+        help="fit an apparatus ripple periodic in load-point displacement (a drive screw), "
+        "its wavelength found from the residuals, or starting at WAVELENGTH, e.g. 87um",
+    )
+    rsf.add_argument(
+        "--harmonics",
+        type=positive_int,
+        default=2,
+        help="harmonics of the ripple (default 2)",
+    )
 
 
 def _run_fit_rsf(args):
@@ -384,6 +400,11 @@ def _run_fit_rsf(args):
         windows = [
             (quantity(start, "time", "--window start"), quantity(stop, "time", "--window stop"))
         ]
+    periodic = None
+    if args.periodic == "auto":
+        periodic = True
+    elif args.periodic:
+        periodic = quantity(args.periodic, "slip", "--periodic")
     try:
         result = rsf.fit(
             record,
@@ -394,6 +415,8 @@ def _run_fit_rsf(args):
             windows=windows,
             sigma=float(args.sigma) if args.sigma else None,
             correlated_noise=args.correlated_noise,
+            periodic=periodic,
+            harmonics=args.harmonics,
         )
     except GranflowError as exc:
         raise type(exc)(f"{args.data}: {exc}") from None

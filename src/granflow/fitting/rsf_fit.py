@@ -14,6 +14,10 @@ gives the stiffness. Levenberg-Marquardt runs from the best few of a small grid 
 Several steps of one record are fitted jointly: one window per step (by default the record
 cut half-way between steps), each window starting at steady sliding with its own mu0 (and
 trend), sharing a, b, Dc and k.
+
+An apparatus ripple periodic in load-point displacement (``periodic=``) is fitted after the
+fit without it, from its residuals (:func:`granflow.fitting.rsf_problem.with_periodic`), and
+every fit's residuals are checked for one (:mod:`granflow.fitting.rsf_periodic`).
 """
 
 from __future__ import annotations
@@ -27,10 +31,12 @@ import numpy as np
 
 from granflow import _validate as check
 from granflow.errors import InvalidDataError, InvalidParameterError
-from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem, Solution
+from granflow.fitting.engine import Solution
 from granflow.fitting.profile import profile_interval
 from granflow.fitting.results import FrozenMap, read_only
 from granflow.fitting.rsf_forward import Window, noise_scatter
+from granflow.fitting.rsf_periodic import harmonic_names, periodicity_check
+from granflow.fitting.rsf_problem import Setup, with_periodic
 from granflow.fitting.rsf_result import RateStateFitResult
 from granflow.fitting.statistics import WALD_Z, fit_statistics
 from granflow.simulation.protocol import Protocol
@@ -49,6 +55,7 @@ _RANGES = {
     "a": (1e-7, 1.0),
     "Dc": (1e-12, 1.0),
     "st": (1e-3, 1e15),
+    "wa": (1e-9, 1.0),
 }  # Levenberg-Marquardt runs from this many of the best-ranked starts
 
 
@@ -213,6 +220,8 @@ def fit(
     sigma: float | None = None,
     profile: bool = True,
     correlated_noise: bool = False,
+    periodic: bool | float | None = None,
+    harmonics: int = 2,
 ) -> RateStateFitResult:
     """Fit a rate-and-state spring-slider to velocity steps, with no initial guess.
 
@@ -247,6 +256,18 @@ def fit(
         Scale the covariance and the profile threshold by the residuals' integrated
         correlation time (:func:`correlation_time`; at least 1): for real records, whose
         residuals (instrument filters, slow wander) are not white. Default: white noise.
+    periodic : bool or float, optional
+        Fit an apparatus ripple periodic in load-point displacement d (a drive screw, a gear)
+        jointly with the friction: ``sum_h cos_h cos(2 pi h d / wavelength) + sin_h
+        sin(2 pi h d / wavelength)``, h = 1 .. ``harmonics``, d since the protocol's start
+        [m] (:mod:`granflow.fitting.rsf_periodic`). ``True``: the wavelength starts at the
+        peak of the periodogram of the residuals of the fit without it; a float: it starts
+        at this wavelength [m]. Either way it is fitted, with the amplitudes (parameters
+        ``wavelength`` [m], ``cos1``, ``sin1``, ``cos2``, ``sin2``, ... [-]); hold it with
+        ``fixed={"wavelength": ...}``. Default (None, False): no ripple term; the result's
+        ``periodicity`` then says whether the residuals hold one.
+    harmonics : int
+        Harmonics of the ripple (fitted with ``periodic``, and searched by the check).
 
     Returns
     -------
@@ -277,6 +298,16 @@ def fit(
             raise InvalidParameterError(
                 f"law must be 'aging', 'slip' or 'prz', got {name!r} (nagata needs c)"
             )
+    if harmonics is True or not isinstance(harmonics, int | np.integer) or harmonics < 1:
+        raise InvalidParameterError(f"harmonics must be a positive integer, got {harmonics!r}")
+    harmonics = int(harmonics)
+    if periodic is None or periodic is False:
+        terms = 0
+    elif periodic is True:
+        terms = harmonics
+    else:
+        periodic = check.positive(periodic, "periodic", "m")
+        terms = harmonics
     pieces = _pieces(protocol)
     if t[0] < 0 or t[-1] > pieces[-1, 1] * (1 + 1e-12):
         raise InvalidDataError(
@@ -294,13 +325,14 @@ def fit(
     shared = ["a", "stiffness", *[n for pair in names_states for n in pair]]
     names = shared + [n for pair in local_names for n in pair]
     fixed = dict(fixed or {})
-    unknown = sorted(set(fixed) - set(names))
+    known = names + (["wavelength", *harmonic_names(terms)] if terms else [])
+    unknown = sorted(set(fixed) - set(known))
     if unknown:
-        raise InvalidParameterError(f"fixed names unknown parameters {unknown}; known: {names}")
+        raise InvalidParameterError(f"fixed names unknown parameters {unknown}; known: {known}")
     if not detrend:
         for _, slope in local_names:
             fixed.setdefault(slope, 0.0)
-    for name in ("a", "stiffness", *[dc for _, dc in names_states]):
+    for name in ("a", "stiffness", "wavelength", *[dc for _, dc in names_states]):
         if name in fixed:
             check.positive(fixed[name], name)
     noise = noise_scatter(friction)
@@ -332,84 +364,19 @@ def fit(
                 values.update(fixed)
                 starts.append([values[n] for n in names])
 
-    # the engine: one curve per window, slots a, stiffness, b.., Dc.., mu0, slope
-    slots = (
-        "a",
-        "stiffness",
-        *[f"{p}{i}" for i in range(1, count + 1) for p in ("b", "Dc")],
-        "mu0",
-        "slope",
-    )
-    log = tuple(s in ("a", "stiffness") or s.startswith("Dc") for s in slots)
-    lookup = {float(w.t[0]): w for w in record}
-    free_slots = set()
-    for mn, sn in local_names:
-        if mn not in fixed:
-            free_slots.add("mu0")
-        if sn not in fixed:
-            free_slots.add("slope")
-    for s, n in zip(slots[:-2], shared, strict=True):
-        if n not in fixed:
-            free_slots.add(s)
-
-    def unpack(values):
-        a, k = values[0], values[1]
-        pairs = [(values[2 + 2 * i], values[3 + 2 * i]) for i in range(count)]
-        return values[-2], a, k, pairs, values[-1]
-
-    def function(z, *values):
-        window = lookup[float(z[0])]
-        mu0, a, k, pairs, slope = unpack(values)
-        local = z - window.start
-        out = window.friction(mu0, a, k, pairs, 0.0, local=local)
-        if slope:
-            out = out + slope * np.interp(z, window.t, window.displacement)
-        return out
-
-    def jacobian(z, *values):
-        window = lookup[float(z[0])]
-        mu0, a, k, pairs, slope = unpack(values)
-        wanted = [("k" if s == "stiffness" else s) for s in slots if s in free_slots]
-        base, columns = window.jacobian(mu0, a, k, pairs, slope, wanted)
-        J = np.zeros((z.size, len(slots)))
-        for m, s in enumerate(slots):
-            key = "k" if s == "stiffness" else s
-            if key in columns:
-                J[:, m] = columns[key]
-        return base, J
-
-    model = Model(slots=slots, function=function, jacobian=jacobian, log=log)
-    parameters = []
     search = dict(_RANGES)
     # the rise after a step unresolved by the sampling gives a lower bound of k: allow 1e4
     # times more (a machine stiffer than that is rigid at any sampling), not an overflow
     search["st"] = (_RANGES["st"][0], min(_RANGES["st"][1], 1e4 * k0))
-    for i, name in enumerate(names):
-        positive = name in ("a", "stiffness") or name.startswith("Dc")
-        parameters.append(
-            GlobalParameter(
-                name=name,
-                value=float(starts[0][i]),
-                log=positive,
-                fixed=name in fixed,
-                lower=search[name[:2]][0] if positive else -math.inf,
-                upper=search[name[:2]][1] if positive else math.inf,
-            )
+    setup = Setup((t, friction), record, ranges, names, local_names, count, fixed, search, sigma)
+    scaled_noise = noise * (1.0 if sigma is None else 1.0 / sigma)
+    problem = setup.problem(starts[0], harmonics=0)
+    solution = _multistart(problem, starts, scaled_noise)
+    load_point = np.concatenate([w.position for w in record])
+    if terms:
+        names, problem, solution = with_periodic(
+            setup, problem, solution, periodic, terms, load_point
         )
-    weights = 1.0 / sigma if sigma is not None else 1.0
-    curves = []
-    for (lo, hi, _), (mn, sn) in zip(ranges, local_names, strict=True):
-        links = [
-            names.index(s if s in names else {"b1": "b", "Dc1": "Dc"}.get(s, s)) for s in slots[:-2]
-        ]
-        links += [names.index(mn), names.index(sn)]
-        curves.append(
-            Curve(
-                t[lo:hi], friction[lo:hi], np.full(hi - lo, weights), tuple((i, 1.0) for i in links)
-            )
-        )
-    problem = Problem(curves, parameters, model)
-    solution = _multistart(problem, starts, noise * (1.0 if sigma is None else 1.0 / sigma))
     values = problem.values(solution.x)
     stats = fit_statistics(
         problem, values, names, sigma_known=sigma is not None, hessian=solution.hessian
@@ -466,7 +433,13 @@ def fit(
     if correlated_noise:
         message += f"; covariance scaled by the residuals' correlation time, {tau:.3g} points"
     units = {
-        n: ("1/m" if n.startswith(("stiffness", "slope")) else "m" if n.startswith("Dc") else "")
+        n: (
+            "1/m"
+            if n.startswith(("stiffness", "slope"))
+            else "m"
+            if n.startswith(("Dc", "wavelength"))
+            else ""
+        )
         for n in names
     }
     velocity = np.concatenate([w.velocity for w in record])
@@ -495,7 +468,10 @@ def fit(
         best_fit=read_only(stats.best_fit),
         residuals=read_only(stats.residuals),
         load_point_velocity=read_only(velocity),
+        load_point_displacement=read_only(load_point),
         source=str(meta.get("source") or ""),
+        harmonics=terms,
+        periodicity=FrozenMap(periodicity_check(load_point, stats.residuals, harmonics)),
     )
 
 

@@ -27,7 +27,7 @@ from granflow.simulation import equations as eq
 from granflow.simulation import ode
 from granflow.simulation.rsf.model import RateState, State
 
-__all__ = ["Window", "noise_scatter"]
+__all__ = ["Window", "load_point_displacement", "noise_scatter"]
 
 _RTOL = 1e-8
 _STEP = 3e-5
@@ -81,6 +81,23 @@ def _run(p, pieces, y0, t_eval, rtol, atol, max_evaluations):
     return status, out_y
 
 
+def load_point_displacement(pieces, t):
+    """Load-point displacement [m] since the protocol's start at the times ``t`` [s].
+
+    ``pieces``: rows (start [s], end [s], velocity at start [m/s], slope [m/s^2]) of a
+    rate-controlled protocol, from time 0 on (the velocity is linear over each piece).
+    """
+    pieces = np.asarray(pieces, dtype=float)
+    t = np.asarray(t, dtype=float)
+    duration = pieces[:, 1] - pieces[:, 0]
+    ends = np.concatenate(
+        [[0.0], np.cumsum((pieces[:, 2] + 0.5 * pieces[:, 3] * duration) * duration)]
+    )
+    index = np.clip(np.searchsorted(pieces[:, 1], t), 0, len(pieces) - 1)
+    dt = t - pieces[index, 0]
+    return ends[index] + pieces[index, 2] * dt + 0.5 * pieces[index, 3] * dt**2
+
+
 class Window:
     """One fit window of a record: its times, the load-point history over it, and the model.
 
@@ -131,6 +148,8 @@ class Window:
             ends[index] + self.pieces[index, 2] * dt + 0.5 * self.pieces[index, 3] * dt**2
         )
         self.velocity = self.pieces[index, 2] + self.pieces[index, 3] * dt
+        #: load-point displacement since the protocol's start [m] (the periodic term's clock)
+        self.position = load_point_displacement(pieces, self.t)
         self.local = local
         v_max = float(np.max(np.abs(self.pieces[:, 2:3]))) + float(
             np.max(np.abs(self.pieces[:, 3] * (self.pieces[:, 1] - self.pieces[:, 0])))

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -55,8 +55,18 @@ class RateStateFitResult(FitOutcome):
         The residuals' integrated correlation time [points] (1 for white noise).
     t, data, best_fit, residuals, load_point_velocity : numpy.ndarray
         The fitted points [s], friction, model, data - model, load-point velocity [m/s].
+    load_point_displacement : numpy.ndarray
+        Load-point displacement since the protocol's start at the fitted points [m].
     source : str
         The file, where known.
+    harmonics : int
+        Harmonics of the fitted apparatus ripple (parameters ``wavelength`` [m], ``cos1``,
+        ``sin1``, ...; see :func:`granflow.rsf.fit`'s ``periodic``); 0 without one.
+    periodicity : mapping
+        The check of the residuals for a ripple periodic in load-point displacement
+        (:func:`granflow.fitting.rsf_periodic.periodicity_check`): ``wavelength`` [m],
+        ``amplitude`` [-], ``rms`` [-], ``fraction``, ``false_alarm``, ``significant``;
+        empty where the load point moves too little to tell.
     """
 
     laws: tuple
@@ -73,9 +83,19 @@ class RateStateFitResult(FitOutcome):
     best_fit: np.ndarray
     residuals: np.ndarray
     load_point_velocity: np.ndarray
+    load_point_displacement: np.ndarray
     source: str = ""
+    harmonics: int = 0
+    periodicity: FrozenMap = field(default_factory=lambda: FrozenMap({}))
 
-    ARRAYS = ("t", "data", "best_fit", "residuals", "load_point_velocity")
+    ARRAYS = (
+        "t",
+        "data",
+        "best_fit",
+        "residuals",
+        "load_point_velocity",
+        "load_point_displacement",
+    )
 
     def __repr__(self) -> str:
         shown = [n for n in ("a", "b", "Dc", "b1", "Dc1", "b2", "Dc2") if n in self.params]
@@ -103,6 +123,51 @@ class RateStateFitResult(FitOutcome):
         """Root mean square of the residuals [-]."""
         return float(np.sqrt(np.mean(self.residuals**2)))
 
+    @property
+    def ripple(self) -> np.ndarray:
+        """The fitted apparatus ripple at the fitted points [-] (zeros without one)."""
+        if not self.harmonics:
+            return np.zeros(self.t.shape)
+        from granflow.fitting.rsf_periodic import harmonic_names, periodic_terms
+
+        amplitudes = [self.params[n] for n in harmonic_names(self.harmonics)]
+        return periodic_terms(self.load_point_displacement, self.params["wavelength"], amplitudes)
+
+    def ripple_amplitudes(self) -> dict[str, float]:
+        """Amplitude [-] of each harmonic of the fitted ripple, ``sqrt(cos_h^2 + sin_h^2)``,
+        by harmonic (``"1"``, ``"2"``, ...); empty without one."""
+        return {
+            str(h): float(np.hypot(self.params[f"cos{h}"], self.params[f"sin{h}"]))
+            for h in range(1, self.harmonics + 1)
+        }
+
+    def _ripple_rows(self):
+        rows = []
+        if self.harmonics:
+            amplitudes = ", ".join(
+                f"{value:.3g} (h={h})" for h, value in self.ripple_amplitudes().items()
+            )
+            rows.append(
+                (
+                    "ripple",
+                    f"wavelength {self.params['wavelength'] * 1e6:.4g} +/- "
+                    f"{self.stderr['wavelength'] * 1e6:.2g} um, amplitudes {amplitudes}",
+                )
+            )
+        check = self.periodicity
+        if check:
+            verdict = "significant" if check["significant"] else "not significant"
+            line = (
+                f"{'left: ' if self.harmonics else ''}wavelength "
+                f"{check['wavelength'] * 1e6:.4g} um, amplitude {check['amplitude']:.3g}, "
+                f"{100 * check['fraction']:.0f}% of the residual variance, false alarm "
+                f"{check['false_alarm']:.2g} ({verdict})"
+            )
+            if check["significant"] and not self.harmonics:
+                line += "; consider periodic=True"
+            rows.append(("periodic residual", line))
+        return rows
+
     def report(self) -> str:
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(
@@ -114,6 +179,7 @@ class RateStateFitResult(FitOutcome):
                 ("HF scatter", f"{self.noise:.4g}"),
                 ("correlation time", f"{self.correlation_time:.3g} points"),
                 ("a - b", f"{self.a_minus_b:.6g} +/- {self.a_minus_b_stderr:.3g}"),
+                *self._ripple_rows(),
             ],
         )
 
@@ -132,6 +198,8 @@ class RateStateFitResult(FitOutcome):
                 "noise": self.noise,
                 "correlation_time": self.correlation_time,
                 "source": self.source,
+                "harmonics": self.harmonics,
+                "periodicity": dict(self.periodicity),
                 **statistics(self),
                 **arrays(self, include_arrays),
             }
@@ -153,11 +221,15 @@ class RateStateFitResult(FitOutcome):
             noise=float(d["noise"]),
             correlation_time=float(d["correlation_time"]),
             source=d.get("source", ""),
+            harmonics=int(d.get("harmonics", 0)),
+            periodicity=FrozenMap(d.get("periodicity", {})),
             **read_arrays(cls, d),
         )
 
     def plot(self, axes: Sequence[Axes] | None = None) -> tuple[Axes, Axes]:
         """The data with the fit (top) and the residuals (bottom); returns the two Axes.
+
+        With a fitted ripple (``harmonics``) the top also shows the fit without it (dashed).
 
         ``axes``: two matplotlib Axes to draw into (default: a new figure).
         """
@@ -170,6 +242,15 @@ class RateStateFitResult(FitOutcome):
         top, bottom = axes
         top.plot(self.t, self.data, ".", ms=2, color="0.6", label="data")
         top.plot(self.t, self.best_fit, "-", color="C3", lw=1.5, label=f"{'+'.join(self.laws)} fit")
+        if self.harmonics:
+            top.plot(
+                self.t,
+                self.best_fit - self.ripple,
+                "--",
+                color="k",
+                lw=1.0,
+                label=f"without the ripple (λ = {self.params['wavelength'] * 1e6:.3g} µm)",
+            )
         top.set_ylabel("friction μ")
         text = ", ".join(
             f"{n} = {self.params[n] * (1e6 if n.startswith('Dc') else 1):.4g}"

@@ -48,7 +48,10 @@ __all__ = [
 #: sample, notes, test (one of :data:`TEST_KINDS`; inferred from the data when absent),
 #: switch_time ("60 s"; for a switch test: when the force was imposed), geometry (the tube,
 #: see :meth:`granflow.Annulus.from_spec`; default the paper's), law (for a ``velocity_steps``
-#: record: the rate-and-state law of its fit shown, one of :data:`RSF_LAWS`; default aging).
+#: record: the rate-and-state law of its fit shown, one of :data:`RSF_LAWS`; default aging),
+#: periodic (for a ``velocity_steps`` record: fit an apparatus ripple periodic in load-point
+#: displacement, ``true`` to find its wavelength or the wavelength itself, "87 um"; default
+#: none; see :func:`granflow.rsf.fit`).
 MANIFEST_FIELDS = (
     "file",
     "interval",
@@ -63,6 +66,7 @@ MANIFEST_FIELDS = (
     "switch_time",
     "geometry",
     "law",
+    "periodic",
 )
 #: What a run is: a rate-controlled start-up (Fig. 2), a stress ramp (Fig. 3a), creep under a
 #: constant stress (Fig. 3b), or a switch from rate to stress control (Fig. 3c).
@@ -234,8 +238,35 @@ def _interval(value):
     return value
 
 
+def _periodic(value):
+    """The ``periodic`` field: True, False, or a wavelength [m] from text with its unit."""
+    if isinstance(value, bool):
+        return value
+    text = str(value).strip().lower()
+    if text in ("true", "yes", "on"):
+        return True
+    if text in ("false", "no", "off"):
+        return False
+    from granflow.model.units import parse_quantity
+
+    try:
+        float(text)
+    except ValueError:
+        pass
+    else:
+        raise InvalidParameterError(
+            f"periodic {value!r} has no unit; write true, false or a wavelength, e.g. '87 um'"
+        )
+    number = parse_quantity(str(value), "m", "periodic")
+    if not number > 0:
+        raise InvalidParameterError(f"periodic must be a positive wavelength, got {value!r}")
+    return number
+
+
 def _field(key, value):
     """One manifest value, checked and converted (quantities to SI)."""
+    if key == "periodic":
+        return _periodic(value)
     if key in _QUANTITIES:
         return _quantity(key, value)
     if key == "interval":
