@@ -101,16 +101,22 @@ def _on_fitted_history(peak_force, z, error):
     return anchor + slope * (peak_force - anchor - c0) / (slope + c1)
 
 
+def _peak_at(level, z, error):
+    """The inverse of :func:`_on_fitted_history`: the true history's force [N] where the
+    fitted one stands at ``level`` [N] beyond the record."""
+    root, _, anchor, slope = error
+    c0, c1 = root @ z
+    return anchor + c0 + (slope + c1) * (level - anchor) / slope
+
+
 def _time_profile(likelihood, fit, error, level):
     """The profile over the force P [N] at which the fitted history stands when the layer
     fails: the failure's time (or step) is the fitted history's at P, so P's interval is the
     time's. Same likelihood and best fit as ``fit``, F_peak now a function of P and of the
     history's error."""
-    root, _, anchor, slope = error
 
     def peak_of(level_p, z):
-        c0, c1 = root @ z
-        return anchor + c0 + (slope + c1) * (level_p - anchor) / slope
+        return _peak_at(level_p, z, error)
 
     centre = _on_fitted_history(fit.peak_force, fit.nuisance, error)
     vector = fit.vector.copy()
