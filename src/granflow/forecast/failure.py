@@ -157,8 +157,9 @@ def forecast_failure(
     ``c0 + c1 u`` on the regression's abscissa (time, or step index) with the regression's
     covariance, enters the likelihood as two standard-normal nuisance coordinates, fitted
     and profiled with the others (errors in variables); the slip record then constrains the
-    history too. The failure time is where the fitted history stands when the true history
-    (fitted plus error) reaches F_peak, read at the interval's ends and along the profile.
+    history too. The failure time has its own profile, over the force at which the fitted
+    history stands when the true history (fitted plus error) reaches F_peak: the time (or
+    step) at which the fitted history reaches that force.
     Under a staircase the layer fails at the start of the first step that reaches F_peak:
     the time interval runs from the earliest start of the step reaching the low end to the
     latest start of the step reaching the high end, each start bounded by the samples
