@@ -181,3 +181,42 @@ def test_the_result_round_trips_through_a_dict(record):
     assert back.time == ff.time and back.time_interval == ff.time_interval
     assert back.loading == ff.loading and back.params == ff.params
     assert "Failure forecast" in back.report()
+
+
+@pytest.mark.parametrize("kind", ["ramp", "steps"])
+def test_the_failure_time_under_an_erroneous_history(kind):
+    """Where the true history is the fitted one plus an error c0 + c1 u (u: time for a ramp,
+    step index for a staircase, about the regression's origin), the failure comes when the
+    *true* history reaches F_peak; the forecast dates it by the fitted history's force at
+    that moment (and maps it back to F_peak for the time profile). Checked against brentq
+    on the true history."""
+    from granflow.forecast.failure import _loading_error, _on_fitted_history, _peak_at
+    from granflow.forecast.loading import fit_loading
+
+    t = np.arange(0.0, 150.0, 1.0)
+    ramp_force, staircase = 1e-3 + 0.065e-3 * t, 1e-3 * (1.0 + np.floor(t / 12.5))
+    force = ramp_force if kind == "ramp" else staircase
+    loading = fit_loading(t, force + 3e-5 * np.random.default_rng(4).standard_normal(t.size))
+    error = _loading_error(loading, t)
+    root = error[0]
+    z = np.array([1.3, -0.8])
+    c0, c1 = root @ z
+    assert c0 != 0 and c1 != 0
+    peak_force = float(np.max(force)) + 2.5e-3
+    level = _on_fitted_history(peak_force, z, error)
+    if kind == "ramp":
+        # the true line start + c0 + (rate + c1) t reaches peak_force at t_f
+        t_f = brentq(lambda s: loading.start + c0 + (loading.rate + c1) * s - peak_force, 0, 1e4)
+        assert loading.force(t_f) == pytest.approx(level, rel=1e-12)
+    else:
+        # the first continued step whose true level reaches peak_force
+        origin = len(loading.levels) - 1
+        k = origin
+        while loading.levels[-1] + (k - origin) * loading.step + c0 + c1 * (k - origin) < (
+            peak_force
+        ):
+            k += 1
+        index = loading._index(level)
+        assert index == k
+    assert level != peak_force
+    assert _peak_at(level, z, error) == pytest.approx(peak_force, rel=1e-12)

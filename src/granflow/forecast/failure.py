@@ -4,11 +4,11 @@ branch, and the layer fails when the continued force history reaches F_peak."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.stats import norm
 
 from granflow import _validate as check
 from granflow.errors import InvalidDataError
@@ -65,20 +65,64 @@ def _starts(held, slip, floor):
     return tuple(starts), total
 
 
-def _with_loading_error(fit, loading, level):
-    """The F_peak interval [N] with the fitted force history's own error added in quadrature.
+def _loading_error(loading, time):
+    """The fitted history's error as two standard-normal coordinates z: the error at the
+    record's times is ``e(t) = c0 + c1 u(t)`` with ``(c0, c1) = root @ z`` (``root`` a square
+    root of the regression's covariance) and u the abscissa of that regression (time for a
+    ramp, step index for a staircase, both about the regression's origin).
 
-    The slip is fitted against the fitted history, so an error e(t) of that history moves the
-    fitted F_peak by about e(t_f) and leaves the failure time alone (the history reaches the
-    moved peak at the same moment): the time interval needs nothing, the force interval
-    needs the history's standard error at the forecast failure time.
+    Returns ``(root, abscissa, anchor, slope)``: anchor and slope place the continued history
+    on the same abscissa, ``anchor + slope u`` [N].
     """
-    low, high = fit.interval
-    spread = norm.ppf(0.5 + 0.5 * level) * loading.force_error(loading.time_at(fit.peak_force))
-    centre = fit.peak_force
-    low = centre - math.hypot(centre - low, spread)
-    high = centre + math.hypot(high - centre, spread) if math.isfinite(high) else high
-    return (float(low), float(high))
+    var0, cov, var1, origin = loading.error
+    sd0 = math.sqrt(max(var0, 0.0))
+    c10 = cov / sd0 if sd0 > 0 else 0.0
+    root = np.array([[sd0, 0.0], [c10, math.sqrt(max(var1 - c10 * c10, 0.0))]])
+    if loading.kind == "ramp":
+        abscissa = time - origin
+        anchor, slope = loading.start + loading.rate * origin, loading.rate
+    else:
+        abscissa = np.searchsorted(np.asarray(loading.edges), time, side="right") - origin
+        anchor, slope = loading.levels[-1], loading.step
+    return root, abscissa.astype(float), anchor, slope
+
+
+def _on_fitted_history(peak_force, z, error):
+    """The force [N] at which the fitted history stands when the true history (the fitted one
+    plus its error, coordinates z) reaches ``peak_force``: both are lines on the regression's
+    abscissa beyond the record, so the failure's time (or step) is the fitted history's at
+    that force."""
+    root, _, anchor, slope = error
+    if not math.isfinite(peak_force) or z.size == 0:
+        return peak_force
+    c0, c1 = root @ z
+    if not slope + c1 > 0:
+        return math.inf
+    return anchor + slope * (peak_force - anchor - c0) / (slope + c1)
+
+
+def _peak_at(level, z, error):
+    """The inverse of :func:`_on_fitted_history`: the true history's force [N] where the
+    fitted one stands at ``level`` [N] beyond the record."""
+    root, _, anchor, slope = error
+    c0, c1 = root @ z
+    return anchor + c0 + (slope + c1) * (level - anchor) / slope
+
+
+def _time_profile(likelihood, fit, error, level):
+    """The profile over the force P [N] at which the fitted history stands when the layer
+    fails: the failure's time (or step) is the fitted history's at P, so P's interval is the
+    time's. Same likelihood and best fit as ``fit``, F_peak now a function of P and of the
+    history's error."""
+
+    def peak_of(level_p, z):
+        return _peak_at(level_p, z, error)
+
+    centre = _on_fitted_history(fit.peak_force, fit.nuisance, error)
+    vector = fit.vector.copy()
+    vector[3] = math.log(max(centre - likelihood.floor, 1e-300))
+    best = (vector, fit.chisqr, fit.noise, fit.threshold)
+    return fit_and_profile(dataclasses.replace(likelihood, peak_of=peak_of), level, best=best)
 
 
 def _check_prior(prior):
@@ -105,12 +149,23 @@ def forecast_failure(
     ``x0 + slip(t) = F^-1(sigma(t))``, and fails when the imposed force sigma reaches F_peak.
     The force history is read from ``force`` (a ramp's line, or a staircase's levels) and
     continued beyond the cut. The interval is the profile likelihood's for F_peak (the other
-    parameters re-fitted at each F_peak, the slip noise estimated from the residuals), mapped
-    to the failure time through the history; the force interval also carries the fitted
-    history's own error. Under a staircase the layer fails at the start of the first step
-    that reaches F_peak: the time interval runs from the earliest start of the step reaching
-    the low end to the latest start of the step reaching the high end, each start bounded by
-    the samples between which the record's steps began.
+    parameters re-fitted at each F_peak, the slip noise estimated from the residuals).
+
+    The fitted history is itself uncertain (the force column is noisy), and the slip is very
+    sensitive to it near the peak: an error of the history of a fraction of the force noise
+    can shift the slip by as much as its noise. So the history's error, a line
+    ``c0 + c1 u`` on the regression's abscissa (time, or step index) with the regression's
+    covariance, enters the likelihood as two standard-normal nuisance coordinates, fitted
+    and profiled with the others (errors in variables); the slip record then constrains the
+    history too. The failure time has its own profile, over the force at which the fitted
+    history stands when the true history (fitted plus error) reaches F_peak: the time (or
+    step) at which the fitted history reaches that force.
+    Under a staircase the layer fails at the start of the first step that reaches F_peak:
+    the time interval runs from the earliest start of the step reaching the low end to the
+    latest start of the step reaching the high end, each start bounded by the samples
+    between which the record's steps began. That outcome is discrete, so a set of whole
+    steps covers the failure more often than ``level`` once F_peak's interval falls between
+    two levels; the force interval is the calibrated statement.
 
     Parameters
     ----------
@@ -169,9 +224,14 @@ def forecast_failure(
         return _no_date(until, level, loading, time.size, message, prior)
     floor = float(held[-1])
     starts, total = _starts(held, np.maximum(slip_cut, 0.0), floor)
+    error = _loading_error(loading, time)
+    root, abscissa = error[0], error[1]
+    base = loading.force(time)
 
-    def residuals(params, s_peak):
-        return slip_cut - (branch_slip(held, params, s_peak) - params.x0)
+    def residuals(params, s_peak, z):
+        c0, c1 = root @ z
+        true = np.maximum.accumulate(base + c0 + c1 * abscissa)
+        return slip_cut - (branch_slip(true, params, s_peak) - params.x0)
 
     likelihood = Likelihood(
         residuals=residuals,
@@ -183,6 +243,7 @@ def forecast_failure(
         prior_size=0 if prior is None else len(prior.names),
         noise=noise,
         scale=_inputs.rough_noise(slip_cut),
+        nuisance=2,
     )
     fit = fit_and_profile(likelihood, level)
     low, high = fit.interval
@@ -196,17 +257,17 @@ def forecast_failure(
         )
         return _no_date(until, level, loading, time.size, message, prior, bound=low)
     params = fit.params
-    force_interval = _with_loading_error(fit, loading, level)
+    timing = _time_profile(likelihood, fit, error, level)
     from granflow.model.friction import peak
 
     def rise(p):
         return peak(p).slip - p.x0
 
     return FailureForecast(
-        time=loading.time_at(fit.peak_force),
-        time_interval=loading.times_at(low, high),
+        time=loading.time_at(timing.peak_force),
+        time_interval=loading.times_at(*timing.interval),
         force=fit.peak_force,
-        force_interval=force_interval,
+        force_interval=fit.interval,
         slip=rise(params),
         slip_interval=fit.along(rise),
         until=until,

@@ -14,10 +14,14 @@ other three parameters is within ``chi2_1(level)`` of the best fit, in units of 
 variance (``F(1, n - 4)`` when the noise is estimated from the residuals, as by default).
 Derived quantities (the peak slip, the time of failure) are carried along the profile path,
 not linearised at the best fit.
+
+A likelihood may carry ``nuisance`` standard-normal coordinates after these four (the error of
+a regressor known only to within a Gaussian, such as a fitted force history): the residuals
+receive them, each adds itself as a residual, and the profile re-fits them with the others.
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import brentq, least_squares
@@ -102,6 +106,13 @@ class Likelihood:
     scale : float
         A rough noise level in the data's unit (the unit of the first fit when ``noise`` is
         estimated, so that the optimiser's tolerances are relative to the noise).
+    nuisance : int
+        Number of standard-normal nuisance coordinates; where positive, ``residuals`` is
+        called as ``residuals(params, s_peak, z)`` with z their values, and z itself is part
+        of the standardised residual vector (a standard normal prior).
+    peak_of : callable, optional
+        ``peak_of(q, z) -> F_peak``: profile a coordinate q [N] other than F_peak (both above
+        ``floor``), mapped to F_peak with the nuisance values z; default q is F_peak.
     """
 
     residuals: object
@@ -113,19 +124,30 @@ class Likelihood:
     prior_size: int = 0
     noise: float | None = None
     scale: float = 1.0
+    nuisance: int = 0
+    peak_of: object = None
 
     def curve(self, u):
         """(Params, s_peak) at internal vector u, or None where infeasible."""
         a, alpha, x0 = np.exp(u[:3])
-        return params_from_peak(float(a), float(alpha), float(x0), self.floor + math.exp(u[3]))
+        peak_force = self.floor + math.exp(u[3])
+        if self.peak_of is not None:
+            peak_force = self.peak_of(peak_force, u[4:])
+        if not math.isfinite(peak_force):
+            return None
+        return params_from_peak(float(a), float(alpha), float(x0), peak_force)
 
     def vector(self, u, noise, with_prior):
         """The standardised residual vector at u (large and flat where u is infeasible)."""
         curve = self.curve(u)
-        size = self.size + (self.prior_size if with_prior else 0)
+        size = self.size + self.nuisance + (self.prior_size if with_prior else 0)
         if curve is None:
             return np.full(size, 1e6)
-        out = self.residuals(*curve) / noise
+        if self.nuisance:
+            extra = np.asarray(u[4:], dtype=float)
+            out = np.concatenate([self.residuals(*curve, extra) / noise, extra])
+        else:
+            out = self.residuals(*curve) / noise
         if with_prior:
             out = np.concatenate([out, self.prior(curve[0])])
         return np.where(np.isfinite(out), out, 1e6)
@@ -145,12 +167,22 @@ class Fit:
         Best standardised sum of squares [-].
     noise : float
         Noise standard deviation used [data unit].
-    path : tuple of (float, float, Params)
-        Profile points ``(F_peak, delta chi-square, params)``, sorted by F_peak.
+    path : tuple of (float, float, Params, ndarray)
+        Profile points ``(F_peak, delta chi-square, params, nuisance)``, sorted by F_peak.
     interval : tuple of float
         F_peak interval (low, high) [N]; high is inf where the record does not bound it.
     threshold : float
         The delta chi-square of the interval's level [-].
+    nuisance : ndarray
+        Best-fit nuisance coordinates (empty without them).
+    ends : tuple of ndarray
+        Nuisance coordinates at the interval's low and high ends (interpolated between the
+        profile points either side of each crossing; the best fit's where an end is open).
+    vector : ndarray
+        The best fit's internal vector.
+
+    With the likelihood's ``peak_of``, ``peak_force``, the path's first column and
+    ``interval`` are the profiled coordinate's.
     """
 
     params: Params
@@ -160,10 +192,13 @@ class Fit:
     path: tuple
     interval: tuple
     threshold: float
+    nuisance: np.ndarray = field(default_factory=lambda: np.empty(0))
+    ends: tuple = (np.empty(0), np.empty(0))
+    vector: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     def along(self, quantity):
         """(low, high) of ``quantity(params)`` over the profile path inside the interval."""
-        inside = [quantity(p) for q, d, p in self.path if d <= self.threshold]
+        inside = [quantity(p) for q, d, p, _ in self.path if d <= self.threshold]
         inside.append(quantity(self.params))
         low, high = min(inside), max(inside)
         if math.isinf(self.interval[1]):
@@ -171,16 +206,22 @@ class Fit:
         return (float(low), float(high))
 
 
+_NUISANCE_BOUND = 8.0  # standard deviations
+
+
 def _bounds(likelihood):
+    """Bounds of the internal vector: (ln a, ln alpha, ln x0, ln gap, nuisance...)."""
     lower, upper = likelihood.bounds
-    return np.log(lower), np.log(upper)
+    extra = np.full(likelihood.nuisance, _NUISANCE_BOUND)
+    low = np.concatenate([np.log(lower), [-60.0], -extra])
+    high = np.concatenate([np.log(upper), [20.0], extra])
+    return low, high
 
 
 def _solve(likelihood, u, noise, with_prior, fixed=None):
-    """Least squares from u; with ``fixed`` the last coordinate is held at that value."""
+    """Least squares from u; with ``fixed`` the peak coordinate u[3] is held at that value."""
     low, high = _bounds(likelihood)
     if fixed is None:
-        low, high = np.append(low, -60.0), np.append(high, 20.0)
         start = np.clip(u, low + 1e-9, high - 1e-9)
         result = least_squares(
             lambda v: likelihood.vector(v, noise, with_prior),
@@ -192,17 +233,18 @@ def _solve(likelihood, u, noise, with_prior, fixed=None):
         return result.x, 2 * result.cost
 
     def fun(v):
-        return likelihood.vector(np.append(v, fixed), noise, with_prior)
+        return likelihood.vector(np.insert(v, 3, fixed), noise, with_prior)
 
-    start = np.clip(u[:3], low + 1e-9, high - 1e-9)
+    low, high = np.delete(low, 3), np.delete(high, 3)
+    start = np.clip(np.delete(u, 3), low + 1e-9, high - 1e-9)
     result = least_squares(fun, start, bounds=(low, high), max_nfev=200)
-    return np.append(result.x, fixed), 2 * result.cost
+    return np.insert(result.x, 3, fixed), 2 * result.cost
 
 
 def _internal(likelihood, start):
     a, alpha, x0, peak_force = start
     gap = max(peak_force - likelihood.floor, 1e-12 * max(abs(peak_force), 1e-12))
-    return np.log([a, alpha, x0, gap])
+    return np.concatenate([np.log([a, alpha, x0, gap]), np.zeros(likelihood.nuisance)])
 
 
 def _best(likelihood, noise, with_prior):
@@ -217,8 +259,8 @@ def _best(likelihood, noise, with_prior):
 
 
 def _stderr_last(likelihood, u, noise, with_prior):
-    """Standard error of the last internal coordinate from the Gauss-Newton Hessian (a step
-    size for the profile search only)."""
+    """Standard error of the peak coordinate u[3] from the Gauss-Newton Hessian (a step size
+    for the profile search only)."""
     step = 1e-4
     base = likelihood.vector(u, noise, with_prior)
     jac = np.empty((base.size, u.size))
@@ -228,7 +270,7 @@ def _stderr_last(likelihood, u, noise, with_prior):
         jac[:, k] = (likelihood.vector(shifted, noise, with_prior) - base) / step
     try:
         cov = np.linalg.pinv(jac.T @ jac)
-        return float(min(max(math.sqrt(max(cov[-1, -1], 0.0)), 1e-6), 0.5))
+        return float(min(max(math.sqrt(max(cov[3, 3], 0.0)), 1e-6), 0.5))
     except np.linalg.LinAlgError:
         return 0.5
 
@@ -251,9 +293,9 @@ def _side(likelihood, u_best, chisqr, noise, with_prior, direction, step, thresh
 
 
 def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
-    """The internal coordinate where the profile crosses the threshold: bisection between the
+    """The internal vector where the profile crosses the threshold: bisection between the
     last point inside and the first outside (warm-started), then linear interpolation of the
-    signed root of the chi-square."""
+    signed root of the chi-square (the peak coordinate u[3] and the others alike)."""
     inside = (best[3], 0.0, best)
     for point in points:
         if point[1] > threshold:
@@ -271,12 +313,12 @@ def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
             inside = point
     # The signed root of the profile's chi-square is close to linear in the parameter where
     # the chi-square itself is close to quadratic: interpolate the root.
-    (u_a, d_a, _), (u_b, d_b, _) = inside, outside
+    (_, d_a, u_a), (_, d_b, u_b) = inside, outside
     r_a, r_b = math.sqrt(d_a), math.sqrt(d_b)
-    return u_a + (math.sqrt(threshold) - r_a) * (u_b - u_a) / (r_b - r_a)
+    return u_a + (math.sqrt(threshold) - r_a) / (r_b - r_a) * (u_b - u_a)
 
 
-def fit_and_profile(likelihood, level=0.9):
+def fit_and_profile(likelihood, level=0.9, best=None):
     """The best fit of ``likelihood`` and the profile-likelihood interval of F_peak.
 
     Parameters
@@ -285,6 +327,9 @@ def fit_and_profile(likelihood, level=0.9):
         The record's residuals, the floor of F_peak, starts, bounds and prior.
     level : float
         Confidence level of the interval (0.9: 90 %).
+    best : tuple, optional
+        ``(vector, chisqr, noise, threshold)`` of a best fit already found (of the same data,
+        with the peak coordinate u[3] in this likelihood's terms): only the profile is run.
 
     Returns
     -------
@@ -293,17 +338,24 @@ def fit_and_profile(likelihood, level=0.9):
     noise = likelihood.noise
     with_prior = likelihood.prior is not None
     dof = max(likelihood.size - 4, 1)
-    if noise is None:
+    if best is not None:
+        u_best, chisqr, noise, threshold = best
+    elif noise is None:
         # Fit in units of a rough noise scale (so the optimiser's tolerances mean something),
         # then rescale to the residuals' own variance; with an estimated variance the profile
         # statistic is F(1, dof), not chi2(1) (the least-squares optimum does not depend on
         # the scale, so no refit is needed without a prior).
+        # Nuisance coordinates carry their own unit residuals, so with them the optimum
+        # depends on the scale: a warm-started refit at the estimated noise follows.
         scale = likelihood.scale
         u, value = _best(likelihood, scale, False)
-        noise = max(scale * math.sqrt(value / dof), 1e-300)
+        data = likelihood.vector(u, scale, False)[: likelihood.size]
+        noise = max(scale * math.sqrt(float(data @ data) / dof), 1e-300)
         threshold = float(f_dist.ppf(level, 1, dof))
         if with_prior:
             u_best, chisqr = _best(likelihood, noise, with_prior)
+        elif likelihood.nuisance:
+            u_best, chisqr = _solve(likelihood, u, noise, False)
         else:
             u_best, chisqr = u, value * (scale / noise) ** 2
     else:
@@ -321,18 +373,20 @@ def fit_and_profile(likelihood, level=0.9):
     down, bounded_down = _side(
         likelihood, u_best, chisqr, noise, with_prior, -1.0, step, threshold, u_best[3] - 12.0
     )
-    high = math.inf
+    high, end_high = math.inf, u_best
     crossing = (likelihood, u_best, chisqr, noise, with_prior, threshold)
     if bounded_up:
-        high = likelihood.floor + math.exp(_crossing(likelihood, up, *crossing[1:]))
-    low = likelihood.floor
+        end_high = _crossing(likelihood, up, *crossing[1:])
+        high = likelihood.floor + math.exp(end_high[3])
+    low, end_low = likelihood.floor, u_best
     if bounded_down:
-        low = likelihood.floor + math.exp(_crossing(likelihood, down, *crossing[1:]))
+        end_low = _crossing(likelihood, down, *crossing[1:])
+        low = likelihood.floor + math.exp(end_low[3])
     path = []
     for u4, delta, u in down + up:
         found = likelihood.curve(u)
         if found is not None:
-            path.append((likelihood.floor + math.exp(u4), delta, found[0]))
+            path.append((likelihood.floor + math.exp(u4), delta, found[0], u[4:]))
     path.sort(key=lambda item: item[0])
     return Fit(
         params=curve[0],
@@ -342,4 +396,7 @@ def fit_and_profile(likelihood, level=0.9):
         path=tuple(path),
         interval=(float(low), float(high)),
         threshold=threshold,
+        nuisance=u_best[4:],
+        ends=(end_low[4:], end_high[4:]),
+        vector=np.asarray(u_best, dtype=float),
     )
