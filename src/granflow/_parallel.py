@@ -156,10 +156,13 @@ class Executor:
 
 
 def _worker_init():
-    """Workers leave Ctrl-C to the main process, which stops the pool cleanly."""
+    """Workers leave Ctrl-C to the main process, which stops the pool cleanly, and end on
+    SIGTERM: a forked worker would otherwise inherit the handler with which the command line
+    turns SIGTERM into an interruption of the main process (and raise it inside a task)."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _outcome(result):

@@ -167,6 +167,26 @@ def test_an_isolating_executor_sends_even_one_task_to_a_worker():
         assert executor.map(_pid, [0, 1]) == [here, here]
 
 
+def _sigterm_is_default(_):
+    import signal
+
+    return signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+
+
+def test_workers_end_on_sigterm_whatever_handler_they_were_forked_with():
+    import signal
+
+    def interrupt(signum, frame):  # the command line's: SIGTERM stops like Ctrl-C
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        with Executor(2, isolate=True) as executor:
+            assert executor.call(_sigterm_is_default, 0)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def test_recycled_workers_begin_without_what_earlier_tasks_left():
     with Executor(2) as executor:
         # one worker runs the four tasks in one chunk: it remembers the earlier ones
