@@ -115,10 +115,18 @@ class Executor:
 
     def call(self, function, argument):
         """``function(argument)`` on a local worker, so that what it loads stays there (with
-        one job, or a Dask cluster, in this process); an exception it raises is raised here."""
+        one job, or a Dask cluster, in this process; whether or not the executor isolates);
+        an exception it raises is raised here. A worker that dies under it (killed for
+        memory, say) leaves the task to this process, with new workers for what follows."""
         if self._client is not None or self.jobs == 1:
             return function(argument)
-        return self._local_pool().submit(function, argument).result()
+        from concurrent.futures.process import BrokenProcessPool
+
+        try:
+            return self._local_pool().submit(function, argument).result()
+        except BrokenProcessPool:
+            self.recycle()
+            return function(argument)
 
     def recycle(self):
         """End the local workers: the next tasks go to new ones, started from this process

@@ -187,6 +187,18 @@ def test_workers_end_on_sigterm_whatever_handler_they_were_forked_with():
         signal.signal(signal.SIGTERM, previous)
 
 
+def _die_on_a_worker(home):
+    if os.getpid() != home:
+        os._exit(1)  # a worker killed under its task (for memory, say)
+    return "here"
+
+
+def test_a_task_whose_worker_dies_is_done_here_and_the_next_get_new_workers():
+    with Executor(2, isolate=True) as executor:
+        assert executor.call(_die_on_a_worker, os.getpid()) == "here"
+        assert executor.call(_pid, 0) != os.getpid()
+
+
 def test_recycled_workers_begin_without_what_earlier_tasks_left():
     with Executor(2) as executor:
         # one worker runs the four tasks in one chunk: it remembers the earlier ones

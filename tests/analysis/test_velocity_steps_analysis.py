@@ -183,3 +183,34 @@ def test_the_manifest_takes_velocity_steps_and_checks_the_law(tmp_path):
     good, bad = read_manifest(manifest, errors="collect")
     assert good["test"] == "velocity_steps" and good["law"] == "slip"
     assert isinstance(bad, BadEntry) and "law must be one of aging, slip" in bad.reason
+
+
+def test_a_parallel_analysis_fits_the_records_on_a_worker(analysed, tmp_path):
+    """With workers, the rate-and-state fits and their figures (matplotlib) run on one of
+    them: this process loads neither pandas nor matplotlib, and the results are those of the
+    analysis in one process."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    manifest, output, _ = analysed
+    source = Path(__file__).resolve().parents[2] / "src"
+    code = (
+        "import sys\n"
+        "from granflow.analysis import analyze\n"
+        f"analyze({str(manifest)!r}, {str(tmp_path / 'out')!r}, jobs=2, quiet=True)\n"
+        "print('pandas' in sys.modules, 'matplotlib' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**os.environ, "PYTHONPATH": str(source)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert out.stdout.split() == ["False", "False"]
+    here = json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
+    there = json.loads((output / "results.json").read_text(encoding="utf-8"))
+    assert _without_timing(here) == _without_timing(there)
+    assert (tmp_path / "out" / here["velocity_steps"]["records"][0]["figure"]).is_file()

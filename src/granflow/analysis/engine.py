@@ -70,11 +70,12 @@ start-up fit (or the material constants at its load).
 
 **Processes.** With local workers (``jobs`` > 1) every task runs on a worker, even one
 alone, and the workers are ended between stages (reading, per-run work, the joint stage's
-stability map and forecasts, the tables, the figures), so that the next stage's workers
-start from this process without what the last stage's loaded: no process holds pandas
-(reading, tables), matplotlib (figures) and the compiled kernels all at once, and this
-process loads neither pandas nor matplotlib (it runs the joint fits, so it holds the
-kernels). With ``jobs=1`` everything runs in this process, which then holds all of it.
+stability map and forecasts, the velocity-step records, the tables, the figures), so that
+the next stage's workers start from this process without what the last stage's loaded: no
+process holds pandas (reading, tables), matplotlib (figures) and the compiled kernels all at
+once, and this process loads neither pandas nor matplotlib (it runs the joint fits, so it
+holds the kernels). With ``jobs=1`` everything runs in this process, which then holds all
+of it.
 
 **Results on disk.** Each run's result is written atomically to ``OUTPUT/runs/<key>.json`` as
 soon as it is ready; the key hashes the run's file name, interval, metadata and data and the
@@ -333,8 +334,12 @@ def analyze(
         stages["joint_s"] = time.perf_counter() - clock_stage
         reporter.line("velocity steps")
         clock_stage = time.perf_counter()
-        velocity_steps = campaign_velocity_steps(manifest, output, FIGURES_DIR)
-        inputs += [e["file"] for e in velocity_step_entries(manifest) if e["file"] not in inputs]
+        steps = velocity_step_entries(manifest)
+        velocity_steps = {}
+        if steps:  # on a worker: the rate-and-state fits and their figures load matplotlib
+            velocity_steps = executor.call(_velocity_steps, (manifest, output))
+            executor.recycle()
+        inputs += [e["file"] for e in steps if e["file"] not in inputs]
         stages["velocity_steps_s"] = time.perf_counter() - clock_stage
         description = executor.description
         clock_stage = time.perf_counter()
@@ -379,6 +384,12 @@ def analyze(
     result = _with_results(replace(result, timing=_finished(timing, clock), report=report), content)
     write_json(output / RESULTS_FILE, result.results)
     return result
+
+
+def _velocity_steps(task):
+    """:func:`campaign_velocity_steps` of ``(manifest, output)``, as one executor task."""
+    manifest, output = task
+    return campaign_velocity_steps(manifest, output, FIGURES_DIR)
 
 
 def _with_results(result, content):
