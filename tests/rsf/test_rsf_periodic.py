@@ -140,6 +140,33 @@ def test_bad_settings_are_named():
         rsf.fit(t, mu, protocol, periodic=True, harmonics=0)
     with pytest.raises(InvalidParameterError, match="unknown parameters"):
         rsf.fit(t, mu, protocol, fixed={"wavelength": 3e-5})
+    for outside in (2.0, 1e-10):  # outside the wavelength's search range, named at once
+        with pytest.raises(InvalidParameterError, match="periodic must be a wavelength from"):
+            rsf.fit(t, mu, protocol, periodic=outside)
+
+
+def test_numpy_booleans_are_booleans():
+    t, mu, protocol = _record(2)
+    fit = rsf.fit(t, mu, protocol, periodic=np.True_)  # not a wavelength of 1 m
+    assert fit.harmonics == 2
+    assert fit.params["wavelength"] == pytest.approx(WAVELENGTH, rel=0.01)
+    assert rsf.fit(t, mu, protocol, periodic=np.False_).harmonics == 0
+
+
+def test_the_check_stays_quiet_on_red_noise():
+    """A random walk plus white noise (residuals that wander, as a misfit or a drift leaves
+    them): its spectrum falls steeply, and at the longest wavelengths a one-sided comparison
+    band misses its level. 30 seeds: at most 2 false alarms (at the nominal 1e-3 per record,
+    3 or more of 30 has probability 4e-6; before the band had two sides, 8 of these 30
+    were flagged)."""
+    x = np.linspace(0.0, 1e-3, 4000)
+    flagged = []
+    for seed in range(30):
+        rng = np.random.default_rng(seed)
+        y = np.cumsum(rng.normal(0.0, 0.3, x.size)) + rng.normal(0.0, 1.0, x.size)
+        if periodicity_check(x, y)["significant"]:
+            flagged.append(seed)
+    assert len(flagged) <= 2, flagged
 
 
 def test_the_check_of_a_short_record_is_empty():
@@ -164,15 +191,16 @@ def test_the_fit_command_takes_periodic(tmp_path, capsys):
 
     path = tmp_path / "rippled.txt"
     _write_record(path)
-    assert main(["fit", str(path), "--model", "rsf", "--periodic", "--json"]) == 0
+    # the flag before the file does not take the file for a wavelength
+    assert main(["fit", "--periodic", str(path), "--model", "rsf", "--json"]) == 0
     payload = json.loads(capsys.readouterr().out)
     assert payload["harmonics"] == 2
     assert payload["params"]["wavelength"] == pytest.approx(WAVELENGTH, rel=0.01)
-    command = ["fit", str(path), "--model", "rsf", "--periodic", "31um", "--harmonics", "1"]
+    command = ["fit", str(path), "--model", "rsf", "--wavelength", "31um", "--harmonics", "1"]
     assert main(command) == 0
     assert "ripple" in capsys.readouterr().out
-    assert main(["fit", str(path), "--model", "rsf", "--periodic", "31"]) == 2
-    assert "--periodic" in capsys.readouterr().err
+    assert main(["fit", str(path), "--model", "rsf", "--periodic", "--wavelength", "31"]) == 2
+    assert "--wavelength" in capsys.readouterr().err
 
 
 def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
@@ -186,12 +214,21 @@ def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
         "  - {file: rippled.txt, test: velocity_steps, periodic: true}\n"
         "  - {file: rippled.txt, test: velocity_steps}\n"
         "  - {file: b.txt, test: velocity_steps, periodic: 30 um}\n"
-        "  - {file: c.txt, test: velocity_steps, periodic: 30}\n",
+        "  - {file: c.txt, test: velocity_steps, periodic: 30}\n"
+        "  - {file: d.txt, test: velocity_steps, periodic: none}\n"
+        "  - {file: e.txt, test: velocity_steps, periodic: null}\n",
         encoding="utf-8",
     )
     entries = read_manifest(manifest, errors="collect")
     assert entries[0]["periodic"] is True and entries[2]["periodic"] == pytest.approx(30e-6)
     assert isinstance(entries[3], BadEntry) and "has no unit" in entries[3].reason
+    # none (the documented default) is off, not a wavelength with a bad unit
+    assert entries[4]["periodic"] is False and not entries[5].get("periodic")
+    entries = entries[:4]
+    manifest.write_text(
+        "\n".join(manifest.read_text(encoding="utf-8").splitlines()[:5]) + "\n",
+        encoding="utf-8",
+    )
     section = campaign_velocity_steps(manifest, tmp_path / "out")
     with_ripple, without = section["records"][:2]
     assert with_ripple["fit"]["harmonics"] == 2
@@ -205,3 +242,21 @@ def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
     view = velocity_steps_view({"velocity_steps": section}, lambda d: d["figures"])
     _, text, _ = velocity_steps_line(view)
     assert text.count("with the apparatus ripple") == 1
+
+
+def test_a_window_and_the_protocol_agree_on_the_load_point():
+    """The window's displacement since its start and velocity, and the displacement since
+    the protocol's start, against the protocol's two velocities by hand."""
+    from granflow.fitting.rsf_fit import _pieces
+    from granflow.fitting.rsf_forward import Window, load_point_displacement
+
+    t, _, protocol = _record(0, ripple=False)
+    pieces = _pieces(protocol)
+    np.testing.assert_allclose(load_point_displacement(pieces, t), _displacement(t), atol=1e-15)
+    inside = t >= 30.0
+    window = Window(t[inside], pieces, ["aging"])
+    np.testing.assert_allclose(window.position, _displacement(t[inside]), atol=1e-15)
+    np.testing.assert_allclose(
+        window.displacement, _displacement(t[inside]) - _displacement(30.0), atol=1e-15
+    )
+    np.testing.assert_allclose(window.velocity, np.where(t[inside] <= 60.0, V1, V2))

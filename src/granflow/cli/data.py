@@ -359,11 +359,14 @@ def add_fit(subparsers):
     )
     rsf.add_argument(
         "--periodic",
-        nargs="?",
-        const="auto",
-        metavar="WAVELENGTH",
+        action="store_true",
         help="fit an apparatus ripple periodic in load-point displacement (a drive screw), "
-        "its wavelength found from the residuals, or starting at WAVELENGTH, e.g. 87um",
+        "its wavelength found from the residuals (or starting at --wavelength)",
+    )
+    rsf.add_argument(
+        "--wavelength",
+        metavar="LENGTH",
+        help="the ripple's starting wavelength, with its unit, e.g. 87um (implies --periodic)",
     )
     rsf.add_argument(
         "--harmonics",
@@ -401,10 +404,10 @@ def _run_fit_rsf(args):
             (quantity(start, "time", "--window start"), quantity(stop, "time", "--window stop"))
         ]
     periodic = None
-    if args.periodic == "auto":
-        periodic = True
+    if args.wavelength:
+        periodic = quantity(args.wavelength, "slip", "--wavelength")
     elif args.periodic:
-        periodic = quantity(args.periodic, "slip", "--periodic")
+        periodic = True
     try:
         result = rsf.fit(
             record,

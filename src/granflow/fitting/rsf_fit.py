@@ -22,6 +22,7 @@ every fit's residuals are checked for one (:mod:`granflow.fitting.rsf_periodic`)
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 from collections.abc import Mapping, Sequence
@@ -301,12 +302,19 @@ def fit(
     if harmonics is True or not isinstance(harmonics, int | np.integer) or harmonics < 1:
         raise InvalidParameterError(f"harmonics must be a positive integer, got {harmonics!r}")
     harmonics = int(harmonics)
+    if isinstance(periodic, np.bool_):
+        periodic = bool(periodic)
     if periodic is None or periodic is False:
         terms = 0
     elif periodic is True:
         terms = harmonics
     else:
         periodic = check.positive(periodic, "periodic", "m")
+        low, high = _RANGES["wa"]
+        if not low <= periodic <= high:
+            raise InvalidParameterError(
+                f"periodic must be a wavelength from {low:g} to {high:g} m, got {periodic!r}"
+            )
         terms = harmonics
     pieces = _pieces(protocol)
     if t[0] < 0 or t[-1] > pieces[-1, 1] * (1 + 1e-12):
@@ -372,6 +380,8 @@ def fit(
     scaled_noise = noise * (1.0 if sigma is None else 1.0 / sigma)
     problem = setup.problem(starts[0], harmonics=0)
     solution = _multistart(problem, starts, scaled_noise)
+    # model evaluations, not Levenberg-Marquardt steps (a step may try several)
+    solution = dataclasses.replace(solution, nfev=setup.evaluations)
     load_point = np.concatenate([w.position for w in record])
     if terms:
         names, problem, solution = with_periodic(

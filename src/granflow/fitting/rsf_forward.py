@@ -87,6 +87,13 @@ def load_point_displacement(pieces, t):
     ``pieces``: rows (start [s], end [s], velocity at start [m/s], slope [m/s^2]) of a
     rate-controlled protocol, from time 0 on (the velocity is linear over each piece).
     """
+    return _displacement_and_velocity(pieces, t)[0]
+
+
+def _displacement_and_velocity(pieces, t):
+    """Load-point displacement [m] since the first piece's start, and velocity [m/s], at the
+    times ``t`` [s] (same clock as ``pieces``; before the first piece or after the last, the
+    nearest piece's polynomial continues)."""
     pieces = np.asarray(pieces, dtype=float)
     t = np.asarray(t, dtype=float)
     duration = pieces[:, 1] - pieces[:, 0]
@@ -95,7 +102,8 @@ def load_point_displacement(pieces, t):
     )
     index = np.clip(np.searchsorted(pieces[:, 1], t), 0, len(pieces) - 1)
     dt = t - pieces[index, 0]
-    return ends[index] + pieces[index, 2] * dt + 0.5 * pieces[index, 3] * dt**2
+    displacement = ends[index] + pieces[index, 2] * dt + 0.5 * pieces[index, 3] * dt**2
+    return displacement, pieces[index, 2] + pieces[index, 3] * dt
 
 
 class Window:
@@ -128,26 +136,8 @@ class Window:
         self.laws = tuple(laws)
         self.v_ref = float(self.pieces[0, 2])
         # load-point displacement since the window's start, at the window's points
-        ends = np.concatenate(
-            [
-                [0.0],
-                np.cumsum(
-                    0.5
-                    * (
-                        self.pieces[:, 2] * 2
-                        + self.pieces[:, 3] * (self.pieces[:, 1] - self.pieces[:, 0])
-                    )
-                    * (self.pieces[:, 1] - self.pieces[:, 0])
-                ),
-            ]
-        )
         local = self.t - start
-        index = np.minimum(np.searchsorted(self.pieces[:, 1], local), len(self.pieces) - 1)
-        dt = local - self.pieces[index, 0]
-        self.displacement = (
-            ends[index] + self.pieces[index, 2] * dt + 0.5 * self.pieces[index, 3] * dt**2
-        )
-        self.velocity = self.pieces[index, 2] + self.pieces[index, 3] * dt
+        self.displacement, self.velocity = _displacement_and_velocity(self.pieces, local)
         #: load-point displacement since the protocol's start [m] (the periodic term's clock)
         self.position = load_point_displacement(pieces, self.t)
         self.local = local

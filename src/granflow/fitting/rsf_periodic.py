@@ -36,6 +36,10 @@ _OVERSAMPLE = 5
 _MAX_TRIALS = 2000
 #: A component counts as significant below this false-alarm probability.
 FALSE_ALARM = 1e-3
+#: Grid points the comparison band of a peak must hold on its long-wavelength side.
+_SIDE = 10
+#: The band keeps this many resolution widths 1 / span away from the peak.
+_GAP = 2.0
 _CHUNK = 64  # wavelengths per block of the periodogram (memory: points x chunk x columns)
 
 
@@ -258,16 +262,52 @@ def fit_amplitudes(position, residuals, wavelength, harmonics):
     return solution[1:]
 
 
+def _sides(frequency, centre, span):
+    """The comparison band of a peak at ``centre`` [1/m] in the sorted ``frequency`` grid:
+    (below, above) index ranges of the grid points from half to twice ``centre``, at least
+    two resolution widths 1 / span away from it."""
+    lo = np.searchsorted(frequency, 0.5 * centre, side="right")
+    below = np.searchsorted(frequency, centre - _GAP / span, side="left")
+    above = np.searchsorted(frequency, centre + _GAP / span, side="right")
+    hi = np.searchsorted(frequency, 2.0 * centre, side="left")
+    return (lo, below), (above, hi)
+
+
+def _background(frequency, power, centre, span):
+    """The noise's power at ``centre`` [1/m] from the band around it: the median of each
+    side, a power law through the two (a red spectrum falls steeply: one side's median
+    misses it by a factor); only the side below where the grid ends above (a falling
+    spectrum's side, so the estimate errs high). None where the side below holds fewer
+    than :data:`_SIDE` points. Returns (level, grid points it comes from) or None."""
+    (b0, b1), (a0, a1) = _sides(frequency, centre, span)
+    if b1 - b0 < _SIDE:
+        return None
+    f_below, p_below = np.median(frequency[b0:b1]), np.median(power[b0:b1])
+    if a1 - a0 < _SIDE:
+        return float(p_below), b1 - b0
+    f_above, p_above = np.median(frequency[a0:a1]), np.median(power[a0:a1])
+    if not (p_below > 0 and p_above > 0):
+        return float(max(p_below, p_above)), b1 - b0 + a1 - a0
+    slope = math.log(p_above / p_below) / math.log(f_above / f_below)
+    return float(p_below * (centre / f_below) ** slope), b1 - b0 + a1 - a0
+
+
 def periodicity_check(position, residuals, harmonics=2):
     """Whether fit residuals hold a ripple periodic in load-point displacement.
 
     The highest peak of :func:`displacement_periodogram` is tested against the periodogram
     around it (wavelengths from half to twice the peak's, two resolution widths 1 / span
-    away from it): for noise, smooth or red, the power at one wavelength is its local
-    level times chi-square with ``2 harmonics`` degrees of freedom over their count, so the
-    peak's power over the local median, times the median of that chi-square, gives the
-    probability of so high a peak at one wavelength; over the number of independent
-    wavelengths searched (span / shortest) it becomes a false-alarm probability.
+    away from it). For noise, white or red, the power at one wavelength is the spectrum's
+    local level times chi-square with ``2 harmonics`` degrees of freedom over their count.
+    The level at the peak is a power law through the medians of the band's two sides (a red
+    spectrum is steep: the median of the whole band, most of it at shorter wavelengths,
+    would miss it low); it is itself a noisy estimate (about one independent value per
+    resolution width), so the peak over it, scaled by the median of the chi-square, is taken
+    as F-distributed, which gives the probability of so high a peak at one wavelength; over
+    the number of independent wavelengths searched it becomes a false-alarm probability.
+    Only wavelengths with at least :data:`_SIDE` grid points of the band on the long side
+    are searched: next to the longest wavelength (three periods over the span) the level
+    would be an extrapolation from the short side alone, and red noise fakes ripples there.
 
     Parameters
     ----------
@@ -284,37 +324,40 @@ def periodicity_check(position, residuals, harmonics=2):
         ``wavelength`` [m], ``amplitude`` [-] (half the peak-to-peak of the fitted ripple),
         ``rms`` [-] (its root mean square), ``fraction`` (of the residual variance it
         removes), ``false_alarm`` (probability), ``significant`` (false alarm below
-        :data:`FALSE_ALARM`); an empty dict where the displacement covers fewer than three
-        periods of any wavelength searched, or the residuals are not finite.
+        :data:`FALSE_ALARM`); an empty dict where the displacement covers too little for
+        the search (three periods of a wavelength the sampling resolves, with a band on
+        its long side), or the residuals are not finite.
     """
     position = np.asarray(position, dtype=float)
     residuals = np.asarray(residuals, dtype=float)
     if not (np.all(np.isfinite(residuals)) and np.all(np.isfinite(position))):
         return {}
     wavelengths, power = displacement_periodogram(position, residuals, harmonics)
-    if power.size < 3:
+    span = float(np.ptp(position))
+    frequency = 1.0 / wavelengths  # increasing
+    # the band's long side fills up with the frequency: the first that holds enough on
+    searched = [_background(frequency, power, f, span) is not None for f in frequency]
+    first = searched.index(True) if True in searched else frequency.size
+    if frequency.size - first < 3:
         return {}
-    wavelength = _refine(position, residuals, wavelengths, power, harmonics)
+    wavelength = _refine(position, residuals, wavelengths[first:], power[first:], harmonics)
     amplitudes = fit_amplitudes(position, residuals, wavelength, harmonics)
     ripple = periodic_terms(position, wavelength, amplitudes)
     ripple = ripple - ripple.mean()
     centred = residuals - residuals.mean()
     variance = float(centred @ centred)
     peak = float(_reduction(position, residuals, [wavelength], harmonics)[0]) / variance
-    span = float(np.ptp(position))
-    band = (
-        (wavelengths > 0.5 * wavelength)
-        & (wavelengths < 2.0 * wavelength)
-        & (np.abs(1.0 / wavelengths - 1.0 / wavelength) > 2.0 / span)
-    )
-    background = float(np.median(power[band])) if np.count_nonzero(band) >= 5 else 0.0
+    background = _background(frequency, power, 1.0 / wavelength, span)
     dof = 2 * harmonics
-    if background > 0:
-        single = float(stats.chi2.sf(peak / background * stats.chi2.median(dof), dof))
+    if background is not None and background[0] > 0:
+        # the level is itself noisy (a few independent values: one per resolution width):
+        # the peak over it is F-distributed, not chi-square
+        ratio = peak / background[0] * stats.chi2.median(dof) / dof
+        single = float(stats.f.sf(ratio, dof, dof * background[1] / _OVERSAMPLE))
     else:
-        single = 0.0 if peak > 0 else 1.0
+        single = 1.0
     # independent wavelengths searched: the frequency range over the resolution width
-    trials = max(span * (1.0 / wavelengths.min() - 1.0 / wavelengths.max()), 1.0)
+    trials = max(span * (frequency[-1] - frequency[first]), 1.0)
     false_alarm = float(-np.expm1(trials * np.log1p(-min(single, 1.0 - 1e-16))))
     return {
         "wavelength": wavelength,

@@ -36,6 +36,9 @@ class Setup:
         self.record, self.ranges = record, ranges
         self.names, self.local_names, self.count = list(names), local_names, count
         self.fixed, self.search, self.sigma = fixed, search, sigma
+        #: passes of the model over the fit windows so far (values or values and Jacobian,
+        #: every point or every few): the fit's count of model evaluations
+        self.evaluations = 0
 
     def names_with(self, harmonics):
         """The parameter names of a fit with ``harmonics`` periodic terms (0: none)."""
@@ -59,13 +62,14 @@ class Setup:
         rsf_slots = 2 + 2 * count
         log = tuple(s in ("a", "stiffness", "wavelength") or s.startswith("Dc") for s in slots)
         lookup = {float(w.t[0]): w for w in record}
+        first = record[0]
         free_slots = set()
         for mn, sn in self.local_names:
             if mn not in fixed:
                 free_slots.add("mu0")
             if sn not in fixed:
                 free_slots.add("slope")
-        for s, n in zip(slots[:rsf_slots], self.names, strict=False):
+        for s, n in zip(slots[:rsf_slots], self.names[:rsf_slots], strict=True):
             if n not in fixed:
                 free_slots.add(s)
 
@@ -81,6 +85,7 @@ class Setup:
 
         def function(z, *values):
             window = lookup[float(z[0])]
+            self.evaluations += window is first
             mu0, a, k, pairs, slope = unpack(values)
             out = window.friction(mu0, a, k, pairs, 0.0, local=z - window.start)
             if slope:
@@ -92,6 +97,7 @@ class Setup:
 
         def jacobian(z, *values):
             window = lookup[float(z[0])]
+            self.evaluations += window is first
             mu0, a, k, pairs, slope = unpack(values)
             wanted = [("k" if s == "stiffness" else s) for s in slots if s in free_slots]
             base, columns = window.jacobian(mu0, a, k, pairs, slope, wanted)
@@ -170,12 +176,18 @@ def with_periodic(setup, problem, solution, periodic, harmonics, position):
     start.update(zip(names[len(setup.names) :], [wavelength, *amplitudes], strict=True))
     start.update({n: v for n, v in setup.fixed.items() if n in start})
     full = setup.problem([start[n] for n in names], harmonics)
+    before = setup.evaluations
     u, _, converged, steps, hessian = full.lm(
         full.internal([start[n] for n in names]), max_iter=_MAX_STEPS, rtol=1e-9
     )
-    nfev = solution.nfev + steps
+    nfev = solution.nfev + setup.evaluations - before
     if converged and solution.status > 0:
         message = f"{solution.message}, then with the periodic term"
         return names, full, Solution(u, 1, message, nfev, hessian)
-    message = f"Levenberg-Marquardt did not converge with the periodic term in {steps} steps"
+    if converged:  # the ripple's fit converged; the one it started from had not
+        message = f"without the periodic term: {solution.message}; with it: converged"
+    else:
+        message = f"Levenberg-Marquardt did not converge with the periodic term in {steps} steps"
+        if solution.status <= 0:
+            message += f" (nor without it: {solution.message})"
     return names, full, Solution(u, 0, message, nfev, hessian)

@@ -239,13 +239,16 @@ def _interval(value):
 
 
 def _periodic(value):
-    """The ``periodic`` field: True, False, or a wavelength [m] from text with its unit."""
+    """The ``periodic`` field: True, False (also for none, the default), or a wavelength [m]
+    from text with its unit."""
+    if value is None:
+        return False
     if isinstance(value, bool):
         return value
     text = str(value).strip().lower()
     if text in ("true", "yes", "on"):
         return True
-    if text in ("false", "no", "off"):
+    if text in ("false", "no", "off", "none", "null", "~"):
         return False
     from granflow.model.units import parse_quantity
 
