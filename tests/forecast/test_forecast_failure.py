@@ -220,3 +220,107 @@ def test_the_failure_time_under_an_erroneous_history(kind):
         assert index == k
     assert level != peak_force
     assert _peak_at(level, z, error) == pytest.approx(peak_force, rel=1e-12)
+
+
+def _branch_slip(sigma, params=PARAMS):
+    """Slip [m] on the rising branch under the held force ``sigma`` (brentq on friction_slip)."""
+    pk = gf.peak(params)
+    start = gf.friction_slip(params.x0, params)
+    held = np.maximum.accumulate(sigma)
+    return (
+        np.array(
+            [
+                params.x0
+                if s <= start
+                else brentq(lambda z, s=s: gf.friction_slip(z, params) - s, params.x0, pk.slip)
+                for s in held
+            ]
+        )
+        - params.x0
+    )
+
+
+def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
+    """Steps 2 and 4 of 0.7 and 1.3 times the step height, then equal steps: the levels are
+    not on a line, so each is its own step's mean. The history's error then applies to the
+    last level (offset) and the continuation (slope) only, not as a tilt c0 + c1 u over the
+    early steps, and the failure (the start of the 12th step, the first above F_peak) lies
+    in the interval."""
+    from granflow.forecast.failure import _loading_error
+
+    strength = gf.peak(PARAMS).force
+    step, duration = strength / 11.5, 15.0
+    failure = 11 * duration
+    t = np.arange(0.0, failure, 1.0)
+    k = np.floor(t / duration)
+    sigma = step * (1 + k) - 0.3 * step * ((k == 1) | (k == 3))
+    rng = np.random.default_rng(0)
+    slip = _branch_slip(sigma) + 5e-9 * rng.standard_normal(t.size)
+    column = sigma + 1e-2 * step * rng.standard_normal(t.size)
+    until = 0.9 * failure
+    ff = gf.forecast_failure(t, slip, column, until=until)
+    loading = ff.loading
+    assert loading.kind == "steps" and not loading.on_line
+    assert loading.levels[1] == pytest.approx(1.7 * step, rel=0.01)
+    assert loading.step == pytest.approx(step, rel=0.01)
+    root, basis, _, _ = _loading_error(loading, t[t <= until])
+    last = t[t <= until] >= loading.edges[-1]
+    np.testing.assert_array_equal(basis[:, 1], 0.0)  # no tilt inside the record
+    np.testing.assert_array_equal(basis[:, 0], last.astype(float))  # the last level only
+    assert root[0, 0] > 0 and root[1, 1] > 0  # the offset and the continuing step do vary
+    assert ff.time_interval[0] <= failure <= ff.time_interval[1]
+    assert ff.force_interval[0] <= strength <= ff.force_interval[1]
+
+
+def _plain_likelihood(**fields):
+    """The forecast's likelihood with its history-error coordinates removed (held at zero)."""
+    from granflow.forecast.likelihood import Likelihood
+
+    inner = fields["residuals"]
+    fields["residuals"] = lambda params, s_peak: inner(params, s_peak, np.zeros(2))
+    fields["nuisance"] = 0
+    return Likelihood(**fields)
+
+
+def test_a_noise_free_force_column_gives_the_forecast_without_the_history_error(
+    record, monkeypatch
+):
+    """An exact ramp column has a history error of ~1e-19 N: the forecast with the two
+    nuisance coordinates must be the one without them (intervals to 1e-9; the best fit,
+    re-solved once more with them, to the optimiser's tolerance)."""
+    from granflow.forecast import failure
+
+    t, slip, force, failure_time = record
+    for cut in (0.75, 0.9):
+        with_error = gf.forecast_failure(t, slip, force, until=cut * failure_time)
+        with monkeypatch.context() as patch:
+            patch.setattr(failure, "Likelihood", _plain_likelihood)
+            without = gf.forecast_failure(t, slip, force, until=cut * failure_time)
+        assert with_error.noise == pytest.approx(without.noise, rel=1e-9)
+        for name in ("time_interval", "force_interval"):
+            np.testing.assert_allclose(getattr(with_error, name), getattr(without, name), rtol=1e-9)
+        assert with_error.time == pytest.approx(without.time, rel=1e-7)
+        assert with_error.force == pytest.approx(without.force, rel=1e-7)
+
+
+def test_a_ramp_read_with_an_offset_and_slope_error_is_still_dated():
+    """The force column is the true ramp plus a deliberate error (-1 standard error of the
+    regression's offset, +1.5 of its slope, for 30 uN of column noise) plus that noise; the
+    slip follows the true ramp. The failure time, where the true history reaches the model's
+    F_peak (brentq), lies in the interval."""
+    strength = gf.peak(PARAMS).force
+    truth = brentq(lambda s: RATE * s - strength, 0.0, 1e4)
+    t = np.arange(0.0, strength / RATE, 1.0)
+    sigma = RATE * t
+    rng = np.random.default_rng(0)
+    slip = _branch_slip(sigma) + 2e-9 * rng.standard_normal(t.size)
+    until, force_noise = 0.9 * truth, 3e-5
+    cut = t <= until
+    cov = np.polyfit(t[cut], sigma[cut], 1, cov="unscaled")[1] * force_noise**2
+    offset, slope = -1.0 * math.sqrt(cov[1, 1]), 1.5 * math.sqrt(cov[0, 0])
+    column = sigma + offset + slope * t + force_noise * rng.standard_normal(t.size)
+    ff = gf.forecast_failure(t, slip, column, until=until)
+    assert ff.loading.kind == "ramp"
+    assert ff.time_interval[0] <= truth <= ff.time_interval[1]
+    assert math.isfinite(ff.time_interval[1])
+    assert ff.time_interval[0] >= until

@@ -66,13 +66,20 @@ def _starts(held, slip, floor):
 
 
 def _loading_error(loading, time):
-    """The fitted history's error as two standard-normal coordinates z: the error at the
-    record's times is ``e(t) = c0 + c1 u(t)`` with ``(c0, c1) = root @ z`` (``root`` a square
-    root of the regression's covariance) and u the abscissa of that regression (time for a
-    ramp, step index for a staircase, both about the regression's origin).
+    """The fitted history's error as two standard-normal coordinates z: ``(c0, c1) = root @ z``
+    (``root`` a square root of the regression's covariance) are the errors of its offset and
+    slope on the regression's abscissa u (time for a ramp, step index for a staircase, both
+    about the regression's origin), and the error at the record's times is
+    ``basis @ (c0, c1)``.
 
-    Returns ``(root, abscissa, anchor, slope)``: anchor and slope place the continued history
-    on the same abscissa, ``anchor + slope u`` [N].
+    For a ramp or a regular staircase (its levels a fitted line) the error is that line's,
+    ``c0 + c1 u``, at every time. For an irregular staircase each level is its own step's mean
+    and no line describes the levels' errors: c0 is the last level's error, and the record's
+    other steps (each as uncertain on its own, far from the peak) get none; c1, the error of
+    the continuing step, acts beyond the record only.
+
+    Returns ``(root, basis, anchor, slope)``: anchor and slope place the continued history
+    on the same abscissa, ``anchor + slope u`` [N] for u > 0, and its error is ``c0 + c1 u``.
     """
     var0, cov, var1, origin = loading.error
     sd0 = math.sqrt(max(var0, 0.0))
@@ -81,10 +88,15 @@ def _loading_error(loading, time):
     if loading.kind == "ramp":
         abscissa = time - origin
         anchor, slope = loading.start + loading.rate * origin, loading.rate
+        basis = np.column_stack([np.ones_like(abscissa), abscissa])
     else:
         abscissa = np.searchsorted(np.asarray(loading.edges), time, side="right") - origin
         anchor, slope = loading.levels[-1], loading.step
-    return root, abscissa.astype(float), anchor, slope
+        if loading.on_line:
+            basis = np.column_stack([np.ones(abscissa.size), abscissa])
+        else:
+            basis = np.column_stack([abscissa == 0, np.zeros(abscissa.size)])
+    return root, basis.astype(float), anchor, slope
 
 
 def _on_fitted_history(peak_force, z, error):
@@ -105,6 +117,8 @@ def _peak_at(level, z, error):
     """The inverse of :func:`_on_fitted_history`: the true history's force [N] where the
     fitted one stands at ``level`` [N] beyond the record."""
     root, _, anchor, slope = error
+    if z.size == 0:
+        return level
     c0, c1 = root @ z
     return anchor + c0 + (slope + c1) * (level - anchor) / slope
 
@@ -157,9 +171,11 @@ def forecast_failure(
     ``c0 + c1 u`` on the regression's abscissa (time, or step index) with the regression's
     covariance, enters the likelihood as two standard-normal nuisance coordinates, fitted
     and profiled with the others (errors in variables); the slip record then constrains the
-    history too. The failure time has its own profile, over the force at which the fitted
-    history stands when the true history (fitted plus error) reaches F_peak: the time (or
-    step) at which the fitted history reaches that force.
+    history too. (An irregular staircase, whose levels are each their own step's mean, has
+    no such line: the offset is then the last level's error and the slope the continuing
+    step's, which acts beyond the record only.) The failure time has its own profile, over
+    the force at which the fitted history stands when the true history (fitted plus error)
+    reaches F_peak: the time (or step) at which the fitted history reaches that force.
     Under a staircase the layer fails at the start of the first step that reaches F_peak:
     the time interval runs from the earliest start of the step reaching the low end to the
     latest start of the step reaching the high end, each start bounded by the samples
@@ -225,12 +241,11 @@ def forecast_failure(
     floor = float(held[-1])
     starts, total = _starts(held, np.maximum(slip_cut, 0.0), floor)
     error = _loading_error(loading, time)
-    root, abscissa = error[0], error[1]
+    root, basis = error[0], error[1]
     base = loading.force(time)
 
     def residuals(params, s_peak, z):
-        c0, c1 = root @ z
-        true = np.maximum.accumulate(base + c0 + c1 * abscissa)
+        true = np.maximum.accumulate(base + basis @ (root @ z))
         return slip_cut - (branch_slip(true, params, s_peak) - params.x0)
 
     likelihood = Likelihood(

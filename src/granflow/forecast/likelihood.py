@@ -175,9 +175,6 @@ class Fit:
         The delta chi-square of the interval's level [-].
     nuisance : ndarray
         Best-fit nuisance coordinates (empty without them).
-    ends : tuple of ndarray
-        Nuisance coordinates at the interval's low and high ends (interpolated between the
-        profile points either side of each crossing; the best fit's where an end is open).
     vector : ndarray
         The best fit's internal vector.
 
@@ -193,7 +190,6 @@ class Fit:
     interval: tuple
     threshold: float
     nuisance: np.ndarray = field(default_factory=lambda: np.empty(0))
-    ends: tuple = (np.empty(0), np.empty(0))
     vector: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     def along(self, quantity):
@@ -293,9 +289,9 @@ def _side(likelihood, u_best, chisqr, noise, with_prior, direction, step, thresh
 
 
 def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
-    """The internal vector where the profile crosses the threshold: bisection between the
-    last point inside and the first outside (warm-started), then linear interpolation of the
-    signed root of the chi-square (the peak coordinate u[3] and the others alike)."""
+    """The peak coordinate u[3] where the profile crosses the threshold: bisection between
+    the last point inside and the first outside (warm-started), then linear interpolation of
+    the signed root of the chi-square."""
     inside = (best[3], 0.0, best)
     for point in points:
         if point[1] > threshold:
@@ -313,9 +309,9 @@ def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
             inside = point
     # The signed root of the profile's chi-square is close to linear in the parameter where
     # the chi-square itself is close to quadratic: interpolate the root.
-    (_, d_a, u_a), (_, d_b, u_b) = inside, outside
+    (u_a, d_a, _), (u_b, d_b, _) = inside, outside
     r_a, r_b = math.sqrt(d_a), math.sqrt(d_b)
-    return u_a + (math.sqrt(threshold) - r_a) / (r_b - r_a) * (u_b - u_a)
+    return u_a + (math.sqrt(threshold) - r_a) * (u_b - u_a) / (r_b - r_a)
 
 
 def fit_and_profile(likelihood, level=0.9, best=None):
@@ -373,15 +369,13 @@ def fit_and_profile(likelihood, level=0.9, best=None):
     down, bounded_down = _side(
         likelihood, u_best, chisqr, noise, with_prior, -1.0, step, threshold, u_best[3] - 12.0
     )
-    high, end_high = math.inf, u_best
+    high = math.inf
     crossing = (likelihood, u_best, chisqr, noise, with_prior, threshold)
     if bounded_up:
-        end_high = _crossing(likelihood, up, *crossing[1:])
-        high = likelihood.floor + math.exp(end_high[3])
-    low, end_low = likelihood.floor, u_best
+        high = likelihood.floor + math.exp(_crossing(likelihood, up, *crossing[1:]))
+    low = likelihood.floor
     if bounded_down:
-        end_low = _crossing(likelihood, down, *crossing[1:])
-        low = likelihood.floor + math.exp(end_low[3])
+        low = likelihood.floor + math.exp(_crossing(likelihood, down, *crossing[1:]))
     path = []
     for u4, delta, u in down + up:
         found = likelihood.curve(u)
@@ -397,6 +391,5 @@ def fit_and_profile(likelihood, level=0.9, best=None):
         interval=(float(low), float(high)),
         threshold=threshold,
         nuisance=u_best[4:],
-        ends=(end_low[4:], end_high[4:]),
         vector=np.asarray(u_best, dtype=float),
     )

@@ -46,7 +46,12 @@ class Loading:
     error : tuple of float
         ``(var0, cov, var1, origin)``: the covariance of the fitted history's offset [N^2]
         and slope [N^2/s^2 or N^2 per step^2] about ``origin`` (t = 0 for a ramp, the last
-        level's index for steps): :meth:`force_error` reads it.
+        level's index for steps).
+    on_line : bool
+        Steps: whether the levels are the line through the steps' means (a regular
+        staircase; ``error`` is that line's, for every step); else each level is its own
+        step's mean, and ``error`` describes only the last level (offset) and the step that
+        continues the staircase beyond the record (slope).
     end : float
         Steps: the record's last time [s]; no step began between the last edge and it.
     """
@@ -61,6 +66,7 @@ class Loading:
     windows: tuple = ()
     error: tuple = (0.0, 0.0, 0.0, 0.0)
     end: float = -math.inf
+    on_line: bool = True
 
     def force(self, t):
         """The imposed force [N] at times ``t`` [s] (the continued history after the record)."""
@@ -118,17 +124,6 @@ class Loading:
         it can first reach ``high`` [N]."""
         return (self.edge_range(low)[0], self.edge_range(high)[1])
 
-    def force_error(self, t):
-        """Standard error [N] of the fitted history at time ``t`` [s] (continued beyond the
-        record), from the regression of the force column."""
-        var0, cov, var1, origin = self.error
-        if self.kind == "ramp":
-            u = float(t) - origin
-        else:
-            index = self._index(float(self.force(t)) * (1 - 1e-12))
-            u = (index if index is not None else len(self.levels) - 1) - origin
-        return math.sqrt(max(var0 + 2 * u * cov + u * u * var1, 0.0))
-
     def to_dict(self):
         """JSON-safe mapping (SI units)."""
         return {
@@ -142,6 +137,7 @@ class Loading:
             "windows": [list(w) for w in self.windows],
             "error": list(self.error),
             "end": self.end,
+            "on_line": self.on_line,
         }
 
     @classmethod
@@ -158,6 +154,7 @@ class Loading:
             windows=tuple(tuple(float(v) for v in w) for w in d.get("windows", ())),
             error=tuple(float(v) for v in d.get("error", (0.0, 0.0, 0.0, 0.0))),
             end=-math.inf if d.get("end") is None else float(d["end"]),
+            on_line=bool(d.get("on_line", True)),
         )
 
 
@@ -215,14 +212,21 @@ def _staircase(t, force, big, noise):
     # A regular staircase (levels on a line of the step index within their noise, chi-square
     # at 99.9 %) is known far better from the line than from each step's points, which
     # matters near the peak, where the slip is most sensitive to the force.
+    # Otherwise each level is its own step's mean, independent of the others, and no line
+    # describes their errors: the error kept is the last level's (its mean's variance) and
+    # the continuing step's (the median difference of the levels, given the variance of one
+    # difference of two levels as well measured as the last, which the median is no worse
+    # than); the earlier levels' own errors (the same size each) are left out.
     error = (1.0 / weights[-1], 0.0, 2.0 / weights[-1], float(origin))
     step = float(np.median(np.diff(levels)))
+    on_line = False
     if levels.size >= 3:
         line, cov, misfit = _line(np.arange(levels.size, dtype=float), levels, weights)
         if misfit <= chi2.ppf(0.999, levels.size - 2):
             levels = line
             step = float(line[-1] - line[-2])
             error = (float(cov[0, 0]), float(cov[0, 1]), float(cov[1, 1]), float(origin))
+            on_line = True
     windows = tuple((float(t[i]), float(t[i + 1])) for i in big)
     found = np.array([0.5 * (lo + hi) for lo, hi in windows])
     if found.size > 1:
@@ -242,6 +246,7 @@ def _staircase(t, force, big, noise):
         windows=windows,
         error=error,
         end=float(t[-1]),
+        on_line=on_line,
     )
 
 
