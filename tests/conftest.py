@@ -79,6 +79,30 @@ def _startup_run(load, velocity, x0, rng, *, points=300):
     )
 
 
+def analyze_in_fresh_process(manifest, output, jobs=2):
+    """Run ``analyze(manifest, output, jobs=jobs)`` in a new Python process (this checkout's
+    ``src`` first on the path); returns ``(pandas loaded, matplotlib loaded)`` in that
+    process's parent, the one that ran ``analyze`` and handed the work to its workers."""
+    import subprocess
+    import sys
+
+    source = Path(__file__).resolve().parents[1] / "src"
+    code = (
+        "import sys\n"
+        "from granflow.analysis import analyze\n"
+        f"analyze({str(manifest)!r}, {str(output)!r}, jobs={jobs}, quiet=True)\n"
+        "print('pandas' in sys.modules, 'matplotlib' in sys.modules)\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env={**os.environ, "PYTHONPATH": str(source)},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return tuple(word == "True" for word in out.stdout.split())
+
+
 def write_small_campaign(folder, seed=0):
     """Write a small campaign of instrument exports and its manifest; returns the manifest.
 

@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 import yaml
-from conftest import SMALL_NOISE, SMALL_TRUTH, shared_data
+from conftest import SMALL_NOISE, SMALL_TRUTH, analyze_in_fresh_process, shared_data
 
 import granflow as gf
 from granflow import rsf
@@ -189,27 +189,8 @@ def test_a_parallel_analysis_fits_the_records_on_a_worker(analysed, tmp_path):
     """With workers, the rate-and-state fits and their figures (matplotlib) run on one of
     them: this process loads neither pandas nor matplotlib, and the results are those of the
     analysis in one process."""
-    import os
-    import subprocess
-    import sys
-    from pathlib import Path
-
     manifest, output, _ = analysed
-    source = Path(__file__).resolve().parents[2] / "src"
-    code = (
-        "import sys\n"
-        "from granflow.analysis import analyze\n"
-        f"analyze({str(manifest)!r}, {str(tmp_path / 'out')!r}, jobs=2, quiet=True)\n"
-        "print('pandas' in sys.modules, 'matplotlib' in sys.modules)\n"
-    )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        env={**os.environ, "PYTHONPATH": str(source)},
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    assert out.stdout.split() == ["False", "False"]
+    assert analyze_in_fresh_process(manifest, tmp_path / "out") == (False, False)
     here = json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
     there = json.loads((output / "results.json").read_text(encoding="utf-8"))
     assert _without_timing(here) == _without_timing(there)

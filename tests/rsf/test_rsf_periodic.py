@@ -143,6 +143,8 @@ def test_bad_settings_are_named():
     for outside in (2.0, 1e-10):  # outside the wavelength's search range, named at once
         with pytest.raises(InvalidParameterError, match="periodic must be a wavelength from"):
             rsf.fit(t, mu, protocol, periodic=outside)
+        with pytest.raises(InvalidParameterError, match="fixed wavelength must lie from"):
+            rsf.fit(t, mu, protocol, periodic=True, fixed={"wavelength": outside})
 
 
 def test_numpy_booleans_are_booleans():

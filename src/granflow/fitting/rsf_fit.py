@@ -343,6 +343,12 @@ def fit(
     for name in ("a", "stiffness", "wavelength", *[dc for _, dc in names_states]):
         if name in fixed:
             check.positive(fixed[name], name)
+    if "wavelength" in fixed:
+        low, high = _RANGES["wa"]
+        if not low <= fixed["wavelength"] <= high:
+            raise InvalidParameterError(
+                f"fixed wavelength must lie from {low:g} to {high:g} m, got {fixed['wavelength']!r}"
+            )
     noise = noise_scatter(friction)
 
     # starting values from the data
