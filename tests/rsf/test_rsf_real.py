@@ -7,8 +7,8 @@ does where the model predicts a constant friction.
 
 The sepiolite record carries an apparatus ripple periodic in load-point displacement (about
 86 µm: 430 s at 0.2 µm/s, 43 s at 2 µm/s, read off the raw record below); with it fitted
-(``periodic=True``) in a window around the step, its residuals are within 1.5 times its
-scatter.
+(``periodic=True``) in a window up to 250 s after the step, its residuals are within 1.5 times
+its scatter.
 """
 
 import numpy as np
@@ -123,19 +123,20 @@ def test_the_section_for_the_report(tmp_path):
 # ---------------------------------------------------------------- sepiolite, ripple fitted
 
 SEPIOLITE = "velstep3_TR2_exp013_sepiolite.txt"
-#: The documented settings: slip law, the ripple fitted (two harmonics), one window from 450 s
-#: before the step (one ripple wavelength of load-point slip at 0.2 µm/s: the steady friction
-#: before the step is seen over a whole ripple) to 250 s after it (500 µm of load-point slip,
-#: 5.7 Dc: the transient is within 0.4 % of its end, and the slow wander of the friction
-#: after about 1500 s, which no rate-and-state law describes, stays outside).
-SEPIOLITE_WINDOW = (450.0, 250.0)  # s before and after the step
+#: The documented settings: slip law, the ripple fitted (two harmonics), one window from the
+#: record's start (all of the steady friction before the step) to 250 s after the step (500
+#: µm of load-point slip, 5.7 Dc: the transient is within 0.4 % of its end, and the slow
+#: wander of the friction after about 1500 s, which no rate-and-state law describes, stays
+#: outside). The start hardly matters, the end does: benchmarks/README.md has the map
+#: (within 1.5 times the scatter for every end from 100 to 300 s after the step).
+SEPIOLITE_END = 250.0  # s after the step
 #: found by rsf.fit with these settings (a, b, Dc [m], stiffness [1/m], wavelength [m])
 SEPIOLITE_VALUES = {
-    "a": 0.0118034,
-    "b": -0.00825976,
-    "Dc": 8.83454e-05,
-    "stiffness": 2651.39,
-    "wavelength": 8.73508e-05,
+    "a": 0.0117568,
+    "b": -0.00829592,
+    "Dc": 8.76621e-05,
+    "stiffness": 2677.08,
+    "wavelength": 8.65565e-05,
 }
 
 
@@ -143,12 +144,11 @@ SEPIOLITE_VALUES = {
 def sepiolite():
     record = rsf.read_velocity_steps(shared_data("rate-state-velocity-steps", SEPIOLITE))
     step = record.step_times[0]
-    before, after = SEPIOLITE_WINDOW
     fit = rsf.fit(
         record,
         law="slip",
         periodic=True,
-        windows=[(step - before, step + after)],
+        windows=[(0.0, step + SEPIOLITE_END)],
         correlated_noise=True,
     )
     return record, fit
@@ -194,7 +194,7 @@ def test_sepiolite_with_the_ripple_is_within_one_and_a_half_times_its_scatter(se
     assert fit.noise == pytest.approx(np.std(np.diff(record.friction)) / np.sqrt(2), rel=0.15)
     ratio = fit.residual_rms / fit.noise
     assert ratio <= 1.5
-    assert ratio == pytest.approx(1.486, abs=0.01)
+    assert ratio == pytest.approx(1.426, abs=0.01)
     # no ripple left in the residuals
     assert not fit.periodicity["significant"]
 
@@ -208,12 +208,12 @@ def test_sepiolite_a_minus_b_agrees_with_the_measured_steady_state_change(sepiol
     v1, v2 = record.velocities
     slow, fast = _raw_periods(record)
     wavelength = 0.5 * (slow * v1 + fast * v2)
-    end = step + SEPIOLITE_WINDOW[1]
+    end = step + SEPIOLITE_END
     before = mu[(t >= step - wavelength / v1) & (t < step)].mean()
     after = mu[(t > end - wavelength / v2) & (t <= end)].mean()
     measured = (after - before) / np.log(v2 / v1)
     assert abs(fit.a_minus_b - measured) < 1.96 * fit.a_minus_b_stderr
-    assert fit.a_minus_b == pytest.approx(0.0200632, rel=2e-3)
+    assert fit.a_minus_b == pytest.approx(0.0200527, rel=2e-3)
 
 
 def test_sepiolite_fit_and_ripple_are_drawn(sepiolite, tmp_path):

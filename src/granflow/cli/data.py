@@ -214,7 +214,7 @@ _EPILOG_FIT = """examples:
   granflow fit run1.txt --window 1s:600s --geometry outer_radius=15mm,inner_radius=12.5mm
   granflow fit velstep.txt --model rsf --law aging  (a velocity-step record: a, b, Dc, k)
   granflow fit velstep.txt --model rsf --law slip --detrend --steps 68.6s --json
-  granflow fit velstep.txt --model rsf --law slip --periodic --window 785s:1485s
+  granflow fit velstep.txt --model rsf --law slip --periodic --window 0s:1485s
                                                   (an apparatus ripple in load-point slip)
 A plain CSV needs a force column and a time or slip column, each with its unit in the header:
 'time [s]', 't (min)', 'slip [µm]', 'force [mN]', or granflow's own 't_s', 'force_N'. The
