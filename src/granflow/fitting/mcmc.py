@@ -217,16 +217,25 @@ class PosteriorResult(ValueEquality):
         return plot_corner(self, **kwargs)
 
 
-def _priors(result, free, priors):
+def _default_prior(name, value):
+    """Eq. 3's default prior of ``name`` about its least-squares ``value``."""
+    if name in _SCALE_PARAMETERS and value > 0:
+        return "log-uniform", value / _PRIOR_WIDTH, value * _PRIOR_WIDTH
+    return "uniform", 0.0, max(10.0 * abs(value), 1e-12)
+
+
+def priors_for(values, priors, default=_default_prior):
+    """The prior (kind, low, high) of each free parameter: ``priors[name]`` where given
+    (checked), else ``default(name, value)``; ``values`` maps the free parameters' names to
+    their least-squares values, which every prior must hold."""
     chosen = {}
     priors = dict(priors or {})
     for name in priors:
-        if name not in free:
+        if name not in values:
             raise InvalidParameterError(
-                f"priors: {name!r} is not a free parameter of the fit ({', '.join(free)})"
+                f"priors: {name!r} is not a free parameter of the fit ({', '.join(values)})"
             )
-    for name in free:
-        value = result.params[name]
+    for name, value in values.items():
         if name in priors:
             kind, low, high = priors[name]
             if kind not in _PRIOR_KINDS:
@@ -236,10 +245,8 @@ def _priors(result, free, priors):
             low, high = float(low), float(high)
             if not low < high or (kind == "log-uniform" and low <= 0):
                 raise InvalidParameterError(f"priors[{name!r}]: need 0 < low < high for {kind}")
-        elif name in _SCALE_PARAMETERS and value > 0:
-            kind, low, high = "log-uniform", value / _PRIOR_WIDTH, value * _PRIOR_WIDTH
         else:
-            kind, low, high = "uniform", 0.0, max(10.0 * abs(value), 1e-12)
+            kind, low, high = default(name, value)
         if not low <= value <= high:
             raise InvalidParameterError(
                 f"priors[{name!r}]: the least-squares value {value:.6g} lies outside "
@@ -263,11 +270,15 @@ def sample_posterior(
 
     Parameters
     ----------
-    fit_result : FitResult
-        A result of :func:`granflow.fit`; its free parameters are sampled, fixed ones stay.
+    fit_result : FitResult or RateStateFitResult
+        A result of :func:`granflow.fit`, or of :func:`granflow.rsf.fit` in this session
+        (:mod:`granflow.fitting.rsf_posterior`); its free parameters are sampled, fixed ones
+        stay.
     priors : mapping of str to (kind, low, high), optional
         ``kind`` is ``"log-uniform"`` or ``"uniform"``, bounds in SI. Defaults: log-uniform on
         [value/1000, value*1000] for a, alpha (k), x0 (t0); uniform on [0, 10 value] for Fd.
+        Rate-and-state: log-uniform for a, the stiffness, Dc and the ripple's wavelength,
+        uniform 100 standard errors either side for b, mu0, the trend and the amplitudes.
     nwalkers : int
         Walkers (at least twice the number of free parameters).
     nsteps : int
@@ -297,26 +308,21 @@ def sample_posterior(
     >>> y = granflow.friction_slip(x, p) + np.random.default_rng(0).normal(0, 5e-5, 300)
     >>> post = granflow.sample_posterior(granflow.fit((x, y)), nsteps=300, seed=1)  # doctest: +SKIP
     """
-    emcee = _emcee()
+    from granflow.fitting.rsf_result import RateStateFitResult
+
+    if isinstance(fit_result, RateStateFitResult):
+        from granflow.fitting.rsf_posterior import rate_state_posterior
+
+        sampling = (nwalkers, nsteps, burn, seed, progress)
+        return rate_state_posterior(fit_result, priors, sampling)
     if not isinstance(fit_result, FitResult):
         raise InvalidParameterError(
-            f"fit_result must be a granflow.FitResult, got {type(fit_result).__name__}"
+            "fit_result must be a granflow.FitResult or a rate-and-state fit, got "
+            f"{type(fit_result).__name__}"
         )
     free = [n for n in fit_result.names if n not in fit_result.fixed]
-    ndim = len(free)
-    if isinstance(nwalkers, bool) or not isinstance(nwalkers, int) or nwalkers < 2 * ndim:
-        raise InvalidParameterError(f"nwalkers must be an integer >= {2 * ndim}, got {nwalkers!r}")
-    if isinstance(nsteps, bool) or not isinstance(nsteps, int) or nsteps < 10:
-        raise InvalidParameterError(f"nsteps must be an integer >= 10, got {nsteps!r}")
-    burn = nsteps // 4 if burn is None else int(burn)
-    if not 0 <= burn < nsteps:
-        raise InvalidParameterError(f"burn must lie in [0, nsteps), got {burn}")
-    chosen = _priors(fit_result, free, priors)
-    log_axis = np.array([chosen[n][0] == "log-uniform" for n in free])
-    low = np.array([chosen[n][1] for n in free])
-    high = np.array([chosen[n][2] for n in free])
-    low_u = np.where(log_axis, np.log(np.where(log_axis, low, 1.0)), low)
-    high_u = np.where(log_axis, np.log(np.where(log_axis, high, 1.0)), high)
+    nwalkers, nsteps, burn = _checked(len(free), nwalkers, nsteps, burn)
+    chosen = priors_for({n: fit_result.params[n] for n in free}, priors)
     x = np.ascontiguousarray(fit_result.x)
     data = np.asarray(fit_result.data)
     noise = 1.0 if fit_result.sigma_known else math.sqrt(fit_result.redchi)
@@ -324,22 +330,71 @@ def sample_posterior(
     slots = [fit_result.names.index(n) for n in free]
     base = np.array([fit_result.params[n] for n in fit_result.names])
 
+    def log_likelihood(natural):
+        values = base.copy()
+        values[slots] = natural
+        residual = weights * (model_only(x, *values) - data)
+        return -0.5 * float(residual @ residual)
+
+    least_squares = {n: fit_result.params[n] for n in free}
+    spread = {n: fit_result.stderr[n] for n in free}
+    return sample(log_likelihood, chosen, least_squares, spread, (nwalkers, nsteps, burn, seed, progress))
+
+
+def _checked(ndim, nwalkers, nsteps, burn):
+    """(nwalkers, nsteps, burn) checked against ``ndim`` free parameters."""
+    if isinstance(nwalkers, bool) or not isinstance(nwalkers, int) or nwalkers < 2 * ndim:
+        raise InvalidParameterError(f"nwalkers must be an integer >= {2 * ndim}, got {nwalkers!r}")
+    if isinstance(nsteps, bool) or not isinstance(nsteps, int) or nsteps < 10:
+        raise InvalidParameterError(f"nsteps must be an integer >= 10, got {nsteps!r}")
+    burn = nsteps // 4 if burn is None else int(burn)
+    if not 0 <= burn < nsteps:
+        raise InvalidParameterError(f"burn must lie in [0, nsteps), got {burn}")
+    return nwalkers, nsteps, burn
+
+
+def sample(log_likelihood, chosen, least_squares, spread, sampling):
+    """Run emcee over the parameters of ``chosen`` (name: (kind, low, high) priors, in order)
+    and summarise the chain.
+
+    Parameters
+    ----------
+    log_likelihood : callable
+        ``log_likelihood(values) -> float`` at the parameters' natural values (SI), in the
+        order of ``chosen``.
+    chosen : mapping of str to (str, float, float)
+        The priors; walkers move in ln(value) for log-uniform ones (flat there).
+    least_squares, spread : mapping of str to float
+        The least-squares values (the walkers start about them) and their standard errors.
+    sampling : tuple
+        ``(nwalkers, nsteps, burn, seed, progress)`` as :func:`sample_posterior` takes them.
+    """
+    emcee = _emcee()
+    free = list(chosen)
+    ndim = len(free)
+    nwalkers, nsteps, burn, seed, progress = sampling
+    nwalkers, nsteps, burn = _checked(ndim, nwalkers, nsteps, burn)
+    log_axis = np.array([chosen[n][0] == "log-uniform" for n in free])
+    low = np.array([chosen[n][1] for n in free])
+    high = np.array([chosen[n][2] for n in free])
+    low_u = np.where(log_axis, np.log(np.where(log_axis, low, 1.0)), low)
+    high_u = np.where(log_axis, np.log(np.where(log_axis, high, 1.0)), high)
+
     def natural(u):
         return np.where(log_axis, np.exp(u), u)
 
     def log_probability(u):
         if np.any(u < low_u) or np.any(u > high_u):
             return -np.inf
-        values = base.copy()
-        values[slots] = natural(u)
-        residual = weights * (model_only(x, *values) - data)
-        return -0.5 * float(residual @ residual)
+        value = log_likelihood(natural(u))
+        return value if math.isfinite(value) else -np.inf
 
     seeds = np.random.SeedSequence(seed)
     start_rng, sampler_seed = np.random.default_rng(seeds.spawn(1)[0]), seeds.generate_state(1)[0]
-    centre = np.where(log_axis, np.log(np.maximum(base[slots], 1e-300)), base[slots])
-    spread = np.array([fit_result.stderr[n] for n in free])
-    spread_u = np.where(log_axis, spread / np.abs(base[slots]), spread)
+    best = np.array([least_squares[n] for n in free])
+    centre = np.where(log_axis, np.log(np.maximum(best, 1e-300)), best)
+    error = np.array([spread[n] for n in free])
+    spread_u = np.where(log_axis, error / np.abs(best), error)
     spread_u = np.where(spread_u > 0, spread_u, 1e-6 * np.maximum(np.abs(centre), 1e-12))
     start = centre + 0.1 * spread_u * start_rng.standard_normal((nwalkers, ndim))
     start = np.clip(start, low_u, high_u)
@@ -363,7 +418,7 @@ def sample_posterior(
             f"{_TAU_FACTOR} autocorrelation times (max tau = {np.max(tau):.1f} steps): "
             "run more steps before trusting the intervals",
             ConvergenceWarning,
-            stacklevel=2,
+            stacklevel=3,
         )
     percentiles = np.percentile(flat, [2.5, 16, 50, 84, 97.5], axis=0)
     return PosteriorResult(
@@ -380,7 +435,7 @@ def sample_posterior(
         autocorr=FrozenMap({n: float(tau[i]) for i, n in enumerate(free)}),
         acceptance_fraction=float(np.mean(sampler.acceptance_fraction)),
         converged=converged,
-        least_squares=FrozenMap({n: fit_result.params[n] for n in free}),
+        least_squares=FrozenMap({n: least_squares[n] for n in free}),
         priors=FrozenMap(chosen),
         seed=seed,
     )

@@ -37,6 +37,7 @@ from granflow.fitting.profile import profile_interval
 from granflow.fitting.results import FrozenMap, read_only
 from granflow.fitting.rsf_forward import Window, noise_scatter
 from granflow.fitting.rsf_periodic import harmonic_names, periodicity_check
+from granflow.fitting.rsf_posterior import attach_likelihood
 from granflow.fitting.rsf_problem import Setup, with_periodic
 from granflow.fitting.rsf_result import RateStateFitResult
 from granflow.fitting.statistics import WALD_Z, fit_statistics
@@ -459,7 +460,7 @@ def fit(
         for n in names
     }
     velocity = np.concatenate([w.velocity for w in record])
-    return RateStateFitResult(
+    result = RateStateFitResult(
         **stats.summary(
             ci95=FrozenMap(ci95),
             stderr=FrozenMap(stderr),
@@ -489,6 +490,7 @@ def fit(
         harmonics=terms,
         periodicity=FrozenMap(periodicity_check(load_point, stats.residuals, harmonics)),
     )
+    return attach_likelihood(result, problem, values, variance)
 
 
 def correlation_time(residuals, blocks=20):

@@ -183,6 +183,13 @@ class RateStateFitResult(FitOutcome):
             ],
         )
 
+    def __getstate__(self):
+        """Pickle the fields only: the model kept for sampling the posterior
+        (:mod:`granflow.fitting.rsf_posterior`) stays in the session that fitted it."""
+        state = dict(self.__dict__)
+        state.pop("_likelihood", None)
+        return state
+
     def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping; :meth:`from_dict` inverts it."""
         return encode(

@@ -1,0 +1,75 @@
+"""Posterior sampling of rate-and-state fits (``granflow.sample_posterior(rsf_fit)``).
+
+The independent references: the truth the synthetic record was simulated from (by
+:func:`granflow.rsf.simulate`, not the fit's forward model), and the fit's profile-likelihood
+intervals, a different method that must agree with the posterior's on a well-determined
+step.
+"""
+
+import pickle
+import warnings
+
+import pytest
+from test_rsf_fit import SETS, synthetic
+
+import granflow as gf
+from granflow import ConvergenceWarning, rsf
+from granflow.errors import InvalidParameterError
+
+pytest.importorskip("emcee")
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    t, mu, protocol = synthetic("weakening", 3)
+    fit = rsf.fit(t, mu, protocol, law="aging")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)  # short chains in a test
+        post = gf.sample_posterior(fit, nwalkers=16, nsteps=700, seed=2, progress=False)
+    return (t, mu, protocol), fit, post
+
+
+def test_the_posterior_holds_the_truth_and_agrees_with_the_profiles(fitted):
+    _, fit, post = fitted
+    _, a, b, Dc, *_ = SETS["weakening"]
+    truth = {"a": a, "b": b, "Dc": Dc}  # the parameters whose intervals are coverage-tested
+    assert set(post.names) == {"a", "stiffness", "b", "Dc", "mu0"}  # slope held at 0
+    for name, value in truth.items():
+        low, high = post.ci95[name]
+        assert low < value < high, name
+    for name in ("a", "b", "Dc"):
+        assert fit.ci_method[name] == "profile"
+        (low, high), (plow, phigh) = post.ci95[name], fit.ci95[name]
+        width = phigh - plow
+        assert abs(low - plow) < 0.15 * width and abs(high - phigh) < 0.15 * width, name
+        assert post.medians[name] == pytest.approx(fit.params[name], abs=0.1 * width)
+    assert 0.2 < post.acceptance_fraction < 0.8
+
+
+def test_the_same_seed_gives_the_same_chain(fitted):
+    _, fit, post = fitted
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        again = gf.sample_posterior(fit, nwalkers=16, nsteps=700, seed=2, progress=False)
+    assert (again.chain == post.chain).all()
+
+
+def test_a_held_parameter_is_not_sampled_and_priors_are_checked(fitted):
+    (t, mu, protocol), fit, _ = fitted
+    held = rsf.fit(t, mu, protocol, law="aging", fixed={"stiffness": 2000.0})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        post = gf.sample_posterior(held, nwalkers=12, nsteps=40, seed=1, progress=False)
+    assert "stiffness" not in post.names and "a" in post.names
+    with pytest.raises(InvalidParameterError, match="'alpha' is not a free parameter"):
+        gf.sample_posterior(fit, priors={"alpha": ("uniform", 0, 1)}, nsteps=20, seed=1)
+    with pytest.raises(InvalidParameterError, match="nwalkers must be an integer >= 10"):
+        gf.sample_posterior(fit, nwalkers=4, nsteps=20, seed=1)
+
+
+def test_a_result_read_back_has_no_model_and_says_so(fitted):
+    _, fit, _ = fitted
+    for copy in (pickle.loads(pickle.dumps(fit)), type(fit).from_dict(fit.to_dict())):
+        assert copy == fit
+        with pytest.raises(InvalidParameterError, match="fit the record again"):
+            gf.sample_posterior(copy, nsteps=20, seed=1)
