@@ -338,7 +338,9 @@ def sample_posterior(
 
     least_squares = {n: fit_result.params[n] for n in free}
     spread = {n: fit_result.stderr[n] for n in free}
-    return sample(log_likelihood, chosen, least_squares, spread, (nwalkers, nsteps, burn, seed, progress))
+    return sample(
+        log_likelihood, chosen, least_squares, spread, (nwalkers, nsteps, burn, seed, progress)
+    )
 
 
 def _checked(ndim, nwalkers, nsteps, burn):
