@@ -140,8 +140,14 @@ class History:
                 when = self.starts[index + 1] - self.starts[index]
             return float(self.starts[index] + when)
         # the rising exponential alone, then Newton on the whole integrand
-        head = math.exp(min((begin - reference) / amplitude, _LARGEST_EXPONENT))
-        span = amplitude / rate * math.log1p(2.0 * rate * remaining / (amplitude * head))
+        if not remaining > 0:
+            return float(self.starts[index])
+        ratio = math.log(2.0 * rate * remaining / amplitude) - (begin - reference) / amplitude
+        # span = (A / r) ln(1 + exp(ratio)), without overflow
+        softplus = (
+            ratio + math.log1p(math.exp(-ratio)) if ratio > 0 else math.log1p(math.exp(ratio))
+        )
+        span = amplitude / rate * softplus
         for _ in range(4):
             value = float(self._piece_integral(index, span, amplitude, reference)) - remaining
             sigma = begin + rate * span
