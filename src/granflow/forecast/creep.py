@@ -52,14 +52,26 @@ _RISING_FROM = 1e-6  # of x_peak - x0
 _PEAK_FROM = 1e-5  # from the peak to the failure point
 _DROP = 12.0  # the failure point: F has fallen this many A below the peak past it
 _LARGEST_EXPONENT = 700.0
+# the grids as fractions of x_peak - x0 (rising, increasing, from 0 to 1 with both ends),
+# of x_fail - x_peak (falling, above 0) and of x_peak (the look past the peak)
+_RISING = np.concatenate(
+    [
+        [0.0],
+        np.geomspace(_RISING_FROM, 0.5, _RISING_POINTS),
+        1.0 - np.geomspace(0.5, _PEAK_FROM, _PEAK_POINTS)[1:],
+        [1.0],
+    ]
+)
+_FALLING = np.geomspace(1e-6, 1.0, _FALLING_POINTS)
+_PROBE = 1.0 + np.geomspace(1e-5, 20.0, 120)
 
 
 def _relative_expm1(k):
     """(exp(k) - 1) / k, 1 at k = 0, for arrays."""
     k = np.asarray(k, dtype=float)
-    small = np.abs(k) < 1e-8
-    safe = np.where(small, 1.0, k)
-    return np.where(small, 1.0 + 0.5 * k, np.expm1(safe) / safe)
+    out = np.ones_like(k)
+    np.divide(np.expm1(k), k, out=out, where=k != 0)
+    return out
 
 
 def _exp_times_relative_expm1(base, k):
@@ -232,20 +244,12 @@ def creep_curve(params, amplitude, peak_slip, peak_force):
     amplitude ``amplitude`` [N], whose peak is at ``peak_slip`` [m] and ``peak_force`` [N]."""
     x0 = params.x0
     rise = peak_slip - x0
-    rising = np.concatenate(
-        [
-            [x0],
-            x0 + rise * np.geomspace(_RISING_FROM, 0.5, _RISING_POINTS),
-            peak_slip - rise * np.geomspace(0.5, _PEAK_FROM, _PEAK_POINTS)[1:],
-            [peak_slip],
-        ]
-    )
+    rising = x0 + rise * _RISING
     # past the peak: a coarse look for the failure point, then a fine grid up to it
-    probe = peak_slip * (1.0 + np.geomspace(1e-5, 20.0, 120))
+    probe = peak_slip * _PROBE
     fallen = friction_slip(probe, params) <= peak_force - _DROP * amplitude
     end = probe[int(np.argmax(fallen))] if fallen.any() else probe[-1]
-    falling = peak_slip + (end - peak_slip) * np.geomspace(1e-6, 1.0, _FALLING_POINTS)
-    x = np.unique(np.concatenate([rising, falling]))
+    x = np.concatenate([rising, peak_slip + (end - peak_slip) * _FALLING])
     exponent = (np.minimum(friction_slip(x, params), peak_force) - peak_force) / amplitude
     width = np.diff(x)
     cells = width * _exp_times_relative_expm1(exponent[:-1], np.diff(exponent))

@@ -49,6 +49,7 @@ _PEAK_SCALE = 0.1  # time likelihood: ln F_peak = ln F_c + 0.1 w_v
 _EDGE_SCALE = 0.1  # steps: the edges move by 0.1 w_e sampling intervals
 _CONTINUED_STEPS = 400
 _FITTED = 6  # a, alpha, x0, F_peak, A, v_ref
+_SOLVED = 4  # starts solved, the best by their chi-square
 
 
 @dataclass(frozen=True)
@@ -109,13 +110,37 @@ def creep_amplitude(direct_effect):
     return float(direct_effect)
 
 
-def history_with_error(loading, error, z, ceiling, shift=0.0):
+def staircase_edges(loading):
+    """The edges of a staircase's steps [s] in the record, and when its first continued
+    step begins [s]; (None, 0) for a ramp. Computed once per record.
+
+    A creeping layer slips fastest just after an edge, so its time matters to within a
+    fraction of the sampling interval: where the edges' sampling windows allow a regular
+    staircase (the midpoints within a window's width of their straight line against the
+    step index), the edges are that line (and the continued steps go on along it), else
+    the midpoints (and the continuation of :meth:`Loading.force`).
+    """
+    if loading.kind == "ramp":
+        return None, 0.0
+    found = np.asarray(loading.edges, dtype=float)
+    if found.size >= 3:
+        index = np.arange(1, found.size + 1, dtype=float)
+        slope, intercept = np.polyfit(index, found, 1)
+        line = intercept + slope * index
+        width = max(hi - lo for lo, hi in loading.windows)
+        if np.max(np.abs(line - found)) <= width:
+            return line, max(intercept + slope * (found.size + 1), loading.end)
+    first = loading.edge_range(loading.levels[-1] + 0.5 * loading.step)
+    return found, max(0.5 * (first[0] + first[1]), loading.end)
+
+
+def history_with_error(loading, error, z, ceiling, shift=0.0, edges=None):
     """The imposed force history: the fitted one plus its error (coordinates ``z``), and its
     continuation beyond the record (steps up to ``ceiling`` [N], then the last level).
 
-    A staircase's edges are known to within their sampling windows only, and a creeping
-    layer slips fastest just after each edge, so they move together by ``shift`` [s]
-    (fitted)."""
+    A staircase's edges (:func:`staircase_edges`, or ``edges``: its result) are known to
+    within their sampling windows only, and a creeping layer slips fastest just after each
+    edge, so they move together by ``shift`` [s] (fitted)."""
     root, _, _, _ = error
     c0, c1 = root @ z if z.size else (0.0, 0.0)
     if loading.kind == "ramp":
@@ -127,13 +152,12 @@ def history_with_error(loading, error, z, ceiling, shift=0.0):
     index = np.arange(levels.size, dtype=float) - origin
     levels = levels + (c0 + c1 * index if loading.on_line else c0 * (index == 0))
     step = loading.step + c1
-    first = loading.edge_range(loading.levels[-1] + 0.5 * loading.step)
-    begin = max(0.5 * (first[0] + first[1]), loading.end)
+    known, begin = staircase_edges(loading) if edges is None else edges
     count = 0
     if step > 0:
         count = int(min(max(math.ceil((ceiling - levels[-1]) / step), 1), _CONTINUED_STEPS))
     continued = levels[-1] + step * np.arange(1, count + 1)
-    edges = np.concatenate([loading.edges, begin + loading.duration * np.arange(count)])
+    edges = np.concatenate([known, begin + loading.duration * np.arange(count)])
     edges = edges + shift
     starts = np.concatenate([[0.0], edges])
     values = np.concatenate([levels, continued])
@@ -160,6 +184,7 @@ class CreepLikelihood:
     timed: bool = False
     ceiling: float = math.inf
     window: float = 0.0
+    edges: tuple | None = None
     prior: object = None
     prior_size: int = 0
     noise: float | None = None
@@ -193,7 +218,7 @@ class CreepLikelihood:
         peak_slip = s_peak / alpha
         shape = creep_curve(params, amplitude, peak_slip, peak_force)
         ceiling = max(self.ceiling, peak_force + 40.0 * amplitude)
-        history = history_with_error(self.loading, self.error, z, ceiling, shift)
+        history = history_with_error(self.loading, self.error, z, ceiling, shift, self.edges)
         if self.timed:
             velocity = velocity_for_failure(shape, history, failure_time)
             if not (math.isfinite(velocity) and velocity > 0):
@@ -268,7 +293,7 @@ def fit_creep(likelihood, starts, level):
         value = likelihood.vector(u, first, with_prior)
         scored.append((float(value @ value), tuple(u)))
     scored.sort()
-    fits = [_solve(likelihood, np.array(u), first, with_prior) for _, u in scored[:3]]
+    fits = [_solve(likelihood, np.array(u), first, with_prior) for _, u in scored[:_SOLVED]]
     u, value = min(fits, key=lambda item: item[1])
     dof = max(likelihood.size - _FITTED, 1)
     if fixed:

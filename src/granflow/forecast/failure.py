@@ -18,6 +18,7 @@ from granflow.forecast.creeping import (
     CreepLikelihood,
     creep_amplitude,
     fit_creep,
+    staircase_edges,
     timed_likelihood,
     timed_vector,
 )
@@ -57,8 +58,9 @@ def _no_date(until, level, loading, n_points, message, prior, bound=None):
     )
 
 
-def _starts(held, slip, floor):
-    """Starting values (a, alpha, x0, F_peak) over a small grid of x0, alpha and F_peak."""
+def _starts(held, slip, floor, alphas=(0.3, 1.0, 3.0)):
+    """Starting values (a, alpha, x0, F_peak) over a small grid of x0, alpha (``alphas``
+    over the record's slip) and F_peak."""
     total = max(float(np.max(slip)), 1e-12)
     moving = slip > 0.02 * total
     starts = []
@@ -66,9 +68,9 @@ def _starts(held, slip, floor):
         x = x0 + slip[moving]
         a = float(np.polyfit(np.log(x), held[moving], 1)[0]) if moving.sum() > 2 else floor
         a = min(max(a, 1e-3 * floor), 10.0 * floor)
-        for alpha in (0.3 / total, 1.0 / total, 3.0 / total):
+        for alpha in alphas:
             for factor in (1.05, 1.3, 2.0):
-                starts.append((a, alpha, x0, floor * factor))
+                starts.append((a, alpha / total, x0, floor * factor))
     return tuple(starts), total
 
 
@@ -147,6 +149,8 @@ def _time_profile(likelihood, fit, error, level):
 
 
 _AMPLITUDE_STARTS = (0.003, 0.01, 0.03)  # A over the quasi-static F_peak
+_VELOCITY_STARTS = (-1.0, 0.0, 1.0)  # v_ref: the record's last velocity times exp(3 w)
+_ALPHA_STARTS = (0.1, 0.3, 1.0, 3.0)  # alpha over the record's slip
 
 
 def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
@@ -175,20 +179,25 @@ def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
         bounds=quasi_static.bounds,
         ceiling=quasi_static.floor,
         window=max((hi - lo for lo, hi in loading.windows), default=0.0),
+        edges=staircase_edges(loading),
         prior=quasi_static.prior,
         prior_size=quasi_static.prior_size,
         noise=quasi_static.noise,
         scale=scale,
     )
-    # the quasi-static best fit and the quasi-static grid of starts, at each amplitude
-    candidates = [(*np.exp(u_static[:3]), peak_static), *list(quasi_static.starts)]
+    # the quasi-static best fit and a wider grid than its starts, at each amplitude and at
+    # reference velocities about the last one
+    held = np.maximum.accumulate(loading.force(time))
+    grid, _ = _starts(held, np.maximum(slip_cut, 0.0), quasi_static.floor, _ALPHA_STARTS)
     starts = []
-    for a, alpha, x0, peak_force in candidates:
+    for a, alpha, x0, peak_force in [(*np.exp(u_static[:3]), peak_static), *grid]:
         for factor in (0.01,) if fixed else _AMPLITUDE_STARTS:
-            u = np.concatenate([np.log([a, alpha, x0, peak_force]), np.zeros(5)])
-            u[4] = math.log(factor / 0.01)
-            u[7:] = u_static[4:]
-            starts.append(u)
+            for shift in _VELOCITY_STARTS:
+                u = np.concatenate([np.log([a, alpha, x0, peak_force]), np.zeros(5)])
+                u[4] = math.log(factor / 0.01)
+                u[5] = shift
+                u[7:] = u_static[4:]
+                starts.append(u)
     fit, best = fit_creep(likelihood, starts, level)
     state = fit.params
     n_points = time.size
