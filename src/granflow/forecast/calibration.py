@@ -1,6 +1,8 @@
 """The calibration study of the failure forecasts: simulated ramps and staircases from several
 parameter sets with slip noise, cut at lead times of 50 %, 25 % and 10 % of the time to
 failure; for each method the median absolute error of t_f and the coverage of its intervals.
+The creep study does the same for creeping layers (the direct effect, simulated by
+granflow.simulate) and the creep forecast.
 """
 
 import math
@@ -14,7 +16,15 @@ from granflow.forecast.synthetic import ramp_record, staircase_record
 from granflow.model.friction import peak
 from granflow.model.params import Params
 
-__all__ = ["LEADS", "PARAMETER_SETS", "calibrate", "one_seed", "summarise"]
+__all__ = [
+    "LEADS",
+    "PARAMETER_SETS",
+    "calibrate",
+    "creep_study",
+    "one_creep_seed",
+    "one_seed",
+    "summarise",
+]
 
 LEADS = (0.5, 0.25, 0.1)
 #: (a [N], alpha [1/m], Fd [N], x0 [m]): the demo's tube at 55 mN, a heavier and a lighter one.
@@ -228,6 +238,6 @@ def one_creep_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
 
 
 def creep_study(seeds, executor=None):
-    """:func:`summarise`'s table of the creep forecasts over ``seeds``."""
+    """The creep forecasts' outcomes over ``seeds`` (for :func:`summarise`)."""
     mapper = map if executor is None else executor.map
     return [item for chunk in mapper(one_creep_seed, seeds) for item in chunk]
