@@ -1,10 +1,10 @@
 """The failure forecast of a creeping layer: the direct effect (:mod:`granflow.forecast.creep`)
 fitted to the slip before the cut.
 
-The fitted coordinates are ``(ln a, ln alpha, ln x0, q, w_A, w_v, w_e, z0, z1)``: Eq. 3's curve
+The fitted coordinates are ``(ln a, ln alpha, ln x0, q, w_A, w_v, w_e, w_d, z0, z1)``: Eq. 3's curve
 by its peak force (Fd in closed form, as in :mod:`~granflow.forecast.likelihood`), the
 direct effect's amplitude A and reference velocity v_ref about their starting values
-and a staircase's common shift of its edges inside their sampling windows (``w``,
+and a staircase's shift and stretch of its edges inside their sampling windows (``w``,
 unpenalised), and the force history's error as two standard-normal coordinates (as
 in the quasi-static forecast). Two likelihoods share them and differ in the profiled
 coordinate q:
@@ -41,12 +41,13 @@ from granflow.forecast.likelihood import fit_and_profile, params_from_peak
 
 __all__ = ["CreepLikelihood", "CreepState", "creep_amplitude", "fit_creep"]
 
-_FREE = 3  # w_A, w_v, w_e
+_FREE = 4  # w_A, w_v, w_e, w_d
 _NUISANCE = 2  # the history's error
 _AMPLITUDE_SCALE = 1.0  # ln A = ln A_c + w_A
 _VELOCITY_SCALE = 3.0  # ln v_ref = ln v_c + 3 w_v
 _PEAK_SCALE = 0.1  # time likelihood: ln F_peak = ln F_c + 0.1 w_v
 _EDGE_SCALE = 0.1  # steps: the edges move by 0.1 w_e sampling intervals
+_PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 w_d sampling intervals longer
 _CONTINUED_STEPS = 400
 _FITTED = 6  # a, alpha, x0, F_peak, A, v_ref
 _SOLVED = 4  # starts solved, the best by their chi-square
@@ -134,13 +135,14 @@ def staircase_edges(loading):
     return found, max(0.5 * (first[0] + first[1]), loading.end)
 
 
-def history_with_error(loading, error, z, ceiling, shift=0.0, edges=None):
+def history_with_error(loading, error, z, ceiling, shift=(0.0, 0.0), edges=None):
     """The imposed force history: the fitted one plus its error (coordinates ``z``), and its
     continuation beyond the record (steps up to ``ceiling`` [N], then the last level).
 
     A staircase's edges (:func:`staircase_edges`, or ``edges``: its result) are known to
     within their sampling windows only, and a creeping layer slips fastest just after each
-    edge, so they move together by ``shift`` [s] (fitted)."""
+    edge, so they move: ``shift`` = (offset [s], stretch [s]) puts edge k (1 the first,
+    n the record's last) ``offset + (k - n) stretch`` later (both fitted)."""
     root, _, _, _ = error
     c0, c1 = root @ z if z.size else (0.0, 0.0)
     if loading.kind == "ramp":
@@ -158,7 +160,8 @@ def history_with_error(loading, error, z, ceiling, shift=0.0, edges=None):
         count = int(min(max(math.ceil((ceiling - levels[-1]) / step), 1), _CONTINUED_STEPS))
     continued = levels[-1] + step * np.arange(1, count + 1)
     edges = np.concatenate([known, begin + loading.duration * np.arange(count)])
-    edges = edges + shift
+    offset, stretch = shift
+    edges = edges + offset + stretch * (np.arange(1, edges.size + 1) - known.size)
     starts = np.concatenate([[0.0], edges])
     values = np.concatenate([levels, continued])
     return History(starts, values, np.zeros(values.size))
@@ -203,8 +206,8 @@ class CreepLikelihood:
         a, alpha, x0 = (float(v) for v in np.exp(u[:3]))
         amplitude_c, velocity_c, peak_c = self.centre
         amplitude = amplitude_c * (1.0 if self.fixed_amplitude else math.exp(u[4]))
-        z = np.asarray(u[7:], dtype=float)
-        shift = _EDGE_SCALE * u[6] * self.window
+        z = np.asarray(u[8:], dtype=float)
+        shift = (_EDGE_SCALE * u[6] * self.window, _PERIOD_SCALE * u[7] * self.window)
         if self.timed:
             peak_force = peak_c * math.exp(_PEAK_SCALE * u[5])
             failure_time = self.floor + math.exp(u[3])
@@ -250,7 +253,7 @@ class CreepLikelihood:
             return np.full(size, 1e6)
         state, (shape, history) = found
         model = creep_slip(self.time, shape, state.velocity, history) - state.params.x0
-        out = np.concatenate([(self.slip - model) / noise, np.asarray(u[7:], dtype=float)])
+        out = np.concatenate([(self.slip - model) / noise, np.asarray(u[8:], dtype=float)])
         if with_prior:
             out = np.concatenate([out, self.prior(state.params)])
         return np.where(np.isfinite(out), out, 1e6)
@@ -281,8 +284,8 @@ def fit_creep(likelihood, starts, level):
 
     The noise is estimated as in the quasi-static forecast unless the likelihood fixes it:
     fitted in units of a rough scale, rescaled to the residuals' variance with
-    ``size - 6`` degrees of freedom (F(1, dof) threshold), then refitted at that noise (the
-    nuisance coordinates make the optimum depend on it).
+    ``size - 6`` degrees of freedom (``size - 8`` for a staircase; F(1, dof) threshold),
+    then refitted at that noise (the nuisance coordinates make the optimum depend on it).
     """
     with_prior = likelihood.prior is not None
     noise = likelihood.noise
@@ -295,7 +298,8 @@ def fit_creep(likelihood, starts, level):
     scored.sort()
     fits = [_solve(likelihood, np.array(u), first, with_prior) for _, u in scored[:_SOLVED]]
     u, value = min(fits, key=lambda item: item[1])
-    dof = max(likelihood.size - _FITTED, 1)
+    # the staircase's edges are two more fitted coordinates
+    dof = max(likelihood.size - _FITTED - (2 if likelihood.window > 0 else 0), 1)
     if fixed:
         from scipy.stats import chi2
 

@@ -193,10 +193,10 @@ def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
     for a, alpha, x0, peak_force in [(*np.exp(u_static[:3]), peak_static), *grid]:
         for factor in (0.01,) if fixed else _AMPLITUDE_STARTS:
             for shift in _VELOCITY_STARTS:
-                u = np.concatenate([np.log([a, alpha, x0, peak_force]), np.zeros(5)])
+                u = np.concatenate([np.log([a, alpha, x0, peak_force]), np.zeros(6)])
                 u[4] = math.log(factor / 0.01)
                 u[5] = shift
-                u[7:] = u_static[4:]
+                u[8:] = u_static[4:]
                 starts.append(u)
     fit, best = fit_creep(likelihood, starts, level)
     state = fit.params
