@@ -51,6 +51,8 @@ _PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 w_d sampling intervals l
 _CONTINUED_STEPS = 400
 _FITTED = 6  # a, alpha, x0, F_peak, A, v_ref
 _SOLVED = 4  # starts solved, the best by their chi-square
+_MORE_SOLVED = 16  # at most, while the best fit's noise exceeds the record's
+_LOCAL = 2.0  # a fit's noise over the record's rough noise that marks a local optimum
 
 
 @dataclass(frozen=True)
@@ -296,10 +298,17 @@ def fit_creep(likelihood, starts, level):
         value = likelihood.vector(u, first, with_prior)
         scored.append((float(value @ value), tuple(u)))
     scored.sort()
-    fits = [_solve(likelihood, np.array(u), first, with_prior) for _, u in scored[:_SOLVED]]
-    u, value = min(fits, key=lambda item: item[1])
     # the staircase's edges are two more fitted coordinates
     dof = max(likelihood.size - _FITTED - (2 if likelihood.window > 0 else 0), 1)
+    fits = []
+    for count, (_, u) in enumerate(scored[:_MORE_SOLVED]):
+        if count >= _SOLVED:
+            # a fit far worse than the record's own noise is a local optimum: more starts
+            best_value = min(item[1] for item in fits)
+            if first * math.sqrt(best_value / dof) < _LOCAL * likelihood.scale:
+                break
+        fits.append(_solve(likelihood, np.array(u), first, with_prior))
+    u, value = min(fits, key=lambda item: item[1])
     if fixed:
         from scipy.stats import chi2
 
