@@ -45,10 +45,9 @@ def test_ramp_slip_and_failure_match_the_simulator(amplitude):
     below = result.displacement < 0.99 * (PEAK.slip - PARAMS.x0)
     # the simulator's slip (LSODA, rtol 1e-11) to a tenth of a nanometre over ~20 um
     assert np.max(np.abs(x - PARAMS.x0 - result.displacement)[below]) < 5e-10
-    # the failure: the simulator's velocity threshold (1 mm/s) against the point past the
-    # peak where F has fallen 12 A; the run-away between them takes milliseconds
+    # the failure: the velocity passing 1 mm/s (the simulator's event) to 0.2 ms
     failure = creep_failure_time(curve, VELOCITY, history)
-    assert failure == pytest.approx(result.failure.time, abs=0.01)
+    assert failure == pytest.approx(result.failure.time, abs=2e-4)
 
 
 def test_staircase_fails_inside_a_step_as_the_simulator_says():
@@ -61,12 +60,12 @@ def test_staircase_fails_inside_a_step_as_the_simulator_says():
     below = result.displacement < 0.99 * (PEAK.slip - PARAMS.x0)
     assert np.max(np.abs(x - PARAMS.x0 - result.displacement)[below]) < 5e-10
     failure = creep_failure_time(curve, VELOCITY, history)
-    assert failure == pytest.approx(result.failure.time, abs=0.01)
+    assert failure == pytest.approx(result.failure.time, abs=2e-4)
     # inside a step (0.28 s into the one that passes F_peak), not at its start as in the
     # quasi-static model
     assert 0.1 < failure % 17.0 < 16.9
     # v_ref back from the failure time in closed form
-    assert velocity_for_failure(curve, history, failure) == pytest.approx(VELOCITY, rel=1e-9)
+    assert velocity_for_failure(curve, history, failure) == pytest.approx(VELOCITY, rel=1e-6)
 
 
 def test_static_fatigue_below_the_peak():

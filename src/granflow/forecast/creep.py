@@ -20,11 +20,11 @@ changes by orders of magnitude along the rising branch), and inverted with the s
 interpolant; S is exact on each linear piece of a force history (a ramp, or the flat steps
 of a staircase).
 
-The layer fails when x runs past the peak of F: the velocity then grows without bound (the
-simulator's failure event is the velocity crossing a threshold). Past the peak the
-integrand of Gamma falls as exp(-(F_peak - F)/A), so the time it takes the layer to run from
-the peak to any point where F has fallen ``_DROP`` A below F_peak is all but the whole of
-the run-away; the failure is put there (the point's Gamma is ``failure_gamma``).
+The layer fails when x runs past the peak of F: the velocity then grows without bound. As in
+the simulator, the failure is the velocity passing a threshold (``FAILURE_VELOCITY``, the
+simulator's default under force control) past the peak; the grid of x runs on to where F
+has fallen ``_DROP`` A below F_peak, far enough for any threshold in reach (past the peak
+the integrand of Gamma falls as exp(-(F_peak - F)/A)).
 """
 
 import math
@@ -35,11 +35,13 @@ import numpy as np
 from granflow.model.friction import friction_slip
 
 __all__ = [
+    "FAILURE_VELOCITY",
     "CreepCurve",
     "History",
     "creep_curve",
     "creep_failure_time",
     "creep_slip",
+    "failure_gamma",
     "ramp_history",
     "steps_history",
     "velocity_for_failure",
@@ -52,6 +54,10 @@ _RISING_FROM = 1e-6  # of x_peak - x0
 _PEAK_FROM = 1e-5  # from the peak to the failure point
 _DROP = 12.0  # the failure point: F has fallen this many A below the peak past it
 _LARGEST_EXPONENT = 700.0
+#: The velocity [m/s] at which a layer fails: granflow.simulate's default under force
+#: control (1000 times its 1 um/s velocity scale).
+FAILURE_VELOCITY = 1e-3
+_FIXED_POINT = 3
 # the grids as fractions of x_peak - x0 (rising, increasing, from 0 to 1 with both ends),
 # of x_fail - x_peak (falling, above 0) and of x_peak (the look past the peak)
 _RISING = np.concatenate(
@@ -215,9 +221,9 @@ class CreepCurve:
     amplitude: float
 
     @property
-    def failure_gamma(self):
-        """Gamma [m] at the failure point (F fallen ``_DROP`` A below the peak past it, or
-        the grid's end where F never falls that far)."""
+    def end_gamma(self):
+        """Gamma [m] at the grid's end (F fallen ``_DROP`` A below the peak past it, or as
+        far as the grid goes where F never falls that far)."""
         return float(self.gamma[-1])
 
     def slip_at(self, gamma):
@@ -275,15 +281,63 @@ def creep_slip(t, curve, velocity, history):
     return curve.slip_at(2.0 * velocity * np.maximum(scaled, 0.0))
 
 
-def creep_failure_time(curve, velocity, history):
-    """The time [s] at which the layer reaches the failure point (inf if never)."""
-    return history.time_of(
-        curve.failure_gamma / (2.0 * velocity), curve.amplitude, curve.peak_force
+def _log_sinh(y):
+    """ln sinh(y) for y > 0 without overflow."""
+    return y + math.log1p(-math.exp(-2.0 * y)) - math.log(2.0) if y > 0 else -math.inf
+
+
+def failure_gamma(curve, velocity, force):
+    """Gamma [m] where the velocity ``2 v_ref sinh(sigma/A) exp(-F/A)`` passes
+    ``FAILURE_VELOCITY`` past the peak, with sigma = ``force`` [N] during the run-away (the
+    grid's end if F never falls that far, the peak if the layer is that fast there)."""
+    amplitude = curve.amplitude
+    # the exponent (F - F_peak)/A at which v = FAILURE_VELOCITY
+    target = (
+        math.log(2.0 * velocity)
+        + _log_sinh(force / amplitude)
+        - math.log(FAILURE_VELOCITY)
+        - curve.peak_force / amplitude
     )
+    start = int(np.searchsorted(curve.x, curve.peak_slip))
+    if not target < 0:
+        return float(curve.gamma[start])
+    past = curve.exponent[start:]
+    below = np.flatnonzero(past <= target)
+    if below.size == 0:
+        return curve.end_gamma
+    i = start + int(below[0]) - 1
+    g0, g1 = curve.exponent[i], curve.exponent[i + 1]
+    width = curve.x[i + 1] - curve.x[i]
+    fraction = (g0 - target) / (g0 - g1) if g0 > g1 else 1.0
+    span = fraction * width
+    slope = (g1 - g0) / width
+    cell = span * float(_exp_times_relative_expm1(g0, slope * span))
+    return float(curve.gamma[i]) + cell
+
+
+def creep_failure_time(curve, velocity, history):
+    """The time [s] at which the layer fails (inf if never): when its velocity passes
+    ``FAILURE_VELOCITY`` past the peak, as :func:`granflow.simulate` has it by default
+    under force control (the force taken as constant over the run-away, which lasts
+    milliseconds)."""
+    amplitude, reference = curve.amplitude, curve.peak_force
+    rough = history.time_of(curve.end_gamma / (2.0 * velocity), amplitude, reference)
+    if not math.isfinite(rough):
+        return rough
+    force = float(history.force(rough))
+    gamma = failure_gamma(curve, velocity, force)
+    return history.time_of(gamma / (2.0 * velocity), amplitude, reference)
 
 
 def velocity_for_failure(curve, history, failure_time):
     """v_ref [m/s] that puts the failure at ``failure_time`` [s]: Gamma at the failure
-    point over 2 S(t_f)."""
+    point over 2 S(t_f), the failure point (which depends on v_ref through the
+    velocity) iterated to a fixed point from the grid's end."""
     scaled = float(history.integral(failure_time, curve.amplitude, curve.peak_force))
-    return curve.failure_gamma / (2.0 * scaled) if scaled > 0 else math.inf
+    if not scaled > 0:
+        return math.inf
+    force = float(history.force(failure_time))
+    velocity = curve.end_gamma / (2.0 * scaled)
+    for _ in range(_FIXED_POINT):
+        velocity = failure_gamma(curve, velocity, force) / (2.0 * scaled)
+    return velocity
