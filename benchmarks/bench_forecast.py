@@ -19,7 +19,14 @@ import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-from granflow.forecast.calibration import METHODS, calibrate, creep_study, peak_study, summarise
+from granflow.forecast.calibration import (
+    LEADS,
+    METHODS,
+    calibrate,
+    creep_study,
+    peak_study,
+    summarise,
+)
 
 
 def _table(outcomes, seeds, elapsed, processes):
@@ -85,8 +92,9 @@ def creep(seeds=200, processes=1, first=5000, chunk=20):
             print(
                 "| protocol | lead | median error | t_f coverage | F_peak coverage | open above |"
             )
-            for (protocol, lead, _), row in summarise(outcomes).items():
-                error, coverage, _, force, opened = row
+            table = summarise(outcomes)
+            for protocol, lead in ((p, lead) for p in ("ramp", "steps") for lead in LEADS):
+                error, coverage, _, force, opened = table[(protocol, lead, "model (creep)")]
                 print(
                     f"| {protocol} | {lead:.0%} | {error:.3g} s | {coverage:.0%} | {force:.0%} "
                     f"| {opened:.0%} |",
