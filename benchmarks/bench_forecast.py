@@ -9,7 +9,9 @@ Run from the repository root:
 after every 20 seeds with the machine's load average. ``python benchmarks/bench_forecast.py
 peak [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the peak study instead: start-ups cut at 70 % of
 their peak time, the coverage of the 90 % interval of F_peak and its width with and without
-a prior from the campaign.
+a prior from the campaign. ``python benchmarks/bench_forecast.py creep [SEEDS] [PROCESSES]
+[FIRST_SEED]`` runs the creep study: ramps and staircases simulated with the direct effect
+(granflow.simulate), forecast with ``direct_effect=True``.
 """
 
 import os
@@ -17,7 +19,14 @@ import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-from granflow.forecast.calibration import METHODS, calibrate, peak_study, summarise
+from granflow.forecast.calibration import (
+    LEADS,
+    METHODS,
+    calibrate,
+    creep_study,
+    peak_study,
+    summarise,
+)
 
 
 def _table(outcomes, seeds, elapsed, processes):
@@ -66,8 +75,37 @@ def peak(seeds=200, processes=1, first=2000):
         print(f"| {name} | {coverage:.1%} | {width * 1e6:.1f} uN | {ratio:.2f}x |")
 
 
+def creep(seeds=200, processes=1, first=5000, chunk=20):
+    """The creep study over seeds ``first, ..., first + seeds - 1``, its table printed after
+    every ``chunk`` seeds."""
+    started, outcomes = time.perf_counter(), []
+    with ProcessPoolExecutor(processes) as pool:
+        for start in range(first, first + seeds, chunk):
+            stop = min(start + chunk, first + seeds)
+            outcomes += creep_study(range(start, stop), executor=pool)
+            elapsed = time.perf_counter() - started
+            load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+            print(
+                f"{stop - first} seeds, {len(outcomes)} forecasts in {elapsed:.0f} s "
+                f"({processes} processes, load average {load})"
+            )
+            print(
+                "| protocol | lead | median error | t_f coverage | F_peak coverage | open above |"
+            )
+            table = summarise(outcomes)
+            for protocol, lead in ((p, lead) for p in ("ramp", "steps") for lead in LEADS):
+                error, coverage, _, force, opened = table[(protocol, lead, "model (creep)")]
+                print(
+                    f"| {protocol} | {lead:.0%} | {error:.3g} s | {coverage:.0%} | {force:.0%} "
+                    f"| {opened:.0%} |",
+                    flush=True,
+                )
+
+
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["peak"]:
+    if sys.argv[1:2] == ["creep"]:
+        creep(*(int(arg) for arg in sys.argv[2:5]))
+    elif sys.argv[1:2] == ["peak"]:
         peak(*(int(arg) for arg in sys.argv[2:5]))
     else:
         main(*(int(arg) for arg in sys.argv[1:4]))

@@ -1,7 +1,8 @@
 """Forecasts of failure from the slow slip before it, and of the static yield from the start
 of a start-up.
 
-``failure`` (:func:`forecast_failure`: force control, quasi-static, slip clock), ``peak``
+``failure`` (:func:`forecast_failure`: force control, quasi-static, slip clock; or creeping
+with the direct effect: ``creep``, the slip in closed form, and ``creeping``, its fit), ``peak``
 (:func:`forecast_peak`: a rate-controlled start-up cut before its peak), ``likelihood`` (the
 fit with F_peak as a parameter and its profile), ``branch`` (slip on the rising branch under
 a force), ``loading`` (the force history and its continuation), ``prior`` (constraints from

@@ -1,6 +1,8 @@
 """The calibration study of the failure forecasts: simulated ramps and staircases from several
 parameter sets with slip noise, cut at lead times of 50 %, 25 % and 10 % of the time to
 failure; for each method the median absolute error of t_f and the coverage of its intervals.
+The creep study does the same for creeping layers (the direct effect, simulated by
+granflow.simulate) and the creep forecast.
 """
 
 import math
@@ -14,7 +16,15 @@ from granflow.forecast.synthetic import ramp_record, staircase_record
 from granflow.model.friction import peak
 from granflow.model.params import Params
 
-__all__ = ["LEADS", "PARAMETER_SETS", "calibrate", "one_seed", "summarise"]
+__all__ = [
+    "LEADS",
+    "PARAMETER_SETS",
+    "calibrate",
+    "creep_study",
+    "one_creep_seed",
+    "one_seed",
+    "summarise",
+]
 
 LEADS = (0.5, 0.25, 0.1)
 #: (a [N], alpha [1/m], Fd [N], x0 [m]): the demo's tube at 55 mN, a heavier and a lighter one.
@@ -166,3 +176,68 @@ def peak_study(seeds, executor=None):
         width = float(np.median([row[name][1] for row in rows]))
         table[name] = (float(np.mean([row[name][0] for row in rows])), width, alone / width)
     return table
+
+
+#: The creep study: the direct effect's amplitude A over a [-] and reference velocity [m/s].
+CREEP_AMPLITUDE = 0.03
+CREEP_VELOCITY = 1e-7
+
+
+def _creep_record(seed, protocol):
+    """A creeping record of one seed (simulated with granflow.simulate and the direct effect),
+    drawn as the quasi-static study's records are."""
+    from granflow.forecast.synthetic import creep_ramp_record, creep_staircase_record
+    from granflow.simulation.options import DirectEffect
+
+    rng = np.random.default_rng(seed)
+    params = Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])
+    effect = DirectEffect(amplitude=CREEP_AMPLITUDE * params.a, velocity=CREEP_VELOCITY)
+    noise = SLIP_NOISE[(seed // len(PARAMETER_SETS)) % len(SLIP_NOISE)]
+    strength = peak(params).force
+    failure_time = float(rng.uniform(150.0, 300.0))
+    if protocol == "ramp":
+        return creep_ramp_record(
+            params, strength / failure_time, effect, noise=noise, force_noise=FORCE_NOISE, seed=seed
+        )
+    steps = int(rng.integers(10, 16))
+    return creep_staircase_record(
+        params,
+        strength / (steps - 0.5),
+        failure_time / steps,
+        effect,
+        noise=noise,
+        force_noise=FORCE_NOISE,
+        seed=seed,
+    )
+
+
+def one_creep_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
+    """The creep forecast's outcomes (``direct_effect=True``) at every lead on the creeping
+    records of one seed; the true failure is the simulator's (velocity threshold)."""
+    out = []
+    strength = peak(Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])).force
+    for protocol in protocols:
+        t, slip, force, truth = _creep_record(seed, protocol)
+        for lead in leads:
+            fc = forecast_failure(t, slip, force, until=(1.0 - lead) * truth, direct_effect=True)
+            time = math.inf if fc.time is None else fc.time
+            low, high = fc.time_interval
+            force_low, force_high = fc.force_interval
+            out.append(
+                Outcome(
+                    protocol,
+                    lead,
+                    "model (creep)",
+                    abs(time - truth),
+                    bool(low <= truth <= high),
+                    bool(force_low <= strength <= force_high),
+                    bool(high == math.inf),
+                )
+            )
+    return out
+
+
+def creep_study(seeds, executor=None):
+    """The creep forecasts' outcomes over ``seeds`` (for :func:`summarise`)."""
+    mapper = map if executor is None else executor.map
+    return [item for chunk in mapper(one_creep_seed, seeds) for item in chunk]

@@ -14,7 +14,15 @@ from granflow import _validate as check
 from granflow.errors import InvalidDataError
 from granflow.forecast import _inputs
 from granflow.forecast.branch import branch_slip
-from granflow.forecast.likelihood import Likelihood, fit_and_profile
+from granflow.forecast.creeping import (
+    CreepLikelihood,
+    creep_amplitude,
+    fit_creep,
+    staircase_edges,
+    timed_likelihood,
+    timed_vector,
+)
+from granflow.forecast.likelihood import Likelihood, _best, fit_and_profile
 from granflow.forecast.loading import fit_loading
 from granflow.forecast.prior import Prior
 from granflow.forecast.results import FailureForecast
@@ -50,8 +58,9 @@ def _no_date(until, level, loading, n_points, message, prior, bound=None):
     )
 
 
-def _starts(held, slip, floor):
-    """Starting values (a, alpha, x0, F_peak) over a small grid of x0, alpha and F_peak."""
+def _starts(held, slip, floor, alphas=(0.3, 1.0, 3.0)):
+    """Starting values (a, alpha, x0, F_peak) over a small grid of x0, alpha (``alphas``
+    over the record's slip) and F_peak."""
     total = max(float(np.max(slip)), 1e-12)
     moving = slip > 0.02 * total
     starts = []
@@ -59,9 +68,9 @@ def _starts(held, slip, floor):
         x = x0 + slip[moving]
         a = float(np.polyfit(np.log(x), held[moving], 1)[0]) if moving.sum() > 2 else floor
         a = min(max(a, 1e-3 * floor), 10.0 * floor)
-        for alpha in (0.3 / total, 1.0 / total, 3.0 / total):
+        for alpha in alphas:
             for factor in (1.05, 1.3, 2.0):
-                starts.append((a, alpha, x0, floor * factor))
+                starts.append((a, alpha / total, x0, floor * factor))
     return tuple(starts), total
 
 
@@ -139,6 +148,97 @@ def _time_profile(likelihood, fit, error, level):
     return fit_and_profile(dataclasses.replace(likelihood, peak_of=peak_of), level, best=best)
 
 
+_AMPLITUDE_STARTS = (0.003, 0.01, 0.03)  # A over the quasi-static F_peak
+_VELOCITY_STARTS = (-1.0, 0.0, 1.0)  # v_ref: the record's last velocity times exp(3 w)
+_ALPHA_STARTS = (0.1, 0.3, 1.0, 3.0)  # alpha over the record's slip
+
+
+def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
+    """The forecast with the direct effect (:mod:`granflow.forecast.creeping`), started from
+    the quasi-static fit: v_ref at the record's last velocity (so that the lag of the
+    friction behind the force vanishes there) and A at a few fractions of F_peak unless it
+    is given."""
+    time, slip_cut, loading, error = record
+    scale = quasi_static.scale
+    u_static, _ = _best(quasi_static, scale, False)
+    peak_static = quasi_static.floor + math.exp(u_static[3])
+    tail = max(time.size // 10, 3)
+    slope = np.polyfit(time[-tail:], slip_cut[-tail:], 1)[0]
+    velocity = max(float(slope), float(np.ptp(slip_cut)) / max(float(np.ptp(time)), 1e-300))
+    fixed = amplitude is not None
+    centre = (amplitude if fixed else 0.01 * peak_static, velocity, peak_static)
+    likelihood = CreepLikelihood(
+        time=time,
+        slip=slip_cut,
+        loading=loading,
+        error=error,
+        centre=centre,
+        fixed_amplitude=fixed,
+        floor=0.0,
+        size=time.size,
+        bounds=quasi_static.bounds,
+        ceiling=quasi_static.floor,
+        window=max((hi - lo for lo, hi in loading.windows), default=0.0),
+        edges=staircase_edges(loading),
+        prior=quasi_static.prior,
+        prior_size=quasi_static.prior_size,
+        noise=quasi_static.noise,
+        scale=scale,
+    )
+    # the quasi-static best fit and a wider grid than its starts, at each amplitude and at
+    # reference velocities about the last one
+    held = np.maximum.accumulate(loading.force(time))
+    grid, _ = _starts(held, np.maximum(slip_cut, 0.0), quasi_static.floor, _ALPHA_STARTS)
+    starts = []
+    for a, alpha, x0, peak_force in [(*np.exp(u_static[:3]), peak_static), *grid]:
+        for factor in (0.01,) if fixed else _AMPLITUDE_STARTS:
+            for shift in _VELOCITY_STARTS:
+                u = np.concatenate([np.log([a, alpha, x0, peak_force]), np.zeros(6)])
+                u[4] = math.log(factor / 0.01)
+                u[5] = shift
+                u[8:] = u_static[4:]
+                starts.append(u)
+    fit, best = fit_creep(likelihood, starts, level)
+    state = fit.params
+    n_points = time.size
+    held = quasi_static.floor
+    if state.peak_force > 20.0 * held or not math.isfinite(state.failure_time):
+        message = "the fitted creep shows no failure in sight: no sign of approaching failure"
+        return _no_date(until, level, loading, n_points, message, prior)
+    timed = timed_likelihood(likelihood, state, until)
+    u_time = timed_vector(likelihood, best[0], state, until)
+    timing = fit_and_profile(timed, level, best=(u_time, *best[1:]))
+    message = ""
+    if math.isinf(timing.interval[1]):
+        message = "the record does not yet bound the failure from above"
+    p = state.params
+    return FailureForecast(
+        time=state.failure_time,
+        time_interval=timing.interval,
+        force=state.peak_force,
+        force_interval=fit.interval,
+        slip=state.peak_slip - p.x0,
+        slip_interval=fit.along(lambda s: s.peak_slip - s.params.x0),
+        until=until,
+        level=level,
+        loading=loading,
+        params={
+            "a": p.a,
+            "alpha": p.alpha,
+            "Fd": p.Fd,
+            "x0": p.x0,
+            "A": state.amplitude,
+            "v_ref": state.velocity,
+        },
+        noise=fit.noise,
+        n_points=n_points,
+        approaching=True,
+        prior=None if prior is None else prior.to_dict(),
+        message=message,
+        method="model (creep)",
+    )
+
+
 def _check_prior(prior):
     if prior is None or isinstance(prior, Prior):
         return prior
@@ -156,6 +256,7 @@ def forecast_failure(
     prior: Any = None,
     level: float = 0.9,
     noise: float | None = None,
+    direct_effect: Any = None,
 ) -> FailureForecast:
     """Forecast when a layer under a rising imposed force fails, from its slip before ``until``.
 
@@ -199,6 +300,16 @@ def forecast_failure(
         Level of the predictive intervals [-]; default 0.9.
     noise : float, optional
         Slip noise standard deviation [m]; default estimated from the fit's residuals.
+    direct_effect : bool, float or DirectEffect, optional
+        None (default): the quasi-static model above. Otherwise the layer creeps with the
+        direct effect of :class:`granflow.DirectEffect`, ``dx/dt = 2 v_ref sinh(sigma/A)
+        exp(-F(x)/A)``, and fails when it runs past the peak of F(x), at a continuous time
+        even under a staircase, and below F_peak after a long enough hold (static fatigue):
+        ``True`` fits the amplitude A [N], a float or ``DirectEffect(amplitude=A)`` holds it
+        fixed; v_ref is fitted (:mod:`granflow.forecast.creeping`). ``force`` is then still
+        the strength F_peak, which the force at failure exceeds under a fast ramp (the layer
+        lags behind) and falls short of after a long hold. The history's error is handled
+        as in the quasi-static model (two nuisance coordinates, fitted and profiled).
 
     Returns
     -------
@@ -221,6 +332,7 @@ def forecast_failure(
     >>> bool(ff.time_interval[0] <= truth <= ff.time_interval[1])
     True
     """
+    amplitude = None if direct_effect is None else creep_amplitude(direct_effect)
     level = check.real_scalar(level, "level")
     if not 0 < level < 1:
         raise InvalidDataError(f"level must lie between 0 and 1, got {level:g}")
@@ -260,6 +372,10 @@ def forecast_failure(
         scale=_inputs.rough_noise(slip_cut),
         nuisance=2,
     )
+    if direct_effect is not None:
+        return _forecast_creep(
+            likelihood, (time, slip_cut, loading, error), until, level, amplitude, prior
+        )
     fit = fit_and_profile(likelihood, level)
     low, high = fit.interval
     message = ""

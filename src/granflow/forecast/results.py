@@ -159,7 +159,8 @@ class FailureForecast(_Codec):
         interval of NaN) when the record shows no sign of approaching failure.
     force, force_interval : float or None, tuple
         Failure strength F_peak and its interval [N] (under a staircase the step that breaks
-        the layer is at or above it).
+        the layer is at or above it; with the direct effect the force at failure lies above
+        it under a fast ramp and below it after a long hold).
     slip, slip_interval : float or None, tuple
         Record slip at failure (x_peak - x0) and its interval [m].
     until : float
@@ -169,7 +170,8 @@ class FailureForecast(_Codec):
     loading : Loading
         The imposed force history read from the record and its continuation.
     params : dict
-        Best-fit a [N], alpha [1/m], Fd [N], x0 [m] (empty without a fit).
+        Best-fit a [N], alpha [1/m], Fd [N], x0 [m] (empty without a fit); with the direct
+        effect also A [N] and v_ref [m/s].
     noise : float
         Slip noise standard deviation used [m] (NaN without a fit).
     n_points : int

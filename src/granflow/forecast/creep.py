@@ -1,0 +1,343 @@
+"""The slip of a creeping layer under an imposed force: the direct effect, quasi-static, slip
+clock, in closed form up to two quadratures.
+
+With the direct effect (:class:`granflow.DirectEffect`) the friction while sliding is
+``A asinh(v / (2 v_ref) exp(F/A))``; under an imposed force sigma(t) and without inertia it
+equals sigma, so
+
+    dx/dt = 2 v_ref sinh(sigma(t) / A) exp(-F(x) / A),
+
+with F(x) the paper's curve (Eq. 3 along the slip, nothing evolves at rest). The equation is
+separable: with a reference force F_ref (the peak force here, so that no exponential
+overflows),
+
+    Gamma(x) = int_{x0}^{x} exp((F(x') - F_ref) / A) dx'
+             = 2 v_ref int_0^t sinh(sigma(t') / A) exp(-F_ref / A) dt' = 2 v_ref S(t),
+
+so the slip at any time is Gamma^-1(2 v_ref S(t)): no ODE is solved. Gamma is a cumulative
+quadrature on a grid of x, exact for an exponent linear in x on each cell (the integrand
+changes by orders of magnitude along the rising branch), and inverted with the same
+interpolant; S is exact on each linear piece of a force history (a ramp, or the flat steps
+of a staircase).
+
+The layer fails when x runs past the peak of F: the velocity then grows without bound. As in
+the simulator, the failure is the velocity passing a threshold (``FAILURE_VELOCITY``, the
+simulator's default under force control) past the peak; the grid of x runs on to where F
+has fallen ``_DROP`` A below F_peak, far enough for any threshold in reach (past the peak
+the integrand of Gamma falls as exp(-(F_peak - F)/A)).
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from granflow.model.friction import friction_slip
+
+__all__ = [
+    "FAILURE_VELOCITY",
+    "CreepCurve",
+    "History",
+    "creep_curve",
+    "creep_failure_time",
+    "creep_slip",
+    "failure_gamma",
+    "ramp_history",
+    "steps_history",
+    "velocity_for_failure",
+]
+
+_RISING_POINTS = 4000  # geometric in x - x0 from x0 up to half the rise
+_PEAK_POINTS = 1500  # geometric in x_peak - x towards the peak
+_FALLING_POINTS = 800  # from the peak to the failure point
+_RISING_FROM = 1e-6  # of x_peak - x0
+_PEAK_FROM = 1e-5  # from the peak to the failure point
+_DROP = 12.0  # the failure point: F has fallen this many A below the peak past it
+_LARGEST_EXPONENT = 700.0
+#: The velocity [m/s] at which a layer fails: granflow.simulate's default under force
+#: control (1000 times its 1 um/s velocity scale).
+FAILURE_VELOCITY = 1e-3
+_FIXED_POINT = 3
+# the grids as fractions of x_peak - x0 (rising, increasing, from 0 to 1 with both ends),
+# of x_fail - x_peak (falling, above 0) and of x_peak (the look past the peak)
+_RISING = np.concatenate(
+    [
+        [0.0],
+        np.geomspace(_RISING_FROM, 0.5, _RISING_POINTS),
+        1.0 - np.geomspace(0.5, _PEAK_FROM, _PEAK_POINTS)[1:],
+        [1.0],
+    ]
+)
+_FALLING = np.geomspace(1e-6, 1.0, _FALLING_POINTS)
+_PROBE = 1.0 + np.geomspace(1e-5, 20.0, 120)
+
+
+def _relative_expm1(k):
+    """(exp(k) - 1) / k, 1 at k = 0, for arrays."""
+    k = np.asarray(k, dtype=float)
+    out = np.ones_like(k)
+    np.divide(np.expm1(k), k, out=out, where=k != 0)
+    return out
+
+
+def _exp_times_relative_expm1(base, k):
+    """exp(base) (exp(k) - 1) / k without overflow for large k (the exponent is clipped)."""
+    base = np.asarray(base, dtype=float)
+    k = np.asarray(k, dtype=float)
+    rising = k > 0
+    top = np.minimum(np.where(rising, base + k, base), _LARGEST_EXPONENT)
+    scale = np.where(rising, _relative_expm1(-k), _relative_expm1(k))
+    return np.exp(top) * scale
+
+
+@dataclass(frozen=True)
+class History:
+    """An imposed force history made of linear pieces: piece i runs from ``starts[i]`` [s]
+    (``starts[0]`` = 0) to the next start (the last piece for ever), with force
+    ``begin[i] + rate[i] (t - starts[i])`` [N].
+
+    A ramp is one piece; a staircase is one flat piece per step.
+    """
+
+    starts: np.ndarray
+    begin: np.ndarray
+    rate: np.ndarray
+
+    def force(self, t):
+        """The imposed force [N] at ``t`` [s]."""
+        t = np.asarray(t, dtype=float)
+        index = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, None)
+        return self.begin[index] + self.rate[index] * (t - self.starts[index])
+
+    def rises(self):
+        """Whether no piece falls and the last rises (else the force stops short)."""
+        return bool(np.all(self.rate >= 0)) and (
+            self.rate[-1] > 0 or (self.begin.size > 1 and self.begin[-1] > self.begin[-2])
+        )
+
+    def _piece_integral(self, index, span, amplitude, reference):
+        """int over ``span`` [s] from the start of pieces ``index`` of
+        sinh(sigma/A) exp(-reference/A) dt [s]."""
+        begin, rate = self.begin[index], self.rate[index]
+        k = rate * span / amplitude
+        up = _exp_times_relative_expm1((begin - reference) / amplitude, k)
+        down = _exp_times_relative_expm1(-(begin + reference) / amplitude, -k)
+        return 0.5 * span * (up - down)
+
+    def _cumulative(self, amplitude, reference):
+        spans = np.diff(self.starts)
+        pieces = self._piece_integral(np.arange(spans.size), spans, amplitude, reference)
+        return np.concatenate([[0.0], np.cumsum(pieces)])
+
+    def integral(self, t, amplitude, reference):
+        """``S(t) = int_0^t sinh(sigma/A) exp(-reference/A) dt'`` [s] at ``t`` [s]."""
+        t = np.asarray(t, dtype=float)
+        index = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, None)
+        cumulative = self._cumulative(amplitude, reference)
+        return cumulative[index] + self._piece_integral(
+            index, t - self.starts[index], amplitude, reference
+        )
+
+    def time_of(self, target, amplitude, reference):
+        """The time [s] at which :meth:`integral` reaches ``target`` (a scalar [s]); inf if
+        it never does (the force stops rising below what the target needs)."""
+        cumulative = self._cumulative(amplitude, reference)
+        index = int(np.searchsorted(cumulative, target, side="right")) - 1
+        index = max(index, 0)
+        remaining = target - cumulative[index]
+        begin, rate = float(self.begin[index]), float(self.rate[index])
+        level = math.sinh(min(begin / amplitude, _LARGEST_EXPONENT)) * math.exp(
+            max(-reference / amplitude, -_LARGEST_EXPONENT)
+        )
+        if rate <= 0:
+            if not level > 0:
+                return math.inf
+            when = remaining / level
+            last = index == self.starts.size - 1
+            if not last and when > self.starts[index + 1] - self.starts[index]:
+                when = self.starts[index + 1] - self.starts[index]
+            return float(self.starts[index] + when)
+        # the rising exponential alone, then Newton on the whole integrand
+        if not remaining > 0:
+            return float(self.starts[index])
+        ratio = math.log(2.0 * rate * remaining / amplitude) - (begin - reference) / amplitude
+        # span = (A / r) ln(1 + exp(ratio)), without overflow
+        softplus = (
+            ratio + math.log1p(math.exp(-ratio)) if ratio > 0 else math.log1p(math.exp(ratio))
+        )
+        span = amplitude / rate * softplus
+        for _ in range(4):
+            value = float(self._piece_integral(index, span, amplitude, reference)) - remaining
+            sigma = begin + rate * span
+            slope = math.sinh(min(sigma / amplitude, _LARGEST_EXPONENT)) * math.exp(
+                max(-reference / amplitude, -_LARGEST_EXPONENT)
+            )
+            if not slope > 0:
+                break
+            span = max(span - value / slope, 0.0)
+        return float(self.starts[index] + span)
+
+
+def ramp_history(start, rate):
+    """A ramp ``start + rate t`` [N] from t = 0."""
+    return History(np.array([0.0]), np.array([float(start)]), np.array([float(rate)]))
+
+
+def steps_history(edges, levels):
+    """A staircase: ``levels[0]`` [N] from t = 0, ``levels[i]`` from ``edges[i - 1]`` [s]."""
+    starts = np.concatenate([[0.0], np.asarray(edges, dtype=float)])
+    levels = np.asarray(levels, dtype=float)
+    if levels.size != starts.size:
+        raise ValueError(f"a staircase needs one level more than edges, got {levels.size}")
+    return History(starts, levels, np.zeros(levels.size))
+
+
+@dataclass(frozen=True)
+class CreepCurve:
+    """Gamma(x) = int_{x0}^{x} exp((F - F_peak) / A) dx' [m] on a grid of x, for one set of
+    parameters and amplitude A.
+
+    Attributes
+    ----------
+    x : numpy.ndarray
+        Grid of the aging coordinate [m], from x0 to the failure point past the peak.
+    exponent : numpy.ndarray
+        (F(x) - F_peak) / A on the grid [-].
+    gamma : numpy.ndarray
+        Gamma at the grid [m], 0 at x0.
+    peak_force : float
+        F_peak [N].
+    peak_slip : float
+        x_peak [m].
+    amplitude : float
+        A [N].
+    """
+
+    x: np.ndarray
+    exponent: np.ndarray
+    gamma: np.ndarray
+    peak_force: float
+    peak_slip: float
+    amplitude: float
+
+    @property
+    def end_gamma(self):
+        """Gamma [m] at the grid's end (F fallen ``_DROP`` A below the peak past it, or as
+        far as the grid goes where F never falls that far)."""
+        return float(self.gamma[-1])
+
+    def slip_at(self, gamma):
+        """x [m] at which Gamma reaches ``gamma`` [m] (the grid's end beyond it): the
+        inverse of the quadrature's own interpolant (an exponent linear in x per cell)."""
+        gamma = np.asarray(gamma, dtype=float)
+        index = np.clip(np.searchsorted(self.gamma, gamma, side="right") - 1, 0, self.x.size - 2)
+        width = self.x[index + 1] - self.x[index]
+        slope = (self.exponent[index + 1] - self.exponent[index]) / width
+        remaining = np.maximum(gamma - self.gamma[index], 0.0)
+        scaled = remaining * np.exp(-self.exponent[index])
+        k = slope * scaled
+        # x - x_i = ln(1 + k) / slope = scaled ln(1 + k) / k
+        safe = np.where(np.abs(k) < 1e-10, 1.0, k)
+        factor = np.where(
+            np.abs(k) < 1e-10, 1.0 - 0.5 * k, np.log1p(np.maximum(safe, -1.0 + 1e-16)) / safe
+        )
+        step = np.minimum(scaled * factor, width)
+        return np.where(gamma >= self.gamma[-1], self.x[-1], self.x[index] + step)
+
+
+def creep_curve(params, amplitude, peak_slip, peak_force):
+    """The :class:`CreepCurve` of ``params`` (paper initial condition) with direct-effect
+    amplitude ``amplitude`` [N], whose peak is at ``peak_slip`` [m] and ``peak_force`` [N]."""
+    x0 = params.x0
+    rise = peak_slip - x0
+    rising = x0 + rise * _RISING
+    # past the peak: a coarse look for the failure point, then a fine grid up to it
+    probe = peak_slip * _PROBE
+    fallen = friction_slip(probe, params) <= peak_force - _DROP * amplitude
+    end = probe[int(np.argmax(fallen))] if fallen.any() else probe[-1]
+    x = np.concatenate([rising, peak_slip + (end - peak_slip) * _FALLING])
+    exponent = (np.minimum(friction_slip(x, params), peak_force) - peak_force) / amplitude
+    width = np.diff(x)
+    cells = width * _exp_times_relative_expm1(exponent[:-1], np.diff(exponent))
+    gamma = np.concatenate([[0.0], np.cumsum(cells)])
+    return CreepCurve(x, exponent, gamma, float(peak_force), float(peak_slip), float(amplitude))
+
+
+def creep_slip(t, curve, velocity, history):
+    """The aging coordinate x [m] at times ``t`` [s]: Gamma(x) = 2 v_ref S(t).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Times [s] (0 at the start of the history, the layer then at x0).
+    curve : CreepCurve
+        The layer's Gamma.
+    velocity : float
+        v_ref [m/s].
+    history : History
+        The imposed force.
+    """
+    scaled = history.integral(t, curve.amplitude, curve.peak_force)
+    return curve.slip_at(2.0 * velocity * np.maximum(scaled, 0.0))
+
+
+def _log_sinh(y):
+    """ln sinh(y) for y > 0 without overflow."""
+    return y + math.log1p(-math.exp(-2.0 * y)) - math.log(2.0) if y > 0 else -math.inf
+
+
+def failure_gamma(curve, velocity, force):
+    """Gamma [m] where the velocity ``2 v_ref sinh(sigma/A) exp(-F/A)`` passes
+    ``FAILURE_VELOCITY`` past the peak, with sigma = ``force`` [N] during the run-away (the
+    grid's end if F never falls that far, the peak if the layer is that fast there)."""
+    amplitude = curve.amplitude
+    # the exponent (F - F_peak)/A at which v = FAILURE_VELOCITY
+    target = (
+        math.log(2.0 * velocity)
+        + _log_sinh(force / amplitude)
+        - math.log(FAILURE_VELOCITY)
+        - curve.peak_force / amplitude
+    )
+    start = int(np.searchsorted(curve.x, curve.peak_slip))
+    if not target < 0:
+        return float(curve.gamma[start])
+    past = curve.exponent[start:]
+    below = np.flatnonzero(past <= target)
+    if below.size == 0:
+        return curve.end_gamma
+    i = start + int(below[0]) - 1
+    g0, g1 = curve.exponent[i], curve.exponent[i + 1]
+    width = curve.x[i + 1] - curve.x[i]
+    fraction = (g0 - target) / (g0 - g1) if g0 > g1 else 1.0
+    span = fraction * width
+    slope = (g1 - g0) / width
+    cell = span * float(_exp_times_relative_expm1(g0, slope * span))
+    return float(curve.gamma[i]) + cell
+
+
+def creep_failure_time(curve, velocity, history):
+    """The time [s] at which the layer fails (inf if never): when its velocity passes
+    ``FAILURE_VELOCITY`` past the peak, as :func:`granflow.simulate` has it by default
+    under force control (the force taken as constant over the run-away, which lasts
+    milliseconds)."""
+    amplitude, reference = curve.amplitude, curve.peak_force
+    rough = history.time_of(curve.end_gamma / (2.0 * velocity), amplitude, reference)
+    if not math.isfinite(rough):
+        return rough
+    force = float(history.force(rough))
+    gamma = failure_gamma(curve, velocity, force)
+    return history.time_of(gamma / (2.0 * velocity), amplitude, reference)
+
+
+def velocity_for_failure(curve, history, failure_time):
+    """v_ref [m/s] that puts the failure at ``failure_time`` [s]: Gamma at the failure
+    point over 2 S(t_f), the failure point (which depends on v_ref through the
+    velocity) iterated to a fixed point from the grid's end."""
+    scaled = float(history.integral(failure_time, curve.amplitude, curve.peak_force))
+    if not scaled > 0:
+        return math.inf
+    force = float(history.force(failure_time))
+    velocity = curve.end_gamma / (2.0 * scaled)
+    for _ in range(_FIXED_POINT):
+        velocity = failure_gamma(curve, velocity, force) / (2.0 * scaled)
+    return velocity
