@@ -153,3 +153,28 @@ def test_default_stays_quasi_static():
     assert "A" not in default.params
     assert default.time == explicit.time
     assert default.time_interval == explicit.time_interval
+
+
+def test_the_forecast_command_takes_the_direct_effect(tmp_path, capsys):
+    """``granflow forecast FILE --direct-effect [A]``: a creeping ramp in a TRIOS export,
+    forecast with A fitted and with A held; the printed date is the API's."""
+    from granflow.cli import main
+    from granflow.io.writer import write_trios
+
+    t, slip, force, truth = creep_ramp_record(
+        PARAMS, PEAK.force / 200.0, EFFECT, noise=2e-9, force_noise=3e-5, seed=7
+    )
+    run = gf.Run(t=t, slip=slip, velocity=np.gradient(slip, t), force=force, control="stress")
+    path = tmp_path / "creeping_ramp.txt"
+    write_trios(path, [run])
+    (read,) = gf.read_runs(path)
+    until = 0.75 * truth
+    for flag, held in ((["--direct-effect"], True), (["--direct-effect", "0.1mN"], AMPLITUDE)):
+        code = main(["forecast", str(path), "--until", f"{until:.6f}s", *flag])
+        out = capsys.readouterr().out
+        assert code == 0, out
+        ff = gf.forecast_failure(read.t, read.slip, read.force, until=until, direct_effect=held)
+        assert ff.method == "model (creep)" and ff.time_interval[0] <= truth <= ff.time_interval[1]
+        assert f"{ff.time:.4g}" in out, out
+    assert main(["forecast", str(path), "--direct-effect", "0.1"]) == 2  # no unit
+    assert "--direct-effect" in capsys.readouterr().err

@@ -9,6 +9,8 @@ __all__ = ["add_forecast"]
 _EPILOG = """examples:
   granflow forecast ramp.txt --until 120s       (a stress ramp: when will it fail?)
   granflow forecast startup.txt --until 15s     (a start-up: where is its peak?)
+  granflow forecast steps.txt --direct-effect   (a creeping layer: A and v_ref fitted)
+  granflow forecast steps.txt --direct-effect 0.05mN   (A held at 0.05 mN)
 Each interval of the file is forecast: rate control gives the peak forecast, force control
 the failure forecast."""
 
@@ -27,16 +29,31 @@ def add_forecast(subparsers):
     parser.add_argument("file", help="an instrument export or a CSV of t, slip, force")
     parser.add_argument("--until", help="the cut time (default: the whole record), e.g. 120s [s]")
     parser.add_argument("--format", choices=("rheocompass", "rheoplus", "trios", "csv"))
+    parser.add_argument(
+        "--direct-effect",
+        nargs="?",
+        const="fit",
+        metavar="AMPLITUDE",
+        help="force control: the layer creeps with the direct effect, its amplitude A fitted, "
+        "or held at AMPLITUDE, e.g. 0.05mN [N] (default: quasi-static, no creep)",
+    )
 
 
 def _run_forecast(args):
     until = quantity(args.until, "t", "--until") if args.until else None
+    direct_effect = None
+    if args.direct_effect == "fit":
+        direct_effect = True
+    elif args.direct_effect is not None:
+        direct_effect = quantity(args.direct_effect, "direct_effect", "--direct-effect")
     runs = granflow.read_runs(args.file, format=args.format)
     for run in runs:
         if run.control == "rate":
             result = granflow.forecast_peak(run, until=until)
         else:
-            result = granflow.forecast_failure(run.t, run.slip, run.force, until=until)
+            result = granflow.forecast_failure(
+                run.t, run.slip, run.force, until=until, direct_effect=direct_effect
+            )
         print(f"{run.name}:")
         print(result.report())
     return 0
