@@ -321,7 +321,6 @@ def sample_posterior(
             f"{type(fit_result).__name__}"
         )
     free = [n for n in fit_result.names if n not in fit_result.fixed]
-    nwalkers, nsteps, burn = _checked(len(free), nwalkers, nsteps, burn)
     chosen = priors_for({n: fit_result.params[n] for n in free}, priors)
     x = np.ascontiguousarray(fit_result.x)
     data = np.asarray(fit_result.data)
