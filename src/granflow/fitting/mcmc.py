@@ -321,7 +321,8 @@ def sample_posterior(
             f"{type(fit_result).__name__}"
         )
     free = [n for n in fit_result.names if n not in fit_result.fixed]
-    chosen = priors_for({n: fit_result.params[n] for n in free}, priors)
+    least_squares = {n: fit_result.params[n] for n in free}
+    chosen = priors_for(least_squares, priors)
     x = np.ascontiguousarray(fit_result.x)
     data = np.asarray(fit_result.data)
     noise = 1.0 if fit_result.sigma_known else math.sqrt(fit_result.redchi)
@@ -335,7 +336,6 @@ def sample_posterior(
         residual = weights * (model_only(x, *values) - data)
         return -0.5 * float(residual @ residual)
 
-    least_squares = {n: fit_result.params[n] for n in free}
     spread = {n: fit_result.stderr[n] for n in free}
     return sample(
         log_likelihood, chosen, least_squares, spread, (nwalkers, nsteps, burn, seed, progress)
