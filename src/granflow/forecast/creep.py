@@ -80,8 +80,22 @@ def _relative_expm1(k):
     return out
 
 
+def _scalar_exp_times_relative_expm1(base, k):
+    """:func:`_exp_times_relative_expm1` of two scalars, in plain floats (the Newton
+    iterations of :meth:`History.time_of` call it on scalars, where NumPy's overhead
+    dominates)."""
+    if k > 0:
+        top, k = base + k, -k
+    else:
+        top = base
+    scale = math.expm1(k) / k if k != 0 else 1.0
+    return math.exp(min(top, _LARGEST_EXPONENT)) * scale
+
+
 def _exp_times_relative_expm1(base, k):
     """exp(base) (exp(k) - 1) / k without overflow for large k (the exponent is clipped)."""
+    if np.ndim(base) == 0 and np.ndim(k) == 0:
+        return _scalar_exp_times_relative_expm1(float(base), float(k))
     base = np.asarray(base, dtype=float)
     k = np.asarray(k, dtype=float)
     rising = k > 0
@@ -125,9 +139,16 @@ class History:
         return 0.5 * span * (up - down)
 
     def _cumulative(self, amplitude, reference):
+        """S at every piece's start [s]; the last one's kept (a history is immutable, and
+        a fit asks for the same amplitude and reference several times)."""
+        cached = self.__dict__.get("_cumulative_cache")
+        if cached is not None and cached[0] == amplitude and cached[1] == reference:
+            return cached[2]
         spans = np.diff(self.starts)
         pieces = self._piece_integral(np.arange(spans.size), spans, amplitude, reference)
-        return np.concatenate([[0.0], np.cumsum(pieces)])
+        out = np.concatenate([[0.0], np.cumsum(pieces)])
+        object.__setattr__(self, "_cumulative_cache", (amplitude, reference, out))
+        return out
 
     def integral(self, t, amplitude, reference):
         """``S(t) = int_0^t sinh(sigma/A) exp(-reference/A) dt'`` [s] at ``t`` [s]."""

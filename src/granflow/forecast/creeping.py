@@ -37,15 +37,22 @@ from granflow.forecast.creep import (
     ramp_history,
     velocity_for_failure,
 )
-from granflow.forecast.likelihood import fit_and_profile, params_from_peak
+from granflow.forecast.likelihood import _side, fit_and_profile, params_from_peak
+from granflow.forecast.likelihood import _solve as _solve_fixed
 
-__all__ = ["CreepLikelihood", "CreepState", "creep_amplitude", "fit_creep"]
+__all__ = [
+    "CreepLikelihood",
+    "CreepState",
+    "creep_amplitude",
+    "fit_creep",
+    "profile_failure_time",
+]
 
 _FREE = 4  # w_A, w_v, w_e, w_d
 _NUISANCE = 2  # the history's error
 _AMPLITUDE_SCALE = 1.0  # ln A = ln A_c + w_A
 _VELOCITY_SCALE = 3.0  # ln v_ref = ln v_c + 3 w_v
-_PEAK_SCALE = 0.1  # time likelihood: ln F_peak = ln F_c + 0.1 w_v
+_PEAK_SCALE = 0.5  # time likelihood: ln F_peak = ln F_c + 0.5 w_v (a factor e^4 either way)
 _EDGE_SCALE = 0.1  # steps: the edges move by 0.1 w_e sampling intervals
 _PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 w_d sampling intervals longer
 _CONTINUED_STEPS = 400
@@ -197,6 +204,7 @@ class CreepLikelihood:
     nuisance: int = _FREE + _NUISANCE
     starts: tuple = ()
     peak_of: object = None
+    restarts: bool = True  # profile points near the threshold solved from more starts
 
     def curve(self, u):
         """(CreepState, (CreepCurve, History)) at internal vector u, or None where
@@ -216,7 +224,7 @@ class CreepLikelihood:
         else:
             peak_force = math.exp(u[3])
             velocity = velocity_c * math.exp(_VELOCITY_SCALE * u[5])
-        found = params_from_peak(a, alpha, x0, peak_force)
+        found = params_from_peak(a, alpha, x0, peak_force) or _on_edge(a, alpha, x0, peak_force)
         if found is None:
             return None
         params, s_peak = found
@@ -259,6 +267,21 @@ class CreepLikelihood:
         if with_prior:
             out = np.concatenate([out, self.prior(state.params)])
         return np.where(np.isfinite(out), out, 1e6)
+
+
+def _on_edge(a, alpha, x0, peak_force):
+    """``params_from_peak`` on the family's edge: where ``peak_force`` [N] lies below the
+    peak of the Fd = 0 curve at this ``a`` [N], ``a`` lowered until that peak is
+    ``peak_force`` (Fd -> 0), so that a fit at the edge can still move along it (a profile
+    lowering F_peak there would otherwise meet only infeasible points); None where that
+    does not help."""
+    from granflow.model.friction import peak
+    from granflow.model.params import Params
+
+    unit = peak(Params(a=1.0, alpha=alpha, Fd=0.0, x0=x0)).force
+    if not (unit > 0 and peak_force < a * unit):
+        return None
+    return params_from_peak(peak_force / unit * (1.0 - 1e-7), alpha, x0, peak_force)
 
 
 def _bounded(likelihood, u):
@@ -335,3 +358,118 @@ def timed_vector(likelihood, u, state, until):
     out[3] = math.log(max(state.failure_time - until, 1e-300))
     out[5] = 0.0
     return out
+
+
+_PROBED_EDGES = 1  # steps beyond each end of the time's interval where another mode is sought
+
+
+def _continued_edges(likelihood):
+    """The staircase's edges [s]: the record's and those of its continued steps (unshifted)."""
+    known, begin = likelihood.edges
+    count = _CONTINUED_STEPS
+    return np.concatenate([known, begin + likelihood.loading.duration * np.arange(count)])
+
+
+def _crossing_between(inside, outside, threshold):
+    """The profiled coordinate where the signed root of the chi-square, linear between an
+    ``inside`` and an ``outside`` profile point ``(q, delta, u)``, meets the threshold's."""
+    (q_a, d_a, _), (q_b, d_b, _) = inside, outside
+    r_a, r_b = math.sqrt(d_a), math.sqrt(d_b)
+    return q_a + (math.sqrt(threshold) - r_a) * (q_b - q_a) / (r_b - r_a)
+
+
+def profile_failure_time(likelihood, level, best):
+    """The time likelihood's interval of t_f [s], from its best fit ``best`` (the
+    ``(vector, chisqr, noise, threshold)`` of :func:`fit_creep`): the profile
+    (:func:`~granflow.forecast.likelihood.fit_and_profile`), and under a staircase the
+    modes beyond it.
+
+    A creeping layer under a staircase fails soon after an edge or, by static fatigue,
+    later in a hold; between one edge's mode and the next the profile rises over the hold,
+    so a search that stops at the first crossing of the threshold misses a failure one step
+    earlier or later that fits as well. So beyond each end, the failure at the same delay
+    after each of the next edges is solved (with F_peak moved by the steps between, and
+    from the best fit); where one is inside the threshold, the profile goes on from it to
+    its own crossing, and the probing from there.
+    """
+    fit = fit_and_profile(likelihood, level, best=best)
+    low, high = fit.interval
+    if likelihood.edges is None or likelihood.loading.kind == "ramp":
+        return (low, high)
+    u_best, chisqr, noise, threshold = best
+    found = likelihood.curve(u_best)
+    if found is None:
+        return (low, high)
+    state = found[0]
+    edges = _continued_edges(likelihood)
+    until = likelihood.floor
+    k_best = int(np.searchsorted(edges, state.failure_time, side="right")) - 1
+    delay = state.failure_time - (edges[k_best] if k_best >= 0 else 0.0)
+    step = likelihood.loading.step
+    with_prior = likelihood.prior is not None
+    low_bound, high_bound = _profile_bounds(likelihood)
+
+    def probe(k):
+        target = edges[k] + delay
+        if not target > until:
+            return None
+        q = math.log(target - until)
+        start = np.array(u_best, dtype=float)
+        ratio = 1.0 + (k - k_best) * step / state.peak_force
+        if ratio > 0:
+            start[5] = math.log(ratio) / _PEAK_SCALE
+        start = np.clip(start, low_bound + 1e-9, high_bound - 1e-9)
+        u, value = _solve_fixed(likelihood, start, noise, with_prior, fixed=q)
+        return q, max(value - chisqr, 0.0), u
+
+    for direction in (-1, 1):
+        end = low if direction < 0 else high
+        if not math.isfinite(end) or end <= until:
+            continue
+        k = int(np.searchsorted(edges, end - delay, side="left" if direction > 0 else "right"))
+        k = k if direction > 0 else k - 1
+        missed = 0
+        while missed < _PROBED_EDGES and 0 <= k < edges.size:
+            point = probe(k)
+            if point is None:
+                break
+            k += direction
+            if point[1] > threshold:
+                missed += 1
+                continue
+            # another mode inside: go on from it to its own crossing
+            missed = 0
+            points, bounded = _side(
+                likelihood,
+                point[2],
+                chisqr,
+                noise,
+                with_prior,
+                direction,
+                0.02,
+                threshold,
+                point[0] + direction * 12.0,
+            )
+            inside = point
+            for item in points:
+                if item[1] > threshold:
+                    break
+                inside = item
+            if not bounded:
+                end = until if direction < 0 else math.inf
+                break
+            outside = next(item for item in points if item[1] > threshold)
+            end = until + math.exp(_crossing_between(inside, outside, threshold))
+            k = int(np.searchsorted(edges, end - delay, side="left" if direction > 0 else "right"))
+            k = k if direction > 0 else k - 1
+        if direction < 0:
+            low = min(low, end)
+        else:
+            high = max(high, end)
+    return (low, high)
+
+
+def _profile_bounds(likelihood):
+    from granflow.forecast.likelihood import _bounds
+
+    return _bounds(likelihood)

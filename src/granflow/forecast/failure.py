@@ -18,6 +18,7 @@ from granflow.forecast.creeping import (
     CreepLikelihood,
     creep_amplitude,
     fit_creep,
+    profile_failure_time,
     staircase_edges,
     timed_likelihood,
     timed_vector,
@@ -36,12 +37,16 @@ __all__ = ["forecast_failure"]
 _NAN_PAIR = (math.nan, math.nan)
 
 
-def _no_date(until, level, loading, n_points, message, prior, bound=None):
+def _no_date(until, level, loading, n_points, message, prior, bound=None, earliest=math.inf):
     """A forecast without a date; ``bound`` (a force [N]) keeps the lower end the record
-    does give: the layer has held the force so far, so it fails no earlier."""
+    does give: the layer has held the force so far, so it fails no earlier (nor before
+    ``earliest`` [s], where that is earlier than the history reaching ``bound``)."""
+    interval = _NAN_PAIR
+    if bound is not None:
+        interval = (min(loading.times_at(bound, math.inf)[0], earliest), math.inf)
     return FailureForecast(
         time=None,
-        time_interval=_NAN_PAIR if bound is None else loading.times_at(bound, math.inf),
+        time_interval=interval,
         force=None,
         force_interval=_NAN_PAIR if bound is None else (bound, math.inf),
         slip=None,
@@ -204,17 +209,24 @@ def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
     held = quasi_static.floor
     if state.peak_force > 20.0 * held or not math.isfinite(state.failure_time):
         message = "the fitted creep shows no failure in sight: no sign of approaching failure"
-        return _no_date(until, level, loading, n_points, message, prior)
+        # the lower ends the record does give: F_peak's, and the failure times on its profile
+        earliest = fit.along(lambda s: s.failure_time)[0]
+        bound = fit.interval[0]
+        return _no_date(until, level, loading, n_points, message, prior, bound, earliest)
     timed = timed_likelihood(likelihood, state, until)
     u_time = timed_vector(likelihood, best[0], state, until)
-    timing = fit_and_profile(timed, level, best=(u_time, *best[1:]))
+    timing = profile_failure_time(timed, level, (u_time, *best[1:]))
+    # the failure times along the strength's profile lie in the time's confidence set too:
+    # where the time's own profile stalls (a branch it cannot follow), they widen it
+    along = fit.along(lambda s: s.failure_time)
+    interval = (min(timing[0], along[0]), max(timing[1], along[1]))
     message = ""
-    if math.isinf(timing.interval[1]):
+    if math.isinf(interval[1]):
         message = "the record does not yet bound the failure from above"
     p = state.params
     return FailureForecast(
         time=state.failure_time,
-        time_interval=timing.interval,
+        time_interval=interval,
         force=state.peak_force,
         force_interval=fit.interval,
         slip=state.peak_slip - p.x0,

@@ -193,13 +193,34 @@ class Fit:
     vector: np.ndarray = field(default_factory=lambda: np.empty(0))
 
     def along(self, quantity):
-        """(low, high) of ``quantity(params)`` over the profile path inside the interval."""
+        """(low, high) of ``quantity(params)`` over the profile path inside the interval, and
+        at its ends (interpolated between the path's last point inside and first outside,
+        linearly in the profiled coordinate)."""
         inside = [quantity(p) for q, d, p, _ in self.path if d <= self.threshold]
         inside.append(quantity(self.params))
+        for end in self.interval:
+            value = self._at(end, quantity)
+            if value is not None:
+                inside.append(value)
         low, high = min(inside), max(inside)
         if math.isinf(self.interval[1]):
             high = math.inf
         return (float(low), float(high))
+
+    def _at(self, end, quantity):
+        """``quantity`` interpolated at the interval's ``end`` from the path's neighbours
+        of it, one inside and one outside; None where the path has no such pair."""
+        if not math.isfinite(end):
+            return None
+        below = [item for item in self.path if item[0] <= end]
+        above = [item for item in self.path if item[0] > end]
+        if not below or not above:
+            return None
+        (q_a, _, p_a, _), (q_b, _, p_b, _) = below[-1], above[0]
+        v_a, v_b = quantity(p_a), quantity(p_b)
+        if not (math.isfinite(v_a) and math.isfinite(v_b)) or q_b == q_a:
+            return None
+        return v_a + (v_b - v_a) * (end - q_a) / (q_b - q_a)
 
 
 _NUISANCE_BOUND = 8.0  # standard deviations
@@ -271,6 +292,31 @@ def _stderr_last(likelihood, u, noise, with_prior):
         return 0.5
 
 
+def _profile_point(likelihood, warm, noise, with_prior, target, chisqr, threshold, others):
+    """The profile's best fit at ``target`` of the peak coordinate, warm-started from
+    ``warm``: ``(u, delta)``. Where the likelihood asks for ``restarts`` and the point is
+    past the threshold, the ``others`` starts are solved too and the lowest kept (a
+    warm start can follow one branch of a profile with several, or stall where the
+    previous point's neighbourhood is infeasible)."""
+    u, value = _solve(likelihood, warm, noise, with_prior, fixed=target)
+    if getattr(likelihood, "restarts", False) and value - chisqr > threshold:
+        for start in others:
+            if start is None:
+                continue
+            candidate, found = _solve(likelihood, start, noise, with_prior, fixed=target)
+            if found < value:
+                u, value = candidate, found
+    return u, max(value - chisqr, 0.0)
+
+
+def _predicted(before, last, target):
+    """The secant predictor of a continuation: the fitted vector at ``target`` extrapolated
+    linearly from the profile points ``before`` and ``last`` (``(u4, delta, u)``), or None."""
+    if before is None or last[0] == before[0]:
+        return None
+    return last[2] + (last[2] - before[2]) * (target - last[0]) / (last[0] - before[0])
+
+
 def _side(likelihood, u_best, chisqr, noise, with_prior, direction, step, threshold, limit):
     """Profile points one side of the best fit: (list of (u4, delta, u), bounded)."""
     points, u = [], u_best
@@ -279,8 +325,11 @@ def _side(likelihood, u_best, chisqr, noise, with_prior, direction, step, thresh
         target = last + direction * step
         if direction * (target - limit) > 0:
             return points, False
-        u, value = _solve(likelihood, u, noise, with_prior, fixed=target)
-        delta = max(value - chisqr, 0.0)
+        before = points[-2] if len(points) > 1 else (u_best[3], 0.0, u_best)
+        others = (u_best, _predicted(before, points[-1], target) if points else None)
+        u, delta = _profile_point(
+            likelihood, u, noise, with_prior, target, chisqr, threshold, others
+        )
         points.append((target, delta, u))
         if delta > threshold:
             return points, True
@@ -300,8 +349,10 @@ def _crossing(likelihood, points, best, chisqr, noise, with_prior, threshold):
         inside = point
     for _ in range(_BISECTIONS):
         middle = 0.5 * (inside[0] + outside[0])
-        u, value = _solve(likelihood, inside[2], noise, with_prior, fixed=middle)
-        point = (middle, max(value - chisqr, 0.0), u)
+        u, delta = _profile_point(
+            likelihood, inside[2], noise, with_prior, middle, chisqr, threshold, (best,)
+        )
+        point = (middle, delta, u)
         points.append(point)
         if point[1] > threshold:
             outside = point
