@@ -224,7 +224,7 @@ class CreepLikelihood:
         else:
             peak_force = math.exp(u[3])
             velocity = velocity_c * math.exp(_VELOCITY_SCALE * u[5])
-        found = params_from_peak(a, alpha, x0, peak_force) or _on_edge(a, alpha, x0, peak_force)
+        found = params_from_peak(a, alpha, x0, peak_force)
         if found is None:
             return None
         params, s_peak = found
@@ -267,21 +267,6 @@ class CreepLikelihood:
         if with_prior:
             out = np.concatenate([out, self.prior(state.params)])
         return np.where(np.isfinite(out), out, 1e6)
-
-
-def _on_edge(a, alpha, x0, peak_force):
-    """``params_from_peak`` on the family's edge: where ``peak_force`` [N] lies below the
-    peak of the Fd = 0 curve at this ``a`` [N], ``a`` lowered until that peak is
-    ``peak_force`` (Fd -> 0), so that a fit at the edge can still move along it (a profile
-    lowering F_peak there would otherwise meet only infeasible points); None where that
-    does not help."""
-    from granflow.model.friction import peak
-    from granflow.model.params import Params
-
-    unit = peak(Params(a=1.0, alpha=alpha, Fd=0.0, x0=x0)).force
-    if not (unit > 0 and peak_force < a * unit):
-        return None
-    return params_from_peak(peak_force / unit * (1.0 - 1e-7), alpha, x0, peak_force)
 
 
 def _bounded(likelihood, u):
