@@ -56,6 +56,7 @@ _PEAK_SCALE = 0.5  # time likelihood: ln F_peak = ln F_c + 0.5 w_v (a factor e^4
 _EDGE_SCALE = 0.1  # steps: the edges move by 0.1 w_e sampling intervals
 _PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 w_d sampling intervals longer
 _CONTINUED_STEPS = 400
+_EDGE_MARGIN = 0.95  # a repaired start's Fd = 0 curve peaks at this fraction of F_peak
 _FITTED = 6  # a, alpha, x0, F_peak, A, v_ref
 _SOLVED = 4  # starts solved, the best by their chi-square
 _MORE_SOLVED = 16  # at most, while the best fit's noise exceeds the record's
@@ -243,6 +244,29 @@ class CreepLikelihood:
         state = CreepState(params, amplitude, velocity, peak_force, peak_slip, failure_time)
         return (state, (shape, history))
 
+    def repaired(self, u, target):
+        """A start ``u`` with the profiled coordinate at ``target``, made feasible where F_peak
+        lies below the peak of the Fd = 0 curve at its a (a fit on the family's edge, Fd ->
+        0, whose profile lowers F_peak): a lowered so that the Fd = 0 curve peaks at
+        ``_EDGE_MARGIN`` of F_peak. A start only: the likelihood itself is unchanged."""
+        from granflow.model.friction import peak
+        from granflow.model.params import Params
+
+        u = np.array(u, dtype=float)
+        u[3] = target
+        if self.curve(u) is not None:
+            return u
+        timed = self.centre[2] * math.exp(_PEAK_SCALE * u[5])
+        peak_force = timed if self.timed else math.exp(u[3])
+        a, alpha, x0 = (float(v) for v in np.exp(u[:3]))
+        try:
+            unit = peak(Params(a=1.0, alpha=alpha, Fd=0.0, x0=x0)).force
+        except (ValueError, ArithmeticError):
+            return u
+        if unit > 0 and peak_force < a * unit:
+            u[0] = math.log(_EDGE_MARGIN * peak_force / unit)
+        return u
+
     def model(self, u):
         """The model's slip [m] at the record's times, or None where u is infeasible."""
         found = self.curve(u)
@@ -364,7 +388,8 @@ def _crossing_between(inside, outside, threshold):
 
 
 def profile_failure_time(likelihood, level, best):
-    """The time likelihood's interval of t_f [s], from its best fit ``best`` (the
+    """The time likelihood's interval of t_f [s] and its profile (a
+    :class:`~granflow.forecast.likelihood.Fit`), from its best fit ``best`` (the
     ``(vector, chisqr, noise, threshold)`` of :func:`fit_creep`): the profile
     (:func:`~granflow.forecast.likelihood.fit_and_profile`), and under a staircase the
     modes beyond it.
@@ -380,11 +405,11 @@ def profile_failure_time(likelihood, level, best):
     fit = fit_and_profile(likelihood, level, best=best)
     low, high = fit.interval
     if likelihood.edges is None or likelihood.loading.kind == "ramp":
-        return (low, high)
+        return (low, high), fit
     u_best, chisqr, noise, threshold = best
     found = likelihood.curve(u_best)
     if found is None:
-        return (low, high)
+        return (low, high), fit
     state = found[0]
     edges = _continued_edges(likelihood)
     until = likelihood.floor
@@ -451,7 +476,7 @@ def profile_failure_time(likelihood, level, best):
             low = min(low, end)
         else:
             high = max(high, end)
-    return (low, high)
+    return (low, high), fit
 
 
 def _profile_bounds(likelihood):

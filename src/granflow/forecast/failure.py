@@ -215,11 +215,14 @@ def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
         return _no_date(until, level, loading, n_points, message, prior, bound, earliest)
     timed = timed_likelihood(likelihood, state, until)
     u_time = timed_vector(likelihood, best[0], state, until)
-    timing = profile_failure_time(timed, level, (u_time, *best[1:]))
-    # the failure times along the strength's profile lie in the time's confidence set too:
-    # where the time's own profile stalls (a branch it cannot follow), they widen it
+    timing, time_fit = profile_failure_time(timed, level, (u_time, *best[1:]))
+    # the failure times along the strength's profile lie in the time's confidence set too,
+    # and the strengths along the time's in the strength's: where one profile stalls (a
+    # branch it cannot follow from its warm starts), the other widens it
     along = fit.along(lambda s: s.failure_time)
     interval = (min(timing[0], along[0]), max(timing[1], along[1]))
+    along = time_fit.along(lambda s: s.peak_force)
+    force_interval = (min(fit.interval[0], along[0]), max(fit.interval[1], along[1]))
     message = ""
     if math.isinf(interval[1]):
         message = "the record does not yet bound the failure from above"
@@ -228,7 +231,7 @@ def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
         time=state.failure_time,
         time_interval=interval,
         force=state.peak_force,
-        force_interval=fit.interval,
+        force_interval=force_interval,
         slip=state.peak_slip - p.x0,
         slip_interval=fit.along(lambda s: s.peak_slip - s.params.x0),
         until=until,

@@ -65,6 +65,8 @@ def params_from_peak(a, alpha, x0, peak_force):
         peak of the Fd = 0 curve, or absurdly far above a).
     """
     s0 = alpha * x0
+    if not s0 < _LARGEST_S:
+        return None
     scaled_ei_s0 = scaled_ei_scalar(s0)
 
     def gap(s):
@@ -294,15 +296,20 @@ def _stderr_last(likelihood, u, noise, with_prior):
 
 def _profile_point(likelihood, warm, noise, with_prior, target, chisqr, threshold, others):
     """The profile's best fit at ``target`` of the peak coordinate, warm-started from
-    ``warm``: ``(u, delta)``. Where the likelihood asks for ``restarts`` and the point is
+    ``warm``: ``(u, delta)``. Where the likelihood asks for ``restarts`` (and then has a
+    ``repaired(u, target)`` that makes a start feasible at the target), and the point is
     past the threshold, the ``others`` starts are solved too and the lowest kept (a
     warm start can follow one branch of a profile with several, or stall where the
     previous point's neighbourhood is infeasible)."""
+    restarts = getattr(likelihood, "restarts", False)
+    if restarts:
+        warm = likelihood.repaired(warm, target)
     u, value = _solve(likelihood, warm, noise, with_prior, fixed=target)
-    if getattr(likelihood, "restarts", False) and value - chisqr > threshold:
+    if restarts and value - chisqr > threshold:
         for start in others:
             if start is None:
                 continue
+            start = likelihood.repaired(start, target)
             candidate, found = _solve(likelihood, start, noise, with_prior, fixed=target)
             if found < value:
                 u, value = candidate, found
