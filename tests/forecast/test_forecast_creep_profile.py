@@ -15,7 +15,7 @@ from granflow.forecast.creep import (
     _exp_times_relative_expm1,
     ramp_history,
 )
-from granflow.forecast.likelihood import Fit
+from granflow.forecast.likelihood import Fit, params_from_peak
 from granflow.model.friction import peak
 
 
@@ -92,3 +92,23 @@ def test_a_fit_far_from_failure_still_bounds_it_from_below():
     assert 0.5 * truth < low <= truth
     assert math.isinf(high)
     assert ff.force_interval[0] <= _strength(5014)
+
+
+def test_a_peak_past_the_exponential_range_is_infeasible_not_an_error():
+    """alpha x0 beyond exp's range (a fit's wandering start) is no curve, not an
+    OverflowError (one stopped a calibration run)."""
+    assert params_from_peak(1e-3, 1e9, 1e-5, 1e-2) is None
+    assert params_from_peak(1e-3, 1e9, 6.5e-7, 1e-2) is None
+
+
+def test_a_fit_on_the_family_edge_is_profiled_below_it():
+    """Seed 7040's creeping staircase cut half-way: the best fit sits on the family's edge
+    (Fd -> 0), where lowering F_peak at the fit's own a, alpha, x0 is infeasible; the
+    profile's starts are repaired (a lowered) and F_peak's interval reaches down to the
+    truth (it used to end at the best fit)."""
+    t, slip, force, truth = _creep_record(7040, "steps")
+    ff = gf.forecast_failure(t, slip, force, until=0.5 * truth, direct_effect=True)
+    assert ff.params["Fd"] < 1e-3 * ff.params["a"]
+    assert ff.force_interval[0] <= _strength(7040) <= ff.force_interval[1]
+    assert ff.force_interval[0] < 0.99 * ff.force
+    assert ff.time_interval[0] <= truth <= ff.time_interval[1]
