@@ -37,7 +37,7 @@ from granflow.forecast.creep import (
     ramp_history,
     velocity_for_failure,
 )
-from granflow.forecast.likelihood import _side, fit_and_profile, params_from_peak
+from granflow.forecast.likelihood import _bounds, _side, fit_and_profile, params_from_peak
 from granflow.forecast.likelihood import _solve as _solve_fixed
 
 __all__ = [
@@ -294,8 +294,6 @@ class CreepLikelihood:
 
 
 def _bounded(likelihood, u):
-    from granflow.forecast.likelihood import _bounds
-
     low, high = _bounds(likelihood)
     return np.clip(u, low + 1e-9, high - 1e-9), (low, high)
 
@@ -417,7 +415,7 @@ def profile_failure_time(likelihood, level, best):
     delay = state.failure_time - (edges[k_best] if k_best >= 0 else 0.0)
     step = likelihood.loading.step
     with_prior = likelihood.prior is not None
-    low_bound, high_bound = _profile_bounds(likelihood)
+    low_bound, high_bound = _bounds(likelihood)
 
     def probe(k):
         target = edges[k] + delay
@@ -477,9 +475,3 @@ def profile_failure_time(likelihood, level, best):
         else:
             high = max(high, end)
     return (low, high), fit
-
-
-def _profile_bounds(likelihood):
-    from granflow.forecast.likelihood import _bounds
-
-    return _bounds(likelihood)
