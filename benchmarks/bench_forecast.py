@@ -11,7 +11,11 @@ peak [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the peak study instead: start-ups c
 their peak time, the coverage of the 90 % interval of F_peak and its width with and without
 a prior from the campaign. ``python benchmarks/bench_forecast.py creep [SEEDS] [PROCESSES]
 [FIRST_SEED]`` runs the creep study: ramps and staircases simulated with the direct effect
-(granflow.simulate), forecast with ``direct_effect=True``.
+(granflow.simulate), forecast with ``direct_effect=True``. ``python benchmarks/bench_forecast.py
+steps [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the quasi-static staircases alone, F_peak half way
+between two levels ("steps") and anywhere in its step ("steps anywhere"): the coverage of
+the interval of whole steps, the probability its steps claim, and the randomised PIT of the
+step probabilities.
 """
 
 import os
@@ -25,6 +29,7 @@ from granflow.forecast.calibration import (
     calibrate,
     creep_study,
     peak_study,
+    step_summary,
     summarise,
 )
 
@@ -102,8 +107,34 @@ def creep(seeds=200, processes=1, first=5000, chunk=20):
                 )
 
 
+def steps(seeds=300, processes=1, first=9000):
+    """The quasi-static staircases over seeds ``first, ..., first + seeds - 1``."""
+    started = time.perf_counter()
+    protocols = ("steps", "steps anywhere")
+    with ProcessPoolExecutor(processes) as pool:
+        outcomes = calibrate(range(first, first + seeds), protocols=protocols, executor=pool)
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    elapsed = time.perf_counter() - started
+    print(f"{seeds} seeds in {elapsed:.0f} s ({processes} processes, load average {load})")
+    print(
+        "| staircase | lead | t_f covered | its steps claim | PIT in the central 90 % | "
+        "F_peak covered | median error |"
+    )
+    table = summarise(outcomes)
+    for protocol in protocols:
+        for lead, (covered, claimed, pit, count) in step_summary(outcomes, 0.9, protocol).items():
+            error, _, _, force, _ = table[(protocol, lead, "model")]
+            print(
+                f"| {protocol} | {lead:.0%} | {covered:.1%} | {claimed:.1%} | {pit:.1%} "
+                f"({count}) | {force:.1%} | {error:.3g} s |",
+                flush=True,
+            )
+
+
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["creep"]:
+    if sys.argv[1:2] == ["steps"]:
+        steps(*(int(arg) for arg in sys.argv[2:5]))
+    elif sys.argv[1:2] == ["creep"]:
         creep(*(int(arg) for arg in sys.argv[2:5]))
     elif sys.argv[1:2] == ["peak"]:
         peak(*(int(arg) for arg in sys.argv[2:5]))

@@ -5,6 +5,7 @@ The creep study does the same for creeping layers (the direct effect, simulated 
 granflow.simulate) and the creep forecast.
 """
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -23,6 +24,8 @@ __all__ = [
     "creep_study",
     "one_creep_seed",
     "one_seed",
+    "step_pit",
+    "step_summary",
     "summarise",
 ]
 
@@ -51,9 +54,39 @@ class Outcome:
     covered: bool
     force_covered: bool | None = None
     open_above: bool = False
+    claimed: float = math.nan
+    pit: float = math.nan
+
+
+def step_pit(forecast, truth, rng):
+    """The randomised probability integral transform [-] of the true failure time ``truth``
+    [s] under a staircase forecast's step probabilities: ``C(before) + V p(step)``, V uniform
+    from ``rng``, C the probability of the steps before the one that starts at ``truth``
+    (Czado, Gneiting & Held 2009). Uniform on [0, 1] where the step probabilities are
+    calibrated, however discrete the outcome; NaN where the forecast has no steps, or where
+    the truth lies above the steps listed by a forecast that does not bound them."""
+    steps = forecast.steps
+    if steps is None:
+        return math.nan
+    before = steps["below"]
+    for probability, low, high in zip(
+        steps["probability"], steps["earliest"], steps["latest"], strict=True
+    ):
+        if low <= truth <= high:
+            return float(before + rng.uniform() * probability)
+        if truth < low:
+            return float(before * rng.uniform())
+        before += probability
+    beyond = steps["beyond"]
+    if math.isnan(beyond):
+        return math.nan
+    return float(before + rng.uniform() * beyond)
 
 
 def _record(seed, protocol):
+    """``(t, slip, force, failure time)`` of one seed's record: "ramp", "steps" (a staircase
+    of 10-15 steps whose last level before failure lies half a step below F_peak), or "steps
+    anywhere" (the same staircases, F_peak anywhere in its step)."""
     rng = np.random.default_rng(seed)
     params = Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])
     noise = SLIP_NOISE[(seed // len(PARAMETER_SETS)) % len(SLIP_NOISE)]
@@ -63,7 +96,9 @@ def _record(seed, protocol):
         rate = strength / failure_time
         return ramp_record(params, rate, noise=noise, force_noise=FORCE_NOISE, seed=seed)
     steps = int(rng.integers(10, 16))
-    step = strength / (steps - 0.5)
+    # "steps": F_peak half way between two levels; "steps anywhere": anywhere in the step
+    offset = 0.5 if protocol == "steps" else float(rng.uniform(0.0, 1.0))
+    step = strength / (steps - offset)
     duration = failure_time / steps
     return staircase_record(params, step, duration, noise=noise, force_noise=FORCE_NOISE, seed=seed)
 
@@ -91,8 +126,22 @@ def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
                     force_covered = bool(force_low <= strength <= force_high)
                 error = abs(time - truth)
                 open_above = bool(high == math.inf)
+                claimed, pit = math.nan, math.nan
+                if method == "model" and fc.steps is not None:
+                    claimed = fc.time_probability
+                    pit = step_pit(fc, truth, np.random.default_rng([seed, int(1000 * lead)]))
                 out.append(
-                    Outcome(protocol, lead, method, error, covered, force_covered, open_above)
+                    Outcome(
+                        protocol,
+                        lead,
+                        method,
+                        error,
+                        covered,
+                        force_covered,
+                        open_above,
+                        claimed,
+                        pit,
+                    )
                 )
     return out
 
@@ -100,7 +149,8 @@ def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
 def calibrate(seeds, protocols=("ramp", "steps"), leads=LEADS, executor=None):
     """Outcomes over ``seeds`` (a process pool's ``map`` when ``executor`` is given)."""
     mapper = map if executor is None else executor.map
-    return [item for chunk in mapper(one_seed, seeds) for item in chunk]
+    work = functools.partial(one_seed, protocols=tuple(protocols), leads=tuple(leads))
+    return [item for chunk in mapper(work, seeds) for item in chunk]
 
 
 def summarise(outcomes):
@@ -119,6 +169,30 @@ def summarise(outcomes):
             len(chosen),
             float(np.mean(forces)) if forces else math.nan,
             float(np.mean([o.open_above for o in chosen])),
+        )
+    return table
+
+
+def step_summary(outcomes, level=0.9, protocol="steps"):
+    """{lead: (coverage of the time interval [-], mean probability its steps claim [-],
+    fraction of randomised PITs inside the central ``level`` [-], count of PITs)} of the
+    model's forecasts of the staircases ``protocol`` ("steps" or "steps anywhere"): the
+    interval of whole steps holds the failure as often as its steps claim, and the PIT's
+    central interval holds it ``level`` of the time, where the step probabilities are
+    calibrated."""
+    table = {}
+    tail = 0.5 * (1.0 - level)
+    for lead in sorted({o.lead for o in outcomes}, reverse=True):
+        chosen = [
+            o for o in outcomes if (o.protocol, o.lead, o.method) == (protocol, lead, "model")
+        ]
+        pits = np.array([o.pit for o in chosen if math.isfinite(o.pit)])
+        claimed = [o.claimed for o in chosen if math.isfinite(o.claimed)]
+        table[lead] = (
+            float(np.mean([o.covered for o in chosen])) if chosen else math.nan,
+            float(np.mean(claimed)) if claimed else math.nan,
+            float(np.mean((pits > tail) & (pits < 1.0 - tail))) if pits.size else math.nan,
+            int(pits.size),
         )
     return table
 

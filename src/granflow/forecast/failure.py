@@ -153,6 +153,107 @@ def _time_profile(likelihood, fit, error, level):
     return fit_and_profile(dataclasses.replace(likelihood, peak_of=peak_of), level, best=best)
 
 
+_STEP_MASS = 1e-4  # steps less likely than this end the staircase's table
+_TABLE_STEPS = 200  # at most this many steps are listed
+
+
+def _confidence(fit, likelihood):
+    """The confidence distribution of the profiled force P [N] (a function P -> [0, 1]): the
+    distribution of the signed root of the profile's statistic, ``r = sign(P - P_best)
+    sqrt(delta chi-square)``, interpolated linearly in P over the path, through the interval's
+    ends (where it is the level's quantile) and extrapolated from its outermost two nodes.
+    ``r`` is Student's t with the fit's degrees of freedom where the noise is estimated
+    (the interval's statistic is then F(1, dof)), else standard normal. Above the path of a
+    profile not bounded above it returns NaN: the record does not say."""
+    from scipy.stats import norm
+    from scipy.stats import t as student
+
+    nodes = {fit.peak_force: 0.0}
+    for force, delta, *_ in fit.path:
+        if math.isfinite(force) and math.isfinite(delta):
+            nodes[force] = math.copysign(math.sqrt(max(delta, 0.0)), force - fit.peak_force)
+    root = math.sqrt(fit.threshold)
+    low, high = fit.interval
+    if low > likelihood.floor:
+        nodes[low] = -root
+    if math.isfinite(high):
+        nodes[high] = root
+    force = np.array(sorted(nodes))
+    signed = np.maximum.accumulate(np.array([nodes[f] for f in force]))
+    if likelihood.noise is None:
+        dof = max(likelihood.size - 4, 1)
+
+        def cdf(r):
+            return student.cdf(r, dof)
+    else:
+        cdf = norm.cdf
+
+    def at(level):
+        if force.size < 2:
+            return float(cdf(0.0))
+        if level > force[-1] and not math.isfinite(high):
+            return math.nan
+        if level < force[0] or level > force[-1]:
+            i = (0, 1) if level < force[0] else (-2, -1)
+            run = force[i[1]] - force[i[0]]
+            slope = (signed[i[1]] - signed[i[0]]) / run if run > 0 else 0.0
+            if slope <= 0:
+                return 0.0 if level < force[0] else 1.0
+            return float(cdf(signed[i[0]] + slope * (level - force[i[0]])))
+        return float(cdf(np.interp(level, force, signed)))
+
+    return at
+
+
+def _steps(timing, likelihood, loading, level):
+    """The staircase's failure step by step, from the time profile ``timing`` (over the force
+    P at which the fitted history stands when the layer fails): the layer fails at the start of
+    the continued step j (level ``L_j = L_last + j step``, j = 1, 2, ...) when
+    ``L_(j-1) < P <= L_j``, so that step's probability is ``C(L_j) - C(L_(j-1))`` with C the
+    confidence distribution of P (:func:`_confidence`; the record has held ``L_last``, so
+    the first step takes all the mass below its level).
+
+    Returns ``(table, interval)``: the table {"step": number of the step, the record's first
+    as 1; "level" [N]; "earliest", "latest": the range of its start [s]; "probability" [-];
+    "below": the probability of the earlier steps, each less likely than ``_STEP_MASS``, left
+    out; "beyond": the probability left above the last step listed, NaN where the record
+    does not bound it}; the interval [s] is the smallest run of steps about the most likely
+    ones whose probability reaches ``level``, open above where the record does not bound
+    the failure (F_peak's profile open above, or the steps listed short of ``level``).
+    """
+    confidence = _confidence(timing, likelihood)
+    last, step = loading.levels[-1], loading.step
+    rows, below, beyond = [], 0.0, math.nan
+    for j in range(1, _TABLE_STEPS + 1):
+        cumulative = confidence(last + j * step)
+        if math.isnan(cumulative):
+            break  # above the path of a profile open above: the record does not say
+        probability = max(cumulative - below, 0.0)
+        below = max(below, cumulative)
+        start = loading.edge_range(last + (j - 0.5) * step)
+        rows.append((len(loading.levels) + j, last + j * step, *start, probability))
+        if 1.0 - below < _STEP_MASS or j == _TABLE_STEPS:
+            beyond = 1.0 - below
+            break
+    # the steps before the first as likely as _STEP_MASS are left out, their mass kept
+    first = next((k for k, row in enumerate(rows) if row[-1] >= _STEP_MASS), len(rows))
+    columns = ("step", "level", "earliest", "latest", "probability")
+    table = {name: [row[k] for row in rows[first:]] for k, name in enumerate(columns)}
+    table["below"] = float(sum(row[-1] for row in rows[:first]))
+    table["beyond"] = beyond
+    rows = rows[first:]
+    best = loading.edge_range(timing.peak_force)
+    probability = np.array(table["probability"])
+    chosen = np.argsort(-probability, kind="stable")
+    enough = np.flatnonzero(np.cumsum(probability[chosen]) >= level - 1e-12)
+    if not enough.size or not math.isfinite(timing.interval[1]):
+        low = min(table["earliest"][int(chosen.min())], best[0]) if rows else best[0]
+        return table, (low, math.inf)
+    kept = chosen[: enough[0] + 1]
+    low = min(table["earliest"][int(kept.min())], best[0])
+    return table, (low, max(table["latest"][int(kept.max())], best[1]))
+
+
 _AMPLITUDE_STARTS = (0.003, 0.01, 0.03)  # A over the quasi-static F_peak
 _VELOCITY_STARTS = (-1.0, 0.0, 1.0)  # v_ref: the record's last velocity times exp(3 w)
 _ALPHA_STARTS = (0.1, 0.3, 1.0, 3.0)  # alpha over the record's slip
@@ -292,12 +393,14 @@ def forecast_failure(
     step's, which acts beyond the record only.) The failure time has its own profile, over
     the force at which the fitted history stands when the true history (fitted plus error)
     reaches F_peak: the time (or step) at which the fitted history reaches that force.
-    Under a staircase the layer fails at the start of the first step that reaches F_peak:
-    the time interval runs from the earliest start of the step reaching the low end to the
-    latest start of the step reaching the high end, each start bounded by the samples
-    between which the record's steps began. That outcome is discrete, so a set of whole
-    steps covers the failure more often than ``level`` once F_peak's interval falls between
-    two levels; the force interval is the calibrated statement.
+    Under a staircase the layer fails at the start of the first step that reaches F_peak,
+    each start bounded by the samples between which the record's steps began (their
+    regular spacing continued beyond the record). That outcome is discrete: the forecast gives
+    each step beyond the record its probability (``steps``, from the confidence
+    distribution of the force at failure, the signed root of its profile likelihood), and
+    the time interval is the smallest run of whole steps about the most likely ones whose
+    probability reaches ``level``. It holds the failure as often as its steps claim
+    (``time_probability``), which is more than ``level`` once one step is nearly certain.
 
     Parameters
     ----------
@@ -409,9 +512,12 @@ def forecast_failure(
     def rise(p):
         return peak(p).slip - p.x0
 
+    steps, interval = None, loading.times_at(*timing.interval)
+    if loading.kind == "steps":
+        steps, interval = _steps(timing, likelihood, loading, level)
     return FailureForecast(
         time=loading.time_at(timing.peak_force),
-        time_interval=loading.times_at(*timing.interval),
+        time_interval=interval,
         force=fit.peak_force,
         force_interval=fit.interval,
         slip=rise(params),
@@ -425,4 +531,5 @@ def forecast_failure(
         approaching=True,
         prior=None if prior is None else prior.to_dict(),
         message=message,
+        steps=steps,
     )

@@ -11,13 +11,16 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow._html import HtmlReport
 from granflow.fitting.results import decode, encode
 from granflow.forecast.loading import Loading
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["BaselineForecast", "FailureForecast", "PeakForecast", "RunningForecast"]
 
@@ -72,7 +75,7 @@ class _Codec(HtmlReport):
             elif item.name == "params":
                 value = dict(value or {})
             elif isinstance(value, float | int) and not isinstance(value, bool):
-                value = float(value) if item.type != "int" else int(value)
+                value = int(value) if item.type in (int, "int") else float(value)
             values[item.name] = value
         return cls(**values)
 
@@ -182,6 +185,18 @@ class FailureForecast(_Codec):
         The prior used, if any.
     message : str
         Why there is no date, or what limits the forecast; "" otherwise.
+    steps : dict or None
+        Under a quasi-static staircase (None otherwise): the layer fails at the start of a
+        step, so the forecast is a probability for each step beyond the record, from the
+        confidence distribution of the failure's force (its profile likelihood). Lists
+        "step" (number of the step, the record's first as 1), "level" [N], "earliest" and
+        "latest" (the range of its start [s]), "probability" [-], "below" [-], the
+        probability of the earlier steps left out (each less likely than 1e-4), and
+        "beyond" [-], the probability above the last step listed (NaN where the record
+        does not bound the failure from above). ``time_interval`` is then the smallest
+        run of whole steps about the most likely ones whose probability reaches ``level``:
+        an outcome this discrete is held more often than ``level`` (see :meth:`step_table`
+        and :attr:`time_probability`).
     """
 
     time: float | None
@@ -201,6 +216,51 @@ class FailureForecast(_Codec):
     message: str = ""
     method: str = "model"
     clock: str = FAILURE_CLOCK
+    steps: dict | None = None
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Any:
+        """Inverse of :meth:`to_dict`."""
+        out = super().from_dict(d)
+        if out.steps is None:
+            return out
+        steps = {key: list(value) for key, value in out.steps.items() if isinstance(value, list)}
+        steps["step"] = [int(v) for v in steps["step"]]
+        for key in ("below", "beyond"):
+            value = out.steps.get(key)
+            steps[key] = math.nan if value is None else float(value)
+        return dataclasses.replace(out, steps=steps)
+
+    @property
+    def time_probability(self) -> float:
+        """The forecast probability [-] that the layer fails inside ``time_interval``: under a
+        staircase the sum over its whole steps (at least ``level``), else ``level``; NaN
+        without a date."""
+        if self.time is None:
+            return math.nan
+        if self.steps is None:
+            return self.level
+        low, high = self.time_interval
+        if math.isinf(high):
+            return math.nan
+        inside = [
+            p
+            for p, start, end in zip(
+                self.steps["probability"], self.steps["earliest"], self.steps["latest"], strict=True
+            )
+            if low <= start and end <= high
+        ]
+        return float(sum(inside))
+
+    def step_table(self) -> "pd.DataFrame":
+        """The staircase's steps as a pandas DataFrame: step, level [N], earliest and latest
+        start [s], probability [-]; empty where the forecast has no steps."""
+        import pandas as pd
+
+        columns = ["step", "level", "earliest", "latest", "probability"]
+        if self.steps is None:
+            return pd.DataFrame(columns=columns)
+        return pd.DataFrame({name: self.steps[name] for name in columns})
 
     def __repr__(self):
         when = "no failure in sight" if self.time is None else f"time={self.time:.5g} s"
@@ -225,6 +285,21 @@ class FailureForecast(_Codec):
             f"{_fmt_interval(self.slip_interval, 1e6, 'um')}",
             f"    prior: {self.prior or 'none'}; clock: {self.clock}",
         ]
+        if self.steps is not None:
+            likely = [
+                f"step {n} at {0.5 * (lo + hi):.4g} s: {p:.1%}"
+                for n, lo, hi, p in zip(
+                    self.steps["step"],
+                    self.steps["earliest"],
+                    self.steps["latest"],
+                    self.steps["probability"],
+                    strict=True,
+                )
+                if p >= 0.01
+            ]
+            lines.append(f"    fails at the start of {'; '.join(likely) or 'a later step'}")
+            if math.isfinite(self.time_probability):
+                lines.append(f"    the interval's steps hold {self.time_probability:.1%}")
         if self.message:
             lines.append(f"    note: {self.message}")
         return "\n".join(lines)
