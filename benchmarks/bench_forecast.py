@@ -13,7 +13,8 @@ a prior from the campaign. ``python benchmarks/bench_forecast.py creep [SEEDS] [
 [FIRST_SEED]`` runs the creep study: ramps and staircases simulated with the direct effect
 (granflow.simulate), forecast with ``direct_effect=True``. ``python benchmarks/bench_forecast.py
 steps [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the quasi-static staircases alone, F_peak half way
-between two levels ("steps") and anywhere in its step ("steps anywhere"): the coverage of
+between two levels ("steps"), anywhere in its step ("steps anywhere"), and with step heights
+scattered by 25 % ("steps irregular"): the coverage of
 the interval of whole steps, the probability its steps claim, and the randomised PIT of the
 step probabilities.
 """
@@ -110,7 +111,7 @@ def creep(seeds=200, processes=1, first=5000, chunk=20):
 def steps(seeds=300, processes=1, first=9000):
     """The quasi-static staircases over seeds ``first, ..., first + seeds - 1``."""
     started = time.perf_counter()
-    protocols = ("steps", "steps anywhere")
+    protocols = ("steps", "steps anywhere", "steps irregular")
     with ProcessPoolExecutor(processes) as pool:
         outcomes = calibrate(range(first, first + seeds), protocols=protocols, executor=pool)
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())

@@ -3,6 +3,7 @@ so the forecast gives each step a probability (the confidence distribution of th
 force, from its profile likelihood) and the time interval is a run of whole steps. Records
 are generated here with brentq on friction_slip (not the forecast's own inversion)."""
 
+import json
 import math
 import types
 
@@ -12,10 +13,11 @@ from scipy.optimize import brentq
 from scipy.stats import chi2, kstest, norm
 
 import granflow as gf
-from granflow.forecast.calibration import step_pit
+from granflow.forecast.calibration import _record, step_pit
 from granflow.forecast.failure import _confidence
 from granflow.forecast.likelihood import Fit
 from granflow.forecast.results import FailureForecast
+from granflow.forecast.synthetic import staircase_record
 
 PARAMS = gf.Params(a=3.3e-3, alpha=5.0e4, Fd=11.0e-3, x0=0.3e-6)
 
@@ -136,14 +138,68 @@ def test_a_peak_at_a_level_splits_between_two_steps(near_a_level):
     assert "fails at the start of step 11" in ff.report()
 
 
-def test_the_steps_survive_the_round_trip(near_a_level):
-    ff, _ = near_a_level
-    back = FailureForecast.from_dict(ff.to_dict())
-    assert back.steps["step"] == ff.steps["step"]
-    assert back.steps["probability"] == ff.steps["probability"]
-    assert back.time_probability == ff.time_probability
-    assert isinstance(back.n_points, int) and back.n_points == ff.n_points
-    assert back.steps["beyond"] == ff.steps["beyond"] or math.isnan(ff.steps["beyond"])
+def test_the_steps_survive_the_round_trip(near_a_level, open_above):
+    for ff in (near_a_level[0], open_above[0]):
+        back = FailureForecast.from_dict(json.loads(json.dumps(ff.to_dict(), allow_nan=False)))
+        assert back.steps["step"] == ff.steps["step"]
+        assert back.steps["probability"] == ff.steps["probability"]
+        assert back.steps["below"] == ff.steps["below"]
+        assert back.time_interval == ff.time_interval
+        assert isinstance(back.n_points, int) and back.n_points == ff.n_points
+        beyond = (back.steps["beyond"], ff.steps["beyond"])
+        assert beyond[0] == beyond[1] or all(math.isnan(v) for v in beyond)
+    assert math.isfinite(near_a_level[0].steps["beyond"])
+    assert math.isnan(back.steps["beyond"])  # the open forecast's, null in JSON
+    assert math.isnan(back.time_probability)
+
+
+@pytest.fixture(scope="module")
+def open_above():
+    """A staircase of the calibration study cut half way to failure, where the record does
+    not yet bound the failure from above."""
+    t, slip, force, failure = _record(3, "steps")
+    return gf.forecast_failure(t, slip, force, until=0.5 * failure), failure
+
+
+def test_an_open_forecast_starts_its_interval_where_its_steps_do(open_above):
+    """Open above, the interval is the profile's own: it starts at the step of its low end,
+    where the steps' cumulative probability passes the lower tail (5 %), not at the first
+    step the table lists."""
+    ff, failure = open_above
+    low, high = ff.time_interval
+    assert math.isinf(high)
+    assert math.isnan(ff.steps["beyond"])
+    table = ff.step_table()
+    cumulative = ff.steps["below"] + table.probability.cumsum()
+    first = table.index[table.earliest == low]
+    assert len(first) == 1
+    assert cumulative[first[0]] >= 0.05 - 1e-6
+    if first[0] > 0:
+        assert cumulative[first[0] - 1] <= 0.05 + 1e-6
+    assert low <= failure
+
+
+def test_a_fine_staircase_is_bounded_when_its_force_is():
+    """600 steps of 4 s: hundreds of unlikely steps lie between the cut and the likely ones,
+    and hundreds of likely ones follow: the table starts where the steps first hold 1e-4 and
+    lists them all, so that its interval is the smallest run of them holding 90 %."""
+    p = PARAMS
+    t, slip, force, failure = staircase_record(p, gf.peak(p).force / 599.5, 4.0, noise=3e-8, seed=1)
+    ff = gf.forecast_failure(t, slip, force, until=0.5 * failure)
+    assert math.isfinite(ff.force_interval[1])
+    low, high = ff.time_interval
+    assert math.isfinite(high)
+    assert low <= failure <= high
+    assert ff.time_probability >= ff.level
+    assert ff.steps["below"] < 1e-4
+    assert ff.steps["below"] + ff.steps["probability"][0] >= 1e-4
+    assert len(ff.steps["step"]) > 200
+
+
+def test_a_profile_without_a_path_says_nothing_of_the_steps():
+    fit = _fit(12e-3, 1e-3, [], (10e-3, math.inf), 2.7)
+    confidence = _confidence(fit, types.SimpleNamespace(floor=10e-3, noise=None, size=100))
+    assert math.isnan(confidence(12e-3)) and math.isnan(confidence(11e-3))
 
 
 def test_a_ramp_has_no_steps():
@@ -182,6 +238,11 @@ def test_the_pit_of_a_certain_step_is_the_uniform_draw():
     assert step_pit(forecast, 40.0, np.random.default_rng(4)) == pytest.approx(0.98 + 0.02 * draw)
     open_above = types.SimpleNamespace(steps={**steps, "beyond": math.nan})
     assert math.isnan(step_pit(open_above, 40.0, np.random.default_rng(4)))
+    # a truth between two windows belongs to the nearer one (here step 6's, 20-21 s)
+    assert step_pit(forecast, 17.0, np.random.default_rng(4)) == pytest.approx(0.23 + 0.5 * draw)
+    assert step_pit(forecast, 14.0, np.random.default_rng(4)) == pytest.approx(0.03 + 0.2 * draw)
+    empty = types.SimpleNamespace(steps={**steps, "step": [], "earliest": [], "latest": []})
+    assert math.isnan(step_pit(empty, 20.5, np.random.default_rng(4)))
 
 
 def test_the_step_probabilities_are_calibrated_over_seeds():
@@ -208,3 +269,91 @@ def test_the_calibration_runs_the_protocols_and_leads_it_is_given():
     (model,) = [o for o in outcomes if o.method == "model"]
     assert model.claimed >= 0.9
     assert 0.0 <= model.pit <= 1.0
+
+
+@pytest.mark.parametrize("seed", [3, 10])
+def test_the_continued_starts_agree_with_one_program_per_step(seed):
+    """The starts of 300 continued steps from a few linear programs (the pieces of their
+    piecewise-linear bounds) against one linear program per step, solved here."""
+    from scipy.optimize import linprog
+
+    from granflow.forecast.loading import fit_loading
+
+    t, _, force, failure = _record(seed, "steps")
+    cut = t <= 0.5 * failure
+    loading = fit_loading(t[cut], force[cut])
+    m = len(loading.windows)
+    earliest, latest = loading.step_starts(m - 2, 300)
+    k = np.arange(1, m + 1, dtype=float)
+    lows, highs = np.array(loading.windows).T
+    matrix = np.vstack([np.column_stack([-np.ones(m), -k]), np.column_stack([np.ones(m), k])])
+    matrix = np.vstack([matrix, [-1.0, -(m + 1.0)]])
+    bound = np.concatenate([-lows, highs, [-loading.end]])
+    for position, index in enumerate(range(m - 2, m + 298)):
+        if index <= m:
+            assert (earliest[position], latest[position]) == loading.windows[index - 1]
+            continue
+        low = linprog([1.0, index], A_ub=matrix, b_ub=bound, bounds=[(None, None)] * 2)
+        high = linprog([-1.0, -index], A_ub=matrix, b_ub=bound, bounds=[(None, None)] * 2)
+        assert earliest[position] == pytest.approx(low.fun, abs=1e-9)
+        assert latest[position] == pytest.approx(-high.fun, abs=1e-9)
+
+
+def irregular_staircase(seed, scatter=0.25):
+    """(t, slip, force, failure time): steps of random heights (``scatter`` of the mean,
+    the record's and the ones to come alike), 3e-5 N of force noise; the layer fails at the
+    start of the first step whose level reaches F_peak."""
+    rng = np.random.default_rng(seed)
+    pk = gf.peak(PARAMS)
+    steps, duration = int(rng.integers(10, 16)), float(rng.uniform(12.0, 20.0))
+    mean = pk.force / (steps - rng.uniform())
+    levels = np.cumsum(mean * np.clip(1.0 + scatter * rng.standard_normal(60), 0.3, None))
+    failure = int(np.argmax(levels >= pk.force)) * duration
+    t = np.arange(0.0, failure, 1.0)
+    sigma = levels[np.floor(t / duration).astype(int)]
+    start = gf.friction_slip(PARAMS.x0, PARAMS)
+    slips = {
+        s: 0.0
+        if s <= start
+        else brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, pk.slip) - PARAMS.x0
+        for s in np.unique(sigma)
+    }
+    slip = np.array([slips[s] for s in sigma]) + 5e-9 * rng.standard_normal(t.size)
+    return t, slip, sigma + 3e-5 * rng.standard_normal(t.size), failure
+
+
+def test_each_level_of_an_irregular_staircase_has_its_own_error():
+    from granflow.forecast.failure import _loading_error
+    from granflow.forecast.loading import fit_loading
+
+    t, _, force, _ = irregular_staircase(3)
+    loading = fit_loading(t, force)
+    assert not loading.on_line
+    root, basis, _, _ = _loading_error(loading, t, each_level=True)
+    n = len(loading.levels)
+    assert root.shape == (n + 1, n + 1) and basis.shape == (t.size, n + 1)
+    index = np.searchsorted(loading.edges, t, side="right")
+    for k in range(n):
+        np.testing.assert_array_equal(basis[:, k], (index == k).astype(float))
+        # each level's error is its mean's: the force noise over the root of its samples
+        assert root[k, k] == pytest.approx(3e-5 / math.sqrt(np.sum(index == k)), rel=0.3)
+    np.testing.assert_array_equal(basis[:, n], 0.0)  # the continuing step: beyond the record
+    # the continuing step is as uncertain as the record's heights differ
+    assert root[n, n] == pytest.approx(np.std(np.diff(loading.levels), ddof=1), rel=1e-9)
+
+
+def test_an_irregular_staircase_is_calibrated_near_failure():
+    """Twelve staircases of irregular steps cut at 90 % of the time to failure: the levels
+    near the peak, each its own step's mean, move the slip as much as its noise, so each has
+    its own error. F_peak's 90 % interval holds the truth in at least 9 of 12 (binomial at
+    0.9: P(<= 8) = 2.6 %; with the last level's error only it held 5 of 12), and the
+    failure's PITs are uniform."""
+    covered, pits = 0, []
+    for seed in range(12):
+        t, slip, force, failure = irregular_staircase(200 + seed)
+        ff = gf.forecast_failure(t, slip, force, until=0.9 * failure)
+        low, high = ff.force_interval
+        covered += bool(low <= gf.peak(PARAMS).force <= high)
+        pits.append(step_pit(ff, failure, np.random.default_rng(seed)))
+    assert covered >= 9
+    assert kstest(pits, "uniform").pvalue > 1e-3

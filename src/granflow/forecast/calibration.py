@@ -13,7 +13,7 @@ import numpy as np
 
 from granflow.forecast.baselines import inverse_velocity_forecast, voight_forecast
 from granflow.forecast.failure import forecast_failure
-from granflow.forecast.synthetic import ramp_record, staircase_record
+from granflow.forecast.synthetic import levels_record, ramp_record, staircase_record
 from granflow.model.friction import peak
 from granflow.model.params import Params
 
@@ -38,6 +38,7 @@ PARAMETER_SETS = (
 )
 SLIP_NOISE = (2e-9, 10e-9)  # m
 FORCE_NOISE = 3e-5  # N
+IRREGULAR = 0.25  # the scatter of an irregular staircase's step heights over their mean
 METHODS = ("model", "inverse velocity", "voight")
 
 
@@ -63,30 +64,39 @@ def step_pit(forecast, truth, rng):
     [s] under a staircase forecast's step probabilities: ``C(before) + V p(step)``, V uniform
     from ``rng``, C the probability of the steps before the one that starts at ``truth``
     (Czado, Gneiting & Held 2009). Uniform on [0, 1] where the step probabilities are
-    calibrated, however discrete the outcome; NaN where the forecast has no steps, or where
-    the truth lies above the steps listed by a forecast that does not bound them."""
+    calibrated, however discrete the outcome. The truth's step is the one whose window of
+    starts holds it, or the nearest (by the windows' middles) where none does; a truth more
+    than half a step before the first step listed, or after the last, lies among the steps
+    left out (``below``, ``beyond``). NaN where the forecast has no steps, or where the truth
+    lies above the steps listed by a forecast that does not bound them."""
     steps = forecast.steps
-    if steps is None:
+    if steps is None or not steps["step"]:
         return math.nan
-    before = steps["below"]
-    for probability, low, high in zip(
-        steps["probability"], steps["earliest"], steps["latest"], strict=True
-    ):
-        if low <= truth <= high:
-            return float(before + rng.uniform() * probability)
-        if truth < low:
-            return float(before * rng.uniform())
-        before += probability
-    beyond = steps["beyond"]
-    if math.isnan(beyond):
-        return math.nan
-    return float(before + rng.uniform() * beyond)
+    low, high = np.array(steps["earliest"]), np.array(steps["latest"])
+    probability = np.array(steps["probability"])
+    inside = np.flatnonzero((low <= truth) & (truth <= high))
+    middle = 0.5 * (low + high)
+    half = 0.5 * float(np.median(np.diff(middle))) if middle.size > 1 else 0.0
+    if inside.size:
+        index = int(inside[0])
+    elif middle[0] - half <= truth <= middle[-1] + half:
+        index = int(np.argmin(np.abs(middle - truth)))
+    elif truth > middle[-1]:
+        beyond = steps["beyond"]
+        if math.isnan(beyond):
+            return math.nan
+        return float(1.0 - beyond + rng.uniform() * beyond)
+    else:
+        return float(steps["below"] * rng.uniform())
+    before = steps["below"] + float(np.sum(probability[:index]))
+    return float(before + rng.uniform() * probability[index])
 
 
 def _record(seed, protocol):
     """``(t, slip, force, failure time)`` of one seed's record: "ramp", "steps" (a staircase
-    of 10-15 steps whose last level before failure lies half a step below F_peak), or "steps
-    anywhere" (the same staircases, F_peak anywhere in its step)."""
+    of 10-15 steps whose last level before failure lies half a step below F_peak), "steps
+    anywhere" (the same staircases, F_peak anywhere in its step), or "steps irregular" (their
+    heights scattered by ``IRREGULAR`` of the mean, the record's and the ones to come)."""
     rng = np.random.default_rng(seed)
     params = Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])
     noise = SLIP_NOISE[(seed // len(PARAMETER_SETS)) % len(SLIP_NOISE)]
@@ -100,6 +110,16 @@ def _record(seed, protocol):
     offset = 0.5 if protocol == "steps" else float(rng.uniform(0.0, 1.0))
     step = strength / (steps - offset)
     duration = failure_time / steps
+    if protocol == "steps irregular":
+        heights = step * np.clip(1.0 + IRREGULAR * rng.standard_normal(4 * steps), 0.3, None)
+        return levels_record(
+            params,
+            np.cumsum(heights),
+            duration,
+            noise=noise,
+            force_noise=FORCE_NOISE,
+            seed=seed,
+        )
     return staircase_record(params, step, duration, noise=noise, force_noise=FORCE_NOISE, seed=seed)
 
 

@@ -79,18 +79,18 @@ def _starts(held, slip, floor, alphas=(0.3, 1.0, 3.0)):
     return tuple(starts), total
 
 
-def _loading_error(loading, time):
-    """The fitted history's error as two standard-normal coordinates z: ``(c0, c1) = root @ z``
-    (``root`` a square root of the regression's covariance) are the errors of its offset and
+def _loading_error(loading, time, each_level=False):
+    """The fitted history's error as standard-normal coordinates z: ``c = root @ z`` (``root``
+    a square root of the errors' covariance) ends with the errors (c0, c1) of its offset and
     slope on the regression's abscissa u (time for a ramp, step index for a staircase, both
-    about the regression's origin), and the error at the record's times is
-    ``basis @ (c0, c1)``.
+    about the regression's origin), and the error at the record's times is ``basis @ c``.
 
     For a ramp or a regular staircase (its levels a fitted line) the error is that line's,
-    ``c0 + c1 u``, at every time. For an irregular staircase each level is its own step's mean
-    and no line describes the levels' errors: c0 is the last level's error, and the record's
-    other steps (each as uncertain on its own, far from the peak) get none; c1, the error of
-    the continuing step, acts beyond the record only.
+    ``c0 + c1 u``, at every time: two coordinates. For an irregular staircase each level is
+    its own step's mean and no line describes the levels' errors: c0 is the last level's
+    error and c1, the error of the continuing step, acts beyond the record only. With
+    ``each_level`` every earlier level has its own coordinate too (its mean's error, the
+    last level's scaled by the samples of each step), before c0; without it they get none.
 
     Returns ``(root, basis, anchor, slope)``: anchor and slope place the continued history
     on the same abscissa, ``anchor + slope u`` [N] for u > 0, and its error is ``c0 + c1 u``.
@@ -104,13 +104,28 @@ def _loading_error(loading, time):
         anchor, slope = loading.start + loading.rate * origin, loading.rate
         basis = np.column_stack([np.ones_like(abscissa), abscissa])
     else:
-        abscissa = np.searchsorted(np.asarray(loading.edges), time, side="right") - origin
+        index = np.searchsorted(np.asarray(loading.edges), time, side="right")
+        abscissa = index - origin
         anchor, slope = loading.levels[-1], loading.step
         if loading.on_line:
             basis = np.column_stack([np.ones(abscissa.size), abscissa])
+        elif each_level and len(loading.levels) > 1:
+            count = np.bincount(index, minlength=len(loading.levels)).astype(float)
+            sd = sd0 * np.sqrt(count[-1] / np.maximum(count, 1.0))
+            root = np.diag([*sd[:-1], sd0, root[1, 1]])
+            basis = np.column_stack(
+                [index == k for k in range(len(loading.levels))] + [np.zeros(abscissa.size)]
+            )
         else:
             basis = np.column_stack([abscissa == 0, np.zeros(abscissa.size)])
     return root, basis.astype(float), anchor, slope
+
+
+def _offset_and_slope(z, error):
+    """(c0, c1): the errors [N, N per unit of u] of the continued history's offset and slope
+    at coordinates z (the last two of ``root @ z``)."""
+    c = error[0] @ z
+    return c[-2], c[-1]
 
 
 def _on_fitted_history(peak_force, z, error):
@@ -118,10 +133,10 @@ def _on_fitted_history(peak_force, z, error):
     plus its error, coordinates z) reaches ``peak_force``: both are lines on the regression's
     abscissa beyond the record, so the failure's time (or step) is the fitted history's at
     that force."""
-    root, _, anchor, slope = error
+    _, _, anchor, slope = error
     if not math.isfinite(peak_force) or z.size == 0:
         return peak_force
-    c0, c1 = root @ z
+    c0, c1 = _offset_and_slope(z, error)
     if not slope + c1 > 0:
         return math.inf
     return anchor + slope * (peak_force - anchor - c0) / (slope + c1)
@@ -130,10 +145,10 @@ def _on_fitted_history(peak_force, z, error):
 def _peak_at(level, z, error):
     """The inverse of :func:`_on_fitted_history`: the true history's force [N] where the
     fitted one stands at ``level`` [N] beyond the record."""
-    root, _, anchor, slope = error
+    _, _, anchor, slope = error
     if z.size == 0:
         return level
-    c0, c1 = root @ z
+    c0, c1 = _offset_and_slope(z, error)
     return anchor + c0 + (slope + c1) * (level - anchor) / slope
 
 
@@ -154,7 +169,7 @@ def _time_profile(likelihood, fit, error, level):
 
 
 _STEP_MASS = 1e-4  # steps less likely than this end the staircase's table
-_TABLE_STEPS = 200  # at most this many steps are listed
+_TABLE_STEPS = 1000  # at most this many steps are listed
 
 
 def _confidence(fit, likelihood):
@@ -164,7 +179,8 @@ def _confidence(fit, likelihood):
     ends (where it is the level's quantile) and extrapolated from its outermost two nodes.
     ``r`` is Student's t with the fit's degrees of freedom where the noise is estimated
     (the interval's statistic is then F(1, dof)), else standard normal. Above the path of a
-    profile not bounded above it returns NaN: the record does not say."""
+    profile not bounded above, and everywhere for a path of fewer than two nodes, it
+    returns NaN: the record does not say."""
     from scipy.stats import norm
     from scipy.stats import t as student
 
@@ -190,7 +206,7 @@ def _confidence(fit, likelihood):
 
     def at(level):
         if force.size < 2:
-            return float(cdf(0.0))
+            return math.nan  # no profile to read
         if level > force[-1] and not math.isfinite(high):
             return math.nan
         if level < force[0] or level > force[-1]:
@@ -215,41 +231,58 @@ def _steps(timing, likelihood, loading, level):
 
     Returns ``(table, interval)``: the table {"step": number of the step, the record's first
     as 1; "level" [N]; "earliest", "latest": the range of its start [s]; "probability" [-];
-    "below": the probability of the earlier steps, each less likely than ``_STEP_MASS``, left
+    "below": the probability of the earlier steps (together less than ``_STEP_MASS``), left
     out; "beyond": the probability left above the last step listed, NaN where the record
     does not bound it}; the interval [s] is the smallest run of steps about the most likely
     ones whose probability reaches ``level``, open above where the record does not bound
-    the failure (F_peak's profile open above, or the steps listed short of ``level``).
+    the failure; where the profile is open above, or the table's ``_TABLE_STEPS`` steps
+    hold less than ``level``, it is the profile's own, from the step of its low end to that
+    of its high end.
     """
     confidence = _confidence(timing, likelihood)
     last, step = loading.levels[-1], loading.step
-    rows, below, beyond = [], 0.0, math.nan
-    for j in range(1, _TABLE_STEPS + 1):
+    fallback = loading.times_at(*timing.interval)
+
+    def reached(j):  # C is monotone in j: the steps before the first reached are left out
+        cumulative = confidence(last + j * step)
+        return math.isnan(cumulative) or cumulative >= _STEP_MASS
+
+    before, first = 0, 1
+    while not reached(first) and first < 2**40:
+        before, first = first, 2 * first
+    while first - before > 1:
+        middle = (before + first) // 2
+        before, first = (before, middle) if reached(middle) else (middle, first)
+    below = confidence(last + before * step) if before > 0 else 0.0
+    rows, held, beyond = [], below, math.nan
+    for j in range(first, first + _TABLE_STEPS):
         cumulative = confidence(last + j * step)
         if math.isnan(cumulative):
             break  # above the path of a profile open above: the record does not say
-        probability = max(cumulative - below, 0.0)
-        below = max(below, cumulative)
-        start = loading.edge_range(last + (j - 0.5) * step)
-        rows.append((len(loading.levels) + j, last + j * step, *start, probability))
-        if 1.0 - below < _STEP_MASS or j == _TABLE_STEPS:
-            beyond = 1.0 - below
+        rows.append((len(loading.levels) + j, last + j * step, max(cumulative - held, 0.0)))
+        held = max(held, cumulative)
+        if 1.0 - held < _STEP_MASS:
             break
-    # the steps before the first as likely as _STEP_MASS are left out, their mass kept
-    first = next((k for k, row in enumerate(rows) if row[-1] >= _STEP_MASS), len(rows))
-    columns = ("step", "level", "earliest", "latest", "probability")
-    table = {name: [row[k] for row in rows[first:]] for k, name in enumerate(columns)}
-    table["below"] = float(sum(row[-1] for row in rows[:first]))
-    table["beyond"] = beyond
-    rows = rows[first:]
-    best = loading.edge_range(timing.peak_force)
+    if rows and not math.isnan(confidence(rows[-1][1] + step)):
+        beyond = 1.0 - held
+    earliest, latest = loading.step_starts(len(loading.levels) - 1 + first, len(rows))
+    table = {
+        "step": [row[0] for row in rows],
+        "level": [row[1] for row in rows],
+        "earliest": earliest.tolist(),
+        "latest": latest.tolist(),
+        "probability": [row[2] for row in rows],
+        "below": float(below),
+        "beyond": beyond,
+    }
     probability = np.array(table["probability"])
     chosen = np.argsort(-probability, kind="stable")
     enough = np.flatnonzero(np.cumsum(probability[chosen]) >= level - 1e-12)
     if not enough.size or not math.isfinite(timing.interval[1]):
-        low = min(table["earliest"][int(chosen.min())], best[0]) if rows else best[0]
-        return table, (low, math.inf)
+        # open above, or more steps likely than the table lists: the profile's own ends
+        return table, fallback
     kept = chosen[: enough[0] + 1]
+    best = loading.edge_range(timing.peak_force)
     low = min(table["earliest"][int(kept.min())], best[0])
     return table, (low, max(table["latest"][int(kept.max())], best[1]))
 
@@ -302,7 +335,7 @@ def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
                 u = np.concatenate([np.log([a, alpha, x0, peak_force]), np.zeros(6)])
                 u[4] = math.log(factor / 0.01)
                 u[5] = shift
-                u[8:] = u_static[4:]
+                u[8:] = u_static[-2:]  # the offset's and the slope's (the last two)
                 starts.append(u)
     fit, best = fit_creep(likelihood, starts, level)
     state = fit.params
@@ -470,7 +503,7 @@ def forecast_failure(
         return _no_date(until, level, loading, time.size, message, prior)
     floor = float(held[-1])
     starts, total = _starts(held, np.maximum(slip_cut, 0.0), floor)
-    error = _loading_error(loading, time)
+    error = _loading_error(loading, time, each_level=True)
     root, basis = error[0], error[1]
     base = loading.force(time)
 
@@ -488,11 +521,16 @@ def forecast_failure(
         prior_size=0 if prior is None else len(prior.names),
         noise=noise,
         scale=_inputs.rough_noise(slip_cut),
-        nuisance=2,
+        nuisance=root.shape[0],
     )
     if direct_effect is not None:
         return _forecast_creep(
-            likelihood, (time, slip_cut, loading, error), until, level, amplitude, prior
+            likelihood,
+            (time, slip_cut, loading, _loading_error(loading, time)),
+            until,
+            level,
+            amplitude,
+            prior,
         )
     fit = fit_and_profile(likelihood, level)
     low, high = fit.interval

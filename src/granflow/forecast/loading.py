@@ -113,6 +113,30 @@ class Loading:
         half = 0.5 * max(hi - lo for lo, hi in self.windows)
         return (middle - half, middle + half)
 
+    def step_starts(self, first, count):
+        """(earliest, latest) arrays [s] of the starts of the ``count`` steps from index
+        ``first`` on (levels[0] is index 0): :meth:`edge_range` of each, with the regular
+        staircase's continued edges found for all of them by a handful of linear programs
+        (:func:`_extrapolated_edges`)."""
+        indices = np.arange(first, first + count)
+        ranges = np.empty((count, 2))
+        for position, index in enumerate(indices):
+            if index == 0:
+                ranges[position] = (0.0, 0.0)
+            elif index <= len(self.windows):
+                ranges[position] = self.windows[index - 1]
+        later = indices > len(self.windows)
+        if later.any():
+            found = _extrapolated_edges(self.windows, indices[later], self.end)
+            if found is None:
+                found = np.array([self.edge_range(self._level_of(k)) for k in indices[later]]).T
+            ranges[later] = np.column_stack(found)
+        return ranges[:, 0], ranges[:, 1]
+
+    def _level_of(self, index):
+        """The middle of step ``index``'s force range [N]: a level that step first reaches."""
+        return self.levels[-1] + (index - len(self.levels) + 0.5) * self.step
+
     def time_at(self, level):
         """The first time [s] the history reaches ``level`` [N] (inf if it never does): for
         steps the middle of :meth:`edge_range`."""
@@ -167,8 +191,16 @@ def _extrapolated_edge(windows, index, end):
     """(earliest, latest) start [s] of step ``index`` on a regular staircase e0 + k D whose
     edges k = 1..m fell inside ``windows`` and whose edge m + 1 comes after ``end``; None
     where no regular staircase fits them."""
-    from scipy.optimize import linprog
+    found = _extrapolated_edges(windows, [index], end)
+    if found is None:
+        return None
+    return (float(found[0][0]), float(found[1][0]))
 
+
+def _edge_polygon(windows, end):
+    """``(matrix, bound)``: the (e0, D) of a regular staircase e0 + k D whose edges k = 1..m
+    fell inside ``windows`` and whose edge m + 1 comes after ``end``, as ``matrix @ (e0, D)
+    <= bound``."""
     k = np.arange(1, len(windows) + 1, dtype=float)
     lows, highs = np.array(windows, dtype=float).T
     matrix = np.vstack(
@@ -178,15 +210,53 @@ def _extrapolated_edge(windows, index, end):
     if math.isfinite(end):
         matrix = np.vstack([matrix, [-1.0, -(k.size + 1.0)]])
         bound = np.append(bound, -end)
+    return matrix, bound
+
+
+def _extrapolated_edges(windows, indices, end):
+    """(earliest, latest) arrays [s] of the starts of steps ``indices`` (increasing) as
+    :func:`_extrapolated_edge` gives them, for many indices at once; None where no regular
+    staircase fits the windows.
+
+    The earliest start of step k, the minimum of e0 + k D over the polygon of allowed (e0, D),
+    is a concave piecewise-linear function of k, one piece for each vertex of the polygon that
+    is optimal somewhere (the latest start, the maximum, convex likewise). So the program is
+    solved at the ends of a run of indices only: where the vertex optimal at one end gives the
+    optimum at the other too, it is optimal all along the run; else the run is split where
+    the two ends' vertices give the same start."""
+    from scipy.optimize import linprog
+
+    matrix, bound = _edge_polygon(windows, end)
+    indices = np.asarray(indices, dtype=float)
     out = []
     for sign in (1.0, -1.0):
-        found = linprog(
-            sign * np.array([1.0, index]), A_ub=matrix, b_ub=bound, bounds=[(None, None)] * 2
-        )
-        if not found.success:
-            return None
-        out.append(sign * found.fun)
-    return (float(out[0]), float(out[1]))
+
+        def vertex(k, sign=sign):
+            found = linprog(
+                sign * np.array([1.0, k]), A_ub=matrix, b_ub=bound, bounds=[(None, None)] * 2
+            )
+            return found.x if found.success else None
+
+        values = np.empty(indices.size)
+        runs = [(0, indices.size - 1, vertex(indices[0]), vertex(indices[-1]))]
+        while runs:
+            a, b, x_a, x_b = runs.pop()
+            if x_a is None or x_b is None:
+                return None
+            at_b = (x_a[0] + indices[b] * x_a[1], x_b[0] + indices[b] * x_b[1])
+            scale = max(abs(at_b[1]), 1.0)
+            if b - a <= 1 or abs(at_b[0] - at_b[1]) <= 1e-12 * scale:
+                values[a : b + 1] = x_a[0] + indices[a : b + 1] * x_a[1]
+                values[b] = at_b[1]
+                continue
+            # the two vertices give the same start at k*: split the run there
+            cross = (x_b[0] - x_a[0]) / (x_a[1] - x_b[1]) if x_a[1] != x_b[1] else indices[a]
+            m = int(np.clip(np.searchsorted(indices, cross, side="right") - 1, a, b - 1))
+            x_m, x_n = vertex(indices[m]), vertex(indices[m + 1])
+            runs.append((a, m, x_a, x_m))
+            runs.append((m + 1, b, x_n, x_b))
+        out.append(values)
+    return out[0], out[1]
 
 
 def _line(index, values, weights):
@@ -214,11 +284,14 @@ def _staircase(t, force, big, noise):
     # matters near the peak, where the slip is most sensitive to the force.
     # Otherwise each level is its own step's mean, independent of the others, and no line
     # describes their errors: the error kept is the last level's (its mean's variance) and
-    # the continuing step's (the median difference of the levels, given the variance of one
-    # difference of two levels as well measured as the last, which the median is no worse
-    # than); the earlier levels' own errors (the same size each) are left out.
-    error = (1.0 / weights[-1], 0.0, 2.0 / weights[-1], float(origin))
-    step = float(np.median(np.diff(levels)))
+    # the continuing step's. That step is the median difference of the levels; the heights
+    # to come are as uncertain as the record's own differ (their sample variance), and no
+    # less than one difference of two levels as well measured as the last. The earlier
+    # levels' own errors (the same size each) are left out.
+    heights = np.diff(levels)
+    spread = float(np.var(heights, ddof=1)) if heights.size > 1 else 0.0
+    error = (1.0 / weights[-1], 0.0, max(2.0 / weights[-1], spread), float(origin))
+    step = float(np.median(heights))
     on_line = False
     if levels.size >= 3:
         line, cov, misfit = _line(np.arange(levels.size, dtype=float), levels, weights)

@@ -191,7 +191,7 @@ class FailureForecast(_Codec):
         confidence distribution of the failure's force (its profile likelihood). Lists
         "step" (number of the step, the record's first as 1), "level" [N], "earliest" and
         "latest" (the range of its start [s]), "probability" [-], "below" [-], the
-        probability of the earlier steps left out (each less likely than 1e-4), and
+        probability of the earlier steps left out (together less than 1e-4), and
         "beyond" [-], the probability above the last step listed (NaN where the record
         does not bound the failure from above). ``time_interval`` is then the smallest
         run of whole steps about the most likely ones whose probability reaches ``level``:

@@ -8,7 +8,13 @@ import numpy as np
 from granflow.forecast.branch import branch_slip
 from granflow.model.friction import peak
 
-__all__ = ["creep_ramp_record", "creep_staircase_record", "ramp_record", "staircase_record"]
+__all__ = [
+    "creep_ramp_record",
+    "creep_staircase_record",
+    "levels_record",
+    "ramp_record",
+    "staircase_record",
+]
 
 
 def _record(params, force_of_time, failure, noise, force_noise, seed, dt):
@@ -50,6 +56,22 @@ def staircase_record(params, step, duration, *, noise, force_noise=0.0, seed=0, 
 
     def force_of_time(t):
         return step * (1.0 + np.floor(t / duration))
+
+    return _record(params, force_of_time, failure, noise, force_noise, seed, dt)
+
+
+def levels_record(params, levels, duration, *, noise, force_noise=0.0, seed=0, dt=1.0):
+    """A staircase of force ``levels`` [N] (increasing; each held ``duration`` [s]) from
+    t = 0 up to failure (the start of the first level at or above F_peak):
+    ``(t, slip, force, failure)``."""
+    levels = np.asarray(levels, dtype=float)
+    above = np.flatnonzero(levels >= peak(params).force)
+    if not above.size:
+        raise ValueError("no level reaches F_peak: the layer never fails")
+    failure = float(above[0]) * duration
+
+    def force_of_time(t):
+        return levels[np.minimum(np.floor(t / duration).astype(int), levels.size - 1)]
 
     return _record(params, force_of_time, failure, noise, force_noise, seed, dt)
 
