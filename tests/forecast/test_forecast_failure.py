@@ -242,10 +242,11 @@ def _branch_slip(sigma, params=PARAMS):
 
 def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
     """Steps 2 and 4 of 0.7 and 1.3 times the step height, then equal steps: the levels are
-    not on a line, so each is its own step's mean. The history's error then applies to the
-    last level (offset) and the continuation (slope) only, not as a tilt c0 + c1 u over the
-    early steps, and the failure (the start of the 12th step, the first above F_peak) lies
-    in the interval."""
+    not on a line, so each is its own step's mean. The two-coordinate history error (the
+    creep forecast's) then applies to the last level (offset) and the continuation (slope)
+    only, not as a tilt c0 + c1 u over the early steps (the quasi-static forecast gives every
+    level its own coordinate: tests/forecast/test_forecast_steps.py), and the failure (the
+    start of the 12th step, the first above F_peak) lies in the interval."""
     from granflow.forecast.failure import _loading_error
 
     strength = gf.peak(PARAMS).force

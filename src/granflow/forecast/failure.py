@@ -422,8 +422,9 @@ def forecast_failure(
     covariance, enters the likelihood as two standard-normal nuisance coordinates, fitted
     and profiled with the others (errors in variables); the slip record then constrains the
     history too. (An irregular staircase, whose levels are each their own step's mean, has
-    no such line: the offset is then the last level's error and the slope the continuing
-    step's, which acts beyond the record only.) The failure time has its own profile, over
+    no such line: each level then has its own error coordinate, and the slope is the
+    continuing step's, as uncertain as the record's step heights differ, which acts beyond
+    the record only.) The failure time has its own profile, over
     the force at which the fitted history stands when the true history (fitted plus error)
     reaches F_peak: the time (or step) at which the fitted history reaches that force.
     Under a staircase the layer fails at the start of the first step that reaches F_peak,

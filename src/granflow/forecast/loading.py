@@ -50,8 +50,10 @@ class Loading:
     on_line : bool
         Steps: whether the levels are the line through the steps' means (a regular
         staircase; ``error`` is that line's, for every step); else each level is its own
-        step's mean, and ``error`` describes only the last level (offset) and the step that
-        continues the staircase beyond the record (slope).
+        step's mean, and ``error`` describes only the last level (offset: its mean's
+        variance) and the step that continues the staircase beyond the record (slope: the
+        sample variance of the record's step heights, or one difference of two levels
+        measured like the last, whichever is larger).
     end : float
         Steps: the record's last time [s]; no step began between the last edge and it.
     """
