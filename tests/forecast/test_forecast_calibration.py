@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
+from rising_branch import branch_slip
 
 import granflow as gf
 from granflow.forecast import inverse_velocity_forecast
@@ -42,18 +42,8 @@ def record(seed, protocol):
             return step * (1.0 + np.floor(t / duration))
 
     t = np.arange(0.0, failure, 1.0)
-    held = np.maximum.accumulate(sigma(t))
-    start = gf.friction_slip(params.x0, params)
-    x = np.array(
-        [
-            params.x0
-            if s <= start
-            else brentq(lambda z, s=s: gf.friction_slip(z, params) - s, params.x0, pk.slip)
-            for s in held
-        ]
-    )
     noise = (2e-9, 10e-9)[seed % 2]
-    slip = x - params.x0 + noise * rng.standard_normal(t.size)
+    slip = branch_slip(sigma(t), params) + noise * rng.standard_normal(t.size)
     force = sigma(t) + 3e-5 * rng.standard_normal(t.size)
     return t, slip, force, failure, pk.force
 

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from rising_branch import branch_slip
 from scipy.optimize import brentq
 
 import granflow as gf
@@ -18,21 +19,11 @@ RATE = 0.065e-3  # N/s
 
 def ramp(params=PARAMS, rate=RATE, noise=5e-9, seed=0):
     """(t, slip, force, failure time) of a ramp from zero, sampled once a second."""
-    pk = gf.peak(params)
-    start = gf.friction_slip(params.x0, params)
-    failure = pk.force / rate
+    failure = gf.peak(params).force / rate
     t = np.arange(0.0, failure, 1.0)
     sigma = rate * t
-    x = np.array(
-        [
-            params.x0
-            if s <= start
-            else brentq(lambda z, s=s: gf.friction_slip(z, params) - s, params.x0, pk.slip)
-            for s in sigma
-        ]
-    )
     rng = np.random.default_rng(seed)
-    return t, x - params.x0 + noise * rng.standard_normal(t.size), sigma, failure
+    return t, branch_slip(sigma, params) + noise * rng.standard_normal(t.size), sigma, failure
 
 
 @pytest.fixture(scope="module")
@@ -91,13 +82,7 @@ def test_a_staircase_fails_at_the_first_step_above_the_peak():
     failure = 11 * duration  # the 12th step, the first above F_peak, starts here
     t = np.arange(0.0, failure, 1.0)
     sigma = step * (1 + np.floor(t / duration))
-    x = np.array(
-        [
-            brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, gf.peak(PARAMS).slip)
-            for s in sigma
-        ]
-    )
-    slip = x - PARAMS.x0 + 5e-9 * np.random.default_rng(3).standard_normal(t.size)
+    slip = branch_slip(sigma, PARAMS) + 5e-9 * np.random.default_rng(3).standard_normal(t.size)
     ff = gf.forecast_failure(t, slip, sigma, until=0.9 * failure)
     assert ff.loading.kind == "steps"
     assert ff.time_interval[0] <= failure <= ff.time_interval[1]
@@ -121,13 +106,7 @@ def test_a_staircase_between_samples_is_dated_within_the_sampling():
     failure = 11 * duration
     t = np.arange(0.0, failure, 1.0)
     sigma = step * (1 + np.floor(t / duration))
-    x = np.array(
-        [
-            brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, gf.peak(PARAMS).slip)
-            for s in sigma
-        ]
-    )
-    slip = x - PARAMS.x0 + 2e-9 * np.random.default_rng(4).standard_normal(t.size)
+    slip = branch_slip(sigma, PARAMS) + 2e-9 * np.random.default_rng(4).standard_normal(t.size)
     ff = gf.forecast_failure(t, slip, sigma, until=0.95 * failure)
     for k, (low, high) in enumerate(ff.loading.windows, start=1):
         assert low < k * duration <= high
@@ -222,24 +201,6 @@ def test_the_failure_time_under_an_erroneous_history(kind):
     assert _peak_at(level, z, error) == pytest.approx(peak_force, rel=1e-12)
 
 
-def _branch_slip(sigma, params=PARAMS):
-    """Slip [m] on the rising branch under the held force ``sigma`` (brentq on friction_slip)."""
-    pk = gf.peak(params)
-    start = gf.friction_slip(params.x0, params)
-    held = np.maximum.accumulate(sigma)
-    return (
-        np.array(
-            [
-                params.x0
-                if s <= start
-                else brentq(lambda z, s=s: gf.friction_slip(z, params) - s, params.x0, pk.slip)
-                for s in held
-            ]
-        )
-        - params.x0
-    )
-
-
 def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
     """Steps 2 and 4 of 0.7 and 1.3 times the step height, then equal steps: the levels are
     not on a line, so each is its own step's mean. The two-coordinate history error (the
@@ -256,7 +217,7 @@ def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
     k = np.floor(t / duration)
     sigma = step * (1 + k) - 0.3 * step * ((k == 1) | (k == 3))
     rng = np.random.default_rng(0)
-    slip = _branch_slip(sigma) + 5e-9 * rng.standard_normal(t.size)
+    slip = branch_slip(sigma, PARAMS) + 5e-9 * rng.standard_normal(t.size)
     column = sigma + 1e-2 * step * rng.standard_normal(t.size)
     until = 0.9 * failure
     ff = gf.forecast_failure(t, slip, column, until=until)
@@ -314,7 +275,7 @@ def test_a_ramp_read_with_an_offset_and_slope_error_is_still_dated():
     t = np.arange(0.0, strength / RATE, 1.0)
     sigma = RATE * t
     rng = np.random.default_rng(0)
-    slip = _branch_slip(sigma) + 2e-9 * rng.standard_normal(t.size)
+    slip = branch_slip(sigma, PARAMS) + 2e-9 * rng.standard_normal(t.size)
     until, force_noise = 0.9 * truth, 3e-5
     cut = t <= until
     cov = np.polyfit(t[cut], sigma[cut], 1, cov="unscaled")[1] * force_noise**2

@@ -9,7 +9,7 @@ import types
 
 import numpy as np
 import pytest
-from scipy.optimize import brentq
+from rising_branch import branch_slip
 from scipy.stats import chi2, kstest, norm
 
 import granflow as gf
@@ -31,17 +31,8 @@ def staircase(offset, steps=12, duration=15.0, noise=3e-9, seed=0):
     failure = (steps - 1) * duration
     t = np.arange(0.0, failure, 1.0)
     sigma = step * (1.0 + np.floor(t / duration))
-    start = gf.friction_slip(PARAMS.x0, PARAMS)
-    x = np.array(
-        [
-            PARAMS.x0
-            if s <= start
-            else brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, pk.slip)
-            for s in sigma
-        ]
-    )
     rng = np.random.default_rng(seed)
-    return t, x - PARAMS.x0 + noise * rng.standard_normal(t.size), sigma, failure
+    return t, branch_slip(sigma, PARAMS) + noise * rng.standard_normal(t.size), sigma, failure
 
 
 def _fit(best, sigma, forces, interval, threshold):
@@ -206,15 +197,7 @@ def test_a_ramp_has_no_steps():
     pk = gf.peak(PARAMS)
     t = np.arange(0.0, 200.0, 1.0)
     rate = pk.force / 200.0
-    x = np.array(
-        [
-            brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, pk.slip)
-            if s > gf.friction_slip(PARAMS.x0, PARAMS)
-            else PARAMS.x0
-            for s in rate * t
-        ]
-    )
-    slip = x - PARAMS.x0 + 3e-9 * np.random.default_rng(1).standard_normal(t.size)
+    slip = branch_slip(rate * t, PARAMS) + 3e-9 * np.random.default_rng(1).standard_normal(t.size)
     ff = gf.forecast_failure(t, slip, rate * t, until=170.0)
     assert ff.steps is None
     assert ff.time_probability == ff.level
@@ -311,14 +294,7 @@ def irregular_staircase(seed, scatter=0.25):
     failure = int(np.argmax(levels >= pk.force)) * duration
     t = np.arange(0.0, failure, 1.0)
     sigma = levels[np.floor(t / duration).astype(int)]
-    start = gf.friction_slip(PARAMS.x0, PARAMS)
-    slips = {
-        s: 0.0
-        if s <= start
-        else brentq(lambda z, s=s: gf.friction_slip(z, PARAMS) - s, PARAMS.x0, pk.slip) - PARAMS.x0
-        for s in np.unique(sigma)
-    }
-    slip = np.array([slips[s] for s in sigma]) + 5e-9 * rng.standard_normal(t.size)
+    slip = branch_slip(sigma, PARAMS) + 5e-9 * rng.standard_normal(t.size)
     return t, slip, sigma + 3e-5 * rng.standard_normal(t.size), failure
 
 
