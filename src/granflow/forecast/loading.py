@@ -289,7 +289,8 @@ def _staircase(t, force, big, noise):
     # the continuing step's. That step is the median difference of the levels; the heights
     # to come are as uncertain as the record's own differ (their sample variance), and no
     # less than one difference of two levels as well measured as the last. The earlier
-    # levels' own errors (the same size each) are left out.
+    # levels' own errors are not kept here: the quasi-static forecast gives each its own
+    # coordinate, from its step's samples (failure._loading_error).
     heights = np.diff(levels)
     spread = float(np.var(heights, ddof=1)) if heights.size > 1 else 0.0
     error = (1.0 / weights[-1], 0.0, max(2.0 / weights[-1], spread), float(origin))
