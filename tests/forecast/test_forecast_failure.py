@@ -94,7 +94,7 @@ def test_the_slip_noise_is_estimated_at_its_true_level(record):
     t, slip, force, failure = record
     for cut in (0.5, 0.9):
         ff = gf.forecast_failure(t, slip, force, until=cut * failure)
-        assert 0.75 * 5e-9 < ff.noise < 1.25 * 5e-9
+        assert 0.75 * 5e-9 < ff.sigma < 1.25 * 5e-9
 
 
 def test_a_staircase_between_samples_is_dated_within_the_sampling():
@@ -169,20 +169,21 @@ def test_the_failure_time_under_an_erroneous_history(kind):
     *true* history reaches F_peak; the forecast dates it by the fitted history's force at
     that moment (and maps it back to F_peak for the time profile). Checked against brentq
     on the true history."""
-    from granflow.forecast.failure import _loading_error, _on_fitted_history, _peak_at
+    from granflow.forecast.failure import loading_error
     from granflow.forecast.loading import fit_loading
+    from granflow.forecast.models import Continuation
 
     t = np.arange(0.0, 150.0, 1.0)
     ramp_force, staircase = 1e-3 + 0.065e-3 * t, 1e-3 * (1.0 + np.floor(t / 12.5))
     force = ramp_force if kind == "ramp" else staircase
     loading = fit_loading(t, force + 3e-5 * np.random.default_rng(4).standard_normal(t.size))
-    error = _loading_error(loading, t)
-    root = error[0]
+    root, _, anchor, slope = loading_error(loading, t)
+    continuation = Continuation(anchor, slope, root[-2], root[-1])
     z = np.array([1.3, -0.8])
     c0, c1 = root @ z
     assert c0 != 0 and c1 != 0
     peak_force = float(np.max(force)) + 2.5e-3
-    level = _on_fitted_history(peak_force, z, error)
+    level = continuation.level(peak_force, z)
     if kind == "ramp":
         # the true line start + c0 + (rate + c1) t reaches peak_force at t_f
         t_f = brentq(lambda s: loading.start + c0 + (loading.rate + c1) * s - peak_force, 0, 1e4)
@@ -198,7 +199,7 @@ def test_the_failure_time_under_an_erroneous_history(kind):
         index = loading._index(level)
         assert index == k
     assert level != peak_force
-    assert _peak_at(level, z, error) == pytest.approx(peak_force, rel=1e-12)
+    assert continuation.peak_force(level, z)[0] == pytest.approx(peak_force, rel=1e-12)
 
 
 def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
@@ -208,7 +209,7 @@ def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
     only, not as a tilt c0 + c1 u over the early steps (the quasi-static forecast gives every
     level its own coordinate: tests/forecast/test_forecast_steps.py), and the failure (the
     start of the 12th step, the first above F_peak) lies in the interval."""
-    from granflow.forecast.failure import _loading_error
+    from granflow.forecast.failure import loading_error
 
     strength = gf.peak(PARAMS).force
     step, duration = strength / 11.5, 15.0
@@ -225,23 +226,13 @@ def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
     assert loading.kind == "steps" and not loading.on_line
     assert loading.levels[1] == pytest.approx(1.7 * step, rel=0.01)
     assert loading.step == pytest.approx(step, rel=0.01)
-    root, basis, _, _ = _loading_error(loading, t[t <= until])
+    root, basis, _, _ = loading_error(loading, t[t <= until])
     last = t[t <= until] >= loading.edges[-1]
     np.testing.assert_array_equal(basis[:, 1], 0.0)  # no tilt inside the record
     np.testing.assert_array_equal(basis[:, 0], last.astype(float))  # the last level only
     assert root[0, 0] > 0 and root[1, 1] > 0  # the offset and the continuing step do vary
     assert ff.time_interval[0] <= failure <= ff.time_interval[1]
     assert ff.force_interval[0] <= strength <= ff.force_interval[1]
-
-
-def _plain_likelihood(**fields):
-    """The forecast's likelihood with its history-error coordinates removed (held at zero)."""
-    from granflow.forecast.likelihood import Likelihood
-
-    inner = fields["residuals"]
-    fields["residuals"] = lambda params, s_peak: inner(params, s_peak, np.zeros(2))
-    fields["nuisance"] = 0
-    return Likelihood(**fields)
 
 
 def test_a_noise_free_force_column_gives_the_forecast_without_the_history_error(
@@ -253,12 +244,18 @@ def test_a_noise_free_force_column_gives_the_forecast_without_the_history_error(
     from granflow.forecast import failure
 
     t, slip, force, failure_time = record
+    inner = failure.loading_error
+
+    def without_error(loading, time, each_level=False):
+        root, basis, anchor, slope = inner(loading, time, each_level)
+        return np.zeros_like(root), basis, anchor, slope
+
     for cut in (0.75, 0.9):
         with_error = gf.forecast_failure(t, slip, force, until=cut * failure_time)
         with monkeypatch.context() as patch:
-            patch.setattr(failure, "Likelihood", _plain_likelihood)
+            patch.setattr(failure, "loading_error", without_error)
             without = gf.forecast_failure(t, slip, force, until=cut * failure_time)
-        assert with_error.noise == pytest.approx(without.noise, rel=1e-9)
+        assert with_error.sigma == pytest.approx(without.sigma, rel=1e-9)
         for name in ("time_interval", "force_interval"):
             np.testing.assert_allclose(getattr(with_error, name), getattr(without, name), rtol=1e-9)
         assert with_error.time == pytest.approx(without.time, rel=1e-7)

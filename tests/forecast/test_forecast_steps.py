@@ -14,8 +14,7 @@ from scipy.stats import chi2, kstest, norm
 
 import granflow as gf
 from granflow.forecast.calibration import _record, step_pit
-from granflow.forecast.failure import _confidence
-from granflow.forecast.likelihood import Fit
+from granflow.forecast.distribution import Distribution
 from granflow.forecast.results import FailureForecast
 from granflow.forecast.synthetic import staircase_record
 
@@ -35,47 +34,57 @@ def staircase(offset, steps=12, duration=15.0, noise=3e-9, seed=0):
     return t, branch_slip(sigma, PARAMS) + noise * rng.standard_normal(t.size), sigma, failure
 
 
-def _fit(best, sigma, forces, interval, threshold):
-    """A Fit whose profile is exactly quadratic: delta chi-square ((P - best) / sigma)^2."""
-    path = tuple((p, ((p - best) / sigma) ** 2, None, np.empty(0)) for p in forces)
-    return Fit(
-        params=None,
-        peak_force=best,
-        chisqr=0.0,
-        noise=1.0,
-        path=path,
-        interval=interval,
-        threshold=threshold,
+def _quadratic(best, sigma, forces, *, dof=None, open_above=False):
+    """The Distribution of a profile that is exactly quadratic, delta chi-square
+    ((P - best) / sigma)^2, read at ``forces`` (q in a linear coordinate, u = P / sigma)."""
+    u = np.concatenate([[best], forces]) / sigma
+    order = np.argsort(u)
+    roots = (u - best / sigma)[order]
+    return Distribution(
+        u=u[order],
+        r=roots,
+        offset=0.0,
+        scale=sigma,
+        log=False,
+        dof=dof,
+        open_below=False,
+        open_above=open_above,
+        low_end=-math.inf,
+        high_end=float(u[order][-1]),
     )
 
 
 def test_a_quadratic_profile_gives_the_normal_distribution():
     """Known noise: the signed root of a quadratic profile is (P - best) / sigma, so the
-    confidence distribution is the normal CDF, inside the path, at the interval's ends and
-    extrapolated beyond them."""
+    confidence distribution is the normal CDF, inside the profile's points and extrapolated
+    beyond them; its quantiles are the profile-likelihood interval's ends."""
     best, sigma = 20e-3, 0.4e-3
-    threshold = float(chi2.ppf(0.9, 1))
-    half = math.sqrt(threshold) * sigma
     forces = best + sigma * np.array([-2.0, -1.0, -0.3, 0.5, 1.2, 2.1])
-    fit = _fit(best, sigma, forces, (best - half, best + half), threshold)
-    known = types.SimpleNamespace(floor=0.0, noise=1.0, size=200)
-    confidence = _confidence(fit, known)
+    confidence = _quadratic(best, sigma, forces)
     for z in (-3.0, -1.645, -1.0, -0.1, 0.0, 0.7, 1.645, 2.5, 3.5):
-        assert confidence(best + z * sigma) == pytest.approx(norm.cdf(z), abs=1e-9)
+        assert confidence.cdf(best + z * sigma) == pytest.approx(norm.cdf(z), abs=1e-9)
+    low, high = confidence.interval(0.9)
+    assert low == pytest.approx(best - norm.ppf(0.95) * sigma, rel=1e-9)
+    assert high == pytest.approx(best + norm.ppf(0.95) * sigma, rel=1e-9)
 
 
 def test_an_estimated_noise_gives_students_t_and_an_open_profile_no_upper_tail():
-    best, sigma = 20e-3, 0.4e-3
-    threshold = 3.0
-    forces = best + sigma * np.array([-2.5, -1.0, 0.5, 1.0, 1.5])
-    fit = _fit(best, sigma, forces, (best - math.sqrt(threshold) * sigma, math.inf), threshold)
-    estimated = types.SimpleNamespace(floor=0.0, noise=None, size=14)
-    confidence = _confidence(fit, estimated)
+    """Estimated noise: Student's t with the fit's degrees of freedom. A profile open above
+    (its search ran out before the two-sided height) keeps the rest of the probability
+    beyond its last point, and its 90 % interval is the one-sided one, [q(0.1), inf)."""
     from scipy.stats import t as student
 
-    assert confidence(best - 1.0 * sigma) == pytest.approx(student.cdf(-1.0, 10), abs=1e-9)
-    assert confidence(best + 1.2 * sigma) == pytest.approx(student.cdf(1.2, 10), abs=1e-9)
-    assert math.isnan(confidence(best + 2.0 * sigma))  # above the path, open above
+    best, sigma = 20e-3, 0.4e-3
+    forces = best + sigma * np.array([-2.5, -1.0, 0.5, 1.0, 1.5])
+    confidence = _quadratic(best, sigma, forces, dof=10, open_above=True)
+    assert confidence.cdf(best - 1.0 * sigma) == pytest.approx(student.cdf(-1.0, 10), abs=1e-9)
+    assert confidence.cdf(best + 1.2 * sigma) == pytest.approx(student.cdf(1.2, 10), abs=1e-9)
+    top = student.cdf(1.5, 10)
+    assert confidence.cdf(best + 2.0 * sigma) == pytest.approx(top, abs=1e-9)
+    assert confidence.cdf(math.inf) == pytest.approx(top, abs=1e-9)
+    low, high = confidence.interval(0.9)
+    assert high == math.inf
+    assert low == pytest.approx(best + student.ppf(0.1, 10) * sigma, rel=1e-9)
 
 
 @pytest.fixture(scope="module")
@@ -137,11 +146,12 @@ def test_the_steps_survive_the_round_trip(near_a_level, open_above):
         assert back.steps["below"] == ff.steps["below"]
         assert back.time_interval == ff.time_interval
         assert isinstance(back.n_points, int) and back.n_points == ff.n_points
-        beyond = (back.steps["beyond"], ff.steps["beyond"])
-        assert beyond[0] == beyond[1] or all(math.isnan(v) for v in beyond)
-    assert math.isfinite(near_a_level[0].steps["beyond"])
-    assert math.isnan(back.steps["beyond"])  # the open forecast's, null in JSON
-    assert math.isnan(back.time_probability)
+        assert back.steps["beyond"] == ff.steps["beyond"]
+        assert back.cdf == ff.cdf
+        assert back.probability_within(30.0) == ff.probability_within(30.0)
+    assert near_a_level[0].steps["beyond"] < 1e-3
+    # the open forecast keeps what its profile leaves above its search beyond its steps
+    assert back.steps["beyond"] > 1e-3
 
 
 @pytest.fixture(scope="module")
@@ -153,20 +163,22 @@ def open_above():
 
 
 def test_an_open_forecast_starts_its_interval_where_its_steps_do(open_above):
-    """Open above, the interval is the profile's own: it starts at the step of its low end,
-    where the steps' cumulative probability passes the lower tail (5 %), not at the first
-    step the table lists."""
+    """Open above, the steps listed hold less than all the probability (the rest lies beyond
+    the record's reach); the interval is still the smallest run of whole steps holding the
+    level where they do, else it starts at the first step listed and is open above."""
     ff, failure = open_above
     low, high = ff.time_interval
-    assert math.isinf(high)
-    assert math.isnan(ff.steps["beyond"])
     table = ff.step_table()
-    cumulative = ff.steps["below"] + table.probability.cumsum()
-    first = table.index[table.earliest == low]
-    assert len(first) == 1
-    assert cumulative[first[0]] >= 0.05 - 1e-6
-    if first[0] > 0:
-        assert cumulative[first[0] - 1] <= 0.05 + 1e-6
+    held = ff.steps["below"] + table.probability.sum()
+    assert ff.steps["beyond"] == pytest.approx(1.0 - held, abs=1e-12)
+    assert ff.steps["beyond"] > 1e-3
+    if math.isinf(high):
+        assert low == table.earliest.iloc[0]
+    else:
+        assert ff.time_probability >= ff.level
+        inside = table[(table.earliest >= low) & (table.latest <= high)]
+        assert len(inside) == inside.step.iloc[-1] - inside.step.iloc[0] + 1  # a run
+        assert inside.probability.sum() == pytest.approx(ff.time_probability)
     assert low <= failure
 
 
@@ -188,9 +200,8 @@ def test_a_fine_staircase_is_bounded_when_its_force_is():
 
 
 def test_a_profile_without_a_path_says_nothing_of_the_steps():
-    fit = _fit(12e-3, 1e-3, [], (10e-3, math.inf), 2.7)
-    confidence = _confidence(fit, types.SimpleNamespace(floor=10e-3, noise=None, size=100))
-    assert math.isnan(confidence(12e-3)) and math.isnan(confidence(11e-3))
+    confidence = _quadratic(12e-3, 1e-3, [], dof=100, open_above=True)
+    assert math.isnan(confidence.cdf(12e-3)) and math.isnan(confidence.cdf(11e-3))
 
 
 def test_a_ramp_has_no_steps():
@@ -299,13 +310,13 @@ def irregular_staircase(seed, scatter=0.25):
 
 
 def test_each_level_of_an_irregular_staircase_has_its_own_error():
-    from granflow.forecast.failure import _loading_error
+    from granflow.forecast.failure import loading_error
     from granflow.forecast.loading import fit_loading
 
     t, _, force, _ = irregular_staircase(3)
     loading = fit_loading(t, force)
     assert not loading.on_line
-    root, basis, _, _ = _loading_error(loading, t, each_level=True)
+    root, basis, _, _ = loading_error(loading, t, each_level=True)
     n = len(loading.levels)
     assert root.shape == (n + 1, n + 1) and basis.shape == (t.size, n + 1)
     index = np.searchsorted(loading.edges, t, side="right")

@@ -167,10 +167,19 @@ class Problem:
     """Residuals and Jacobian of a set of curves over the free global parameters.
 
     ``model`` is the :class:`Model` every curve follows (default :data:`EQ3`).
+
+    ``penalty`` (optional) adds standardised residuals that are not data: Gaussian priors on
+    parameters or on quantities derived from them, and standard-normal nuisance coordinates.
+    It is ``penalty(values) -> (residuals, jacobian)`` over all global values (natural
+    units): residuals of shape (m,) and their derivatives, shape (m, n_global). They enter
+    chi-square, its gradient and J^T J as they are (not scaled by the data's weights), so the
+    data's weights must standardise the data too (``w = 1 / sigma``) for the sum to be a
+    log-likelihood.
     """
 
-    def __init__(self, curves, parameters, model=None):
+    def __init__(self, curves, parameters, model=None, penalty=None):
         self.model = EQ3 if model is None else model
+        self.penalty = penalty
         self.curves = curves
         self.parameters = parameters
         self.free = [i for i, p in enumerate(parameters) if not p.fixed]
@@ -190,7 +199,7 @@ class Problem:
         self._plans = {}
         self._strided = {}  # stride: every stride-th point of each curve, for chisqr
         # one Eq. 3 curve whose slots are the global parameters: the compiled solver's case
-        self._compiled = self._identity and self.model is EQ3
+        self._compiled = self._identity and self.model is EQ3 and penalty is None
         if self._compiled:
             curve = curves[0]
             data = (curve.z, curve.y, curve.w)
@@ -241,6 +250,11 @@ class Problem:
                 for slot, (index, factor) in enumerate(curve.links):
                     jac[start:stop, index] += weight * J[:, slot] * factor
             start = stop
+        if self.penalty is not None:
+            extra, extra_jac = self.penalty(values)
+            residuals = np.concatenate([residuals, np.asarray(extra) / self.force_scale])
+            if with_jacobian:
+                jac = np.vstack([jac, np.asarray(extra_jac) / self.force_scale])
         return residuals, jac
 
     def fun_and_jac(self, order, pinned=None):
@@ -303,7 +317,7 @@ class Problem:
         if self._identity:
             curve = self.curves[0]
             cost, jtj, jtr = normal(curve.z, curve.y, curve.w, *values)
-            return cost, jtr, jtj
+            return self._penalised(values, cost, jtr, jtj)
         size = len(self.parameters)
         gradient = np.zeros(size)
         hessian = np.zeros((size, size))
@@ -315,7 +329,18 @@ class Problem:
             # the four slots of one curve map to four different global parameters
             gradient[index] += jtr * factor
             hessian[np.ix_(index, index)] += jtj * np.outer(factor, factor)
-        return cost, gradient, hessian
+        return self._penalised(values, cost, gradient, hessian)
+
+    def _penalised(self, values, cost, gradient, hessian):
+        """(cost, gradient, J^T J) with the penalty's residuals added."""
+        if self.penalty is None:
+            return cost, gradient, hessian
+        extra, extra_jac = self.penalty(values)
+        return (
+            cost + float(extra @ extra),
+            gradient + extra_jac.T @ extra,
+            hessian + extra_jac.T @ extra_jac,
+        )
 
     def state(self, u, order, pinned=None):
         """(chi-square, gradient, J^T J) in the internal coordinates of ``order``."""
@@ -470,6 +495,9 @@ class Problem:
             for (z, y, w), (index, factor) in zip(self._strided[stride], self._links, strict=True):
                 residuals = w * (self.model.function(z, *(values[index] * factor)) - y)
                 total += float(residuals @ residuals)
+            if self.penalty is not None:
+                extra = self.penalty(values)[0]
+                total += float(extra @ extra)
             return total
         return self._chisqr(values)
 
@@ -478,7 +506,7 @@ class Problem:
         return float(residuals @ residuals) * self.force_scale**2
 
 
-def multistart(problem, starts, noise, *, restart=None, insist=False):
+def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10):
     """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
 
     Parameters
@@ -496,6 +524,9 @@ def multistart(problem, starts, noise, *, restart=None, insist=False):
         chi-square exceeds what the noise allows (5 standard deviations of chi-square plus the
         error of the noise estimate), or always with ``insist``.
 
+    rtol : float
+        Levenberg-Marquardt stops when a step gains less than this fraction of chi-square.
+
     Returns
     -------
     Solution
@@ -511,7 +542,7 @@ def multistart(problem, starts, noise, *, restart=None, insist=False):
     expected = 2.0 * noise**2 * dof
     best, nfev = None, len(starts)
     for count, (_, u_start) in enumerate(ranked, start=1):
-        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=1e-10)
+        u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=rtol)
         nfev += steps
         if best is None or cost < best[1]:
             best = (u, cost, converged, count, hessian)
@@ -530,7 +561,7 @@ def multistart(problem, starts, noise, *, restart=None, insist=False):
         implausible = noise <= 0 or cost > (1.0 + 10.0 / math.sqrt(dof)) * dof * noise**2
         if promised < cost or implausible or insist:
             u_new, cost_new, converged_new, steps, hessian_new = problem.lm(
-                start, max_iter=200, rtol=1e-10
+                start, max_iter=200, rtol=rtol
             )
             nfev += steps
             if cost_new < cost:

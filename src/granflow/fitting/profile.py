@@ -9,6 +9,7 @@ optimiser's coordinate, by the secant method from the Wald estimate.
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import chi2 as chi2_distribution
@@ -42,75 +43,237 @@ def covariance(problem, values, variance, internal_hessian=None):
     return variance * inverse / np.outer(norms, norms), ok
 
 
-def profile_interval(
-    problem, values, index, variance, chisqr_min, wald_halfwidth_u, internal_hessian=None
-):
-    """95 % profile-likelihood interval of the global parameter ``index`` (free).
+@dataclass(frozen=True)
+class ProfilePoint:
+    """One conditional minimum of a profile.
 
-    The boundary is where min over the other parameters of chi-square exceeds its minimum by
-    ``3.84 * variance``. The root is found on sqrt(delta chi-square), which is nearly linear
-    in the internal coordinate, by the secant method from the Wald estimate.
-    Returns ((low, high), exact) with exact False when a side ran into a bound.
+    Attributes
+    ----------
+    u : float
+        The profiled parameter in the optimiser's coordinate.
+    value : float
+        The profiled parameter [its unit].
+    delta : float
+        Chi-square above the minimum, in units of the variance [-].
+    values : numpy.ndarray
+        Every global parameter at the conditional minimum [SI].
     """
-    parameter = problem.parameters[index]
-    others = [i for i in problem.free if i != index]
-    u_hat = parameter.to_internal(values[index])
+
+    u: float
+    value: float
+    delta: float
+    values: np.ndarray
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A profile of one parameter scanned to one or more heights on each side.
+
+    Attributes
+    ----------
+    index : int
+        The profiled global parameter.
+    optimum : ProfilePoint
+        The best fit (delta 0).
+    points : tuple of ProfilePoint
+        Every conditional minimum evaluated, sorted by ``u``.
+    ends : dict
+        ``{-1: [...], +1: [...]}``: per side and per target height, the internal coordinate
+        where sqrt(delta) reaches it, or the search range's end where it never does.
+    reached : dict
+        ``{-1: [...], +1: [...]}``: per side and target, whether the height was reached.
+    """
+
+    index: int
+    optimum: ProfilePoint
+    points: tuple
+    ends: dict
+    reached: dict
+
+    def signed_roots(self):
+        """(u, r) arrays over the points and the optimum, sorted by u: r = sign(u - u_hat)
+        sqrt(delta). A profile is a minimum, and a conditional minimum that was not found
+        can only lie too high; taken as unimodal, each side's delta is the lowest found at
+        or beyond each point (its lower envelope outward), so r is non-decreasing."""
+        u_hat = self.optimum.u
+        lowest = {}
+        for point in self.points:
+            if math.isfinite(point.u) and not math.isnan(point.delta):
+                lowest[point.u] = min(lowest.get(point.u, math.inf), point.delta)
+        lowest[u_hat] = 0.0
+        u = np.array(sorted(lowest))
+        delta = np.array([lowest[v] for v in u])
+        above = u > u_hat
+        below = u < u_hat
+        # outward: upward above the optimum, downward below it
+        delta[above] = np.minimum.accumulate(delta[above][::-1])[::-1]
+        delta[below] = np.minimum.accumulate(delta[below])
+        r = np.sign(u - u_hat) * np.sqrt(np.maximum(delta, 0.0))
+        keep = np.isfinite(r)
+        return u[keep], r[keep]
+
+
+class _Conditional:
+    """The conditional minimum of chi-square over the other free parameters, with the profiled
+    one pinned: warm-started along the profile by the linear response at the optimum."""
+
+    def __init__(
+        self, problem, values, index, variance, chisqr_min, internal_hessian, tolerance, starts
+    ):
+        self.problem, self.index, self.starts = problem, index, starts
+        # Levenberg-Marquardt's relative tolerance: 1e-9, or what a precision ``tolerance`` of
+        # delta (in variance units) asks of chi-square
+        self.rtol = 1e-9
+        if tolerance is not None:
+            self.rtol = max(1e-9, tolerance * variance / max(abs(chisqr_min), 1e-300))
+        self.variance, self.chisqr_min = variance, chisqr_min
+        self.parameter = problem.parameters[index]
+        self.others = [i for i in problem.free if i != index]
+        self.u_hat = self.parameter.to_internal(values[index])
+        self.u_others_hat = np.array(
+            [problem.parameters[i].to_internal(values[i]) for i in self.others]
+        )
+        # how the other parameters follow this one near the optimum: -H_oo^-1 H_oj (internal)
+        if internal_hessian is None:
+            _, _, internal_hessian = problem.state(problem.internal(values), problem.free)
+        position = {i: k for k, i in enumerate(problem.free)}
+        rows = [position[i] for i in self.others]
+        H_oo = internal_hessian[np.ix_(rows, rows)]
+        H_oj = internal_hessian[rows, position[index]]
+        try:
+            self.follow = -np.linalg.solve(H_oo, H_oj) if self.others else np.zeros(0)
+        except np.linalg.LinAlgError:
+            self.follow = np.zeros(len(self.others))
+        if not np.all(np.isfinite(self.follow)):
+            self.follow = np.zeros(len(self.others))
+
+    def __call__(self, u, u_others_start, u_last, height=math.inf):
+        """(delta, u_others) at ``u``: chi-square above the minimum in variance units.
+
+        Gauss-Newton from the linear prediction, Levenberg-Marquardt from it where that
+        fails. A conditional minimum found far above ``height`` (the height a search is
+        after: twice it and 4 more, a jump that the secant search would read as a crossing
+        next to the last point) is checked from three starts, the prediction, the previous
+        point's others unmoved and the optimum's (and the caller's own starts, where it has
+        any), and the lowest is kept: a warm start can follow a poor branch, and a profile is
+        a minimum."""
+        problem, index = self.problem, self.index
+        pinned = {index: u}
+        if not self.others:
+            full = np.array([p.value for p in problem.parameters])
+            full[index] = self.parameter.from_internal(u)
+            chisqr = problem.chisqr(full)
+            if not math.isfinite(chisqr):
+                return math.inf, u_others_start
+            return max(chisqr - self.chisqr_min, 0.0) / self.variance, u_others_start
+        predicted = u_others_start + self.follow * (u - u_last)
+        # the tolerance: so close that one Gauss-Newton step's quadratic model gives
+        # the conditional minimum to far better than 1e-3 of 3.84 variance
+        u_found, chisqr = problem.gauss_newton(predicted, self.others, pinned, 0.02 * self.variance)
+        if chisqr is None:
+            u_found, chisqr, *_ = problem.lm(
+                u_found, self.others, pinned, max_iter=30, rtol=self.rtol
+            )
+        delta = self._delta(chisqr)
+        if delta > 2.0 * height + 4.0:
+            candidates = [predicted, u_others_start, self.u_others_hat, *self._restarts(u)]
+            for start in self._ranked(u, candidates)[:2]:
+                candidate, found, *_ = problem.lm(
+                    start, self.others, pinned, max_iter=60, rtol=self.rtol
+                )
+                if self._delta(found) < delta:
+                    u_found, delta = candidate, self._delta(found)
+        if not math.isfinite(delta):
+            return math.inf, u_others_start
+        return delta, u_found
+
+    def _restarts(self, u):
+        """The caller's own starts at ``u`` (``starts(value) -> global values``) as internal
+        coordinates of the others."""
+        if self.starts is None:
+            return []
+        value = self.parameter.from_internal(u)
+        out = []
+        for values in self.starts(value):
+            values = np.array(values, dtype=float)
+            out.append(
+                np.array([self.problem.parameters[i].to_internal(values[i]) for i in self.others])
+            )
+        return out
+
+    def _ranked(self, u, candidates):
+        """``candidates`` (the others' internal coordinates) ranked by chi-square on every 8th
+        point with the profiled parameter at ``u``; those that are not finite left out."""
+        ranked = []
+        for start in candidates:
+            pinned = {self.index: u, **dict(zip(self.others, start, strict=True))}
+            values = np.array([p.value for p in self.problem.parameters])
+            for i, ui in pinned.items():
+                values[i] = self.problem.parameters[i].from_internal(ui)
+            cost = self.problem.chisqr(values, stride=8)
+            if math.isfinite(cost):
+                ranked.append((cost, start))
+        ranked.sort(key=lambda item: item[0])
+        return [start for _, start in ranked]
+
+    def _delta(self, chisqr):
+        if chisqr is None or not math.isfinite(chisqr):
+            return math.inf
+        return max(chisqr - self.chisqr_min, 0.0) / self.variance
+
+    def point(self, u, delta, u_others):
+        """The :class:`ProfilePoint` at ``u`` with the others at ``u_others``."""
+        pinned = {self.index: u}
+        pinned.update(zip(self.others, u_others, strict=True))
+        values = np.array([p.value for p in self.problem.parameters])
+        for i, ui in pinned.items():
+            values[i] = self.problem.parameters[i].from_internal(ui)
+        return ProfilePoint(u, float(values[self.index]), float(delta), values)
+
+
+def _side(conditional, direction, targets, step, record, check=False):
+    """Secant searches, one after the other, for the coordinates where sqrt(delta) reaches
+    each of ``targets`` (increasing) on one side. With ``check``, a point past a target is
+    solved from more starts (see :class:`_Conditional`). Returns (ends, reached)."""
+    parameter = conditional.parameter
     lower_u, upper_u = parameter.internal_bounds()
-    target = math.sqrt(PROFILE_LEVEL)
-    u_others_hat = np.array([problem.parameters[i].to_internal(values[i]) for i in others])
-    # how the other parameters follow this one near the optimum: -H_oo^-1 H_oj (internal)
-    if internal_hessian is None:
-        _, _, internal_hessian = problem.state(problem.internal(values), problem.free)
-    position = {i: k for k, i in enumerate(problem.free)}
-    rows = [position[i] for i in others]
-    H_oo = internal_hessian[np.ix_(rows, rows)]
-    H_oj = internal_hessian[rows, position[index]]
-    try:
-        follow = -np.linalg.solve(H_oo, H_oj) if others else np.zeros(0)
-    except np.linalg.LinAlgError:
-        follow = np.zeros(len(others))
-    ends = []
-    exact = True
-    for direction in (-1.0, 1.0):
-        limit = upper_u if direction > 0 else lower_u
-        u_others = u_others_hat.copy()
-        u_last = u_hat
-
-        def gap(u, u_others_start, u_last):
-            pinned = {index: u}
-            if others:
-                u_found = u_others_start + follow * (u - u_last)
-                # the tolerance: so close that one Gauss-Newton step's quadratic model gives
-                # the conditional minimum to far better than 1e-3 of 3.84 variance
-                u_found, chisqr = problem.gauss_newton(u_found, others, pinned, 0.02 * variance)
-                if chisqr is None:
-                    u_found, chisqr, *_ = problem.lm(
-                        u_found, others, pinned, max_iter=30, rtol=1e-9
-                    )
-            else:
-                u_found = u_others_start
-                full = np.array([p.value for p in problem.parameters])
-                full[index] = parameter.from_internal(u)
-                chisqr = problem.chisqr(full)
-            rise = max(chisqr - chisqr_min, 0.0) / variance
-            return math.sqrt(rise) - target, u_found
-
-        step = max(wald_halfwidth_u, 1e-8)
-        points = [(u_hat, -target)]
-        u = u_hat + direction * step
+    limit = upper_u if direction > 0 else lower_u
+    u_hat = conditional.u_hat
+    u_others = conditional.u_others_hat.copy()
+    u_last = u_hat
+    origin = (u_hat, 0.0)  # where this target's search starts: (u, sqrt delta)
+    ends, reached = [], []
+    stopped = False
+    for count, target in enumerate(targets):
+        if stopped:
+            ends.append(limit)
+            reached.append(False)
+            continue
+        if count:
+            # from the previous end, a step scaled by how far the previous target lay
+            previous = targets[count - 1]
+            span = abs(ends[-1] - u_hat)
+            step = max(span * (target - previous) / max(previous, 1e-12), 1e-8)
+            origin = (ends[-1], previous)
+        points = [(origin[0], origin[1] - target)]
+        u = origin[0] + direction * step
+        height = target**2 if check else math.inf
         end = None
         for _ in range(12):
             if (direction > 0 and u >= limit) or (direction < 0 and u <= limit):
                 u = limit
-                value, u_others = gap(u, u_others, u_last)
+                delta, u_others = conditional(u, u_others, u_last, height)
                 u_last = u
-                if value < 0:
+                record.append(conditional.point(u, delta, u_others))
+                if math.sqrt(delta) - target < 0:
                     end = limit
-                    exact = False
+                    stopped = True
                     break
             else:
-                value, u_others = gap(u, u_others, u_last)
-            u_last = u
+                delta, u_others = conditional(u, u_others, u_last, height)
+                u_last = u
+                record.append(conditional.point(u, delta, u_others))
+            value = math.sqrt(delta) - target
             points.append((u, value))
             if abs(value) < 2e-2:
                 end = u
@@ -123,16 +286,125 @@ def profile_interval(
                 end = u2 - g2 / slope
                 break
             proposal = u + direction * step if slope * direction <= 0 else u2 - g2 / slope
-            # do not jump more than four steps at once, nor back past the estimate
+            # do not jump more than four steps at once, nor back past where the search began
             proposal = min(max(proposal, u - 4 * step), u + 4 * step)
-            if (proposal - u_hat) * direction <= 0:
-                proposal = u_hat + 0.5 * (u - u_hat)
+            if (proposal - origin[0]) * direction <= 0:
+                proposal = origin[0] + 0.5 * (u - origin[0])
             u = proposal
         if end is None:
+            # no crossing within the search's steps: the profile is too flat to say; the
+            # higher targets are not sought
             end = u
-            exact = False
-        ends.append(parameter.from_internal(end) if math.isfinite(end) else end)
-    low, high = ends
+            stopped = True
+            reached.append(False)
+        else:
+            reached.append(end != limit or not stopped)
+        ends.append(end)
+    return ends, reached
+
+
+def profile_scan(
+    problem,
+    values,
+    index,
+    chisqr_min,
+    targets,
+    wald_halfwidth_u,
+    *,
+    variance=1.0,
+    internal_hessian=None,
+    check=False,
+    tolerance=None,
+    starts=None,
+):
+    """Scan the profile likelihood of the global parameter ``index`` (free) on both sides of
+    the optimum ``values`` to the heights ``targets`` of sqrt(delta chi-square / variance).
+
+    Parameters
+    ----------
+    problem : Problem
+        The solved problem.
+    values : numpy.ndarray
+        The optimum's global values [SI].
+    index : int
+        The profiled parameter.
+    chisqr_min : float
+        Chi-square at the optimum.
+    targets : sequence of float
+        Heights of the signed root to reach on each side, increasing (e.g. the two-sided
+        level's quantile, then a tail quantile for a distribution).
+    wald_halfwidth_u : float
+        A first step [internal coordinate].
+    variance : float
+        The unit of delta chi-square (1 for standardised residuals).
+    internal_hessian : numpy.ndarray, optional
+        J^T J at the optimum in the optimiser's coordinates (saves a pass).
+    check : bool
+        Solve each point past a target from more starts (for likelihoods whose conditional
+        minima a warm start can miss); the default is the warm start alone.
+    tolerance : float, optional
+        The precision of delta [variance units] the conditional minima need (their
+        optimiser stops there); default a relative 1e-9 of chi-square.
+    starts : callable, optional
+        ``starts(value) -> iterable of global values``: more starts for a conditional minimum
+        at the profiled parameter's ``value`` (a likelihood with several branches), tried
+        where the warm starts jump (see :class:`_Conditional`).
+
+    Returns
+    -------
+    Profile
+    """
+    conditional = _Conditional(
+        problem, values, index, variance, chisqr_min, internal_hessian, tolerance, starts
+    )
+    record = []
+    ends, reached = {}, {}
+    step = max(wald_halfwidth_u, 1e-8)
+    for direction in (-1, 1):
+        ends[direction], reached[direction] = _side(
+            conditional, direction, list(targets), step, record, check
+        )
+    optimum = ProfilePoint(
+        conditional.u_hat, float(values[index]), 0.0, np.asarray(values, dtype=float)
+    )
+    points = tuple(sorted(record, key=lambda p: p.u))
+    return Profile(index, optimum, points, ends, reached)
+
+
+def profile_interval(
+    problem,
+    values,
+    index,
+    variance,
+    chisqr_min,
+    wald_halfwidth_u,
+    internal_hessian=None,
+    *,
+    threshold=PROFILE_LEVEL,
+):
+    """95 % profile-likelihood interval of the global parameter ``index`` (free).
+
+    The boundary is where min over the other parameters of chi-square exceeds its minimum by
+    ``threshold * variance`` (default 3.84, the 95 % quantile of chi-square with one degree of
+    freedom). The root is found on sqrt(delta chi-square), which is nearly linear in the
+    internal coordinate, by the secant method from the Wald estimate.
+    Returns ((low, high), exact) with exact False when a side ran into a bound.
+    """
+    parameter = problem.parameters[index]
+    profile = profile_scan(
+        problem,
+        values,
+        index,
+        chisqr_min,
+        (math.sqrt(threshold),),
+        wald_halfwidth_u,
+        variance=variance,
+        internal_hessian=internal_hessian,
+    )
+    low_u, high_u = profile.ends[-1][0], profile.ends[1][0]
+    exact = profile.reached[-1][0] and profile.reached[1][0]
+    low = parameter.from_internal(low_u) if math.isfinite(low_u) else low_u
+    high = parameter.from_internal(high_u) if math.isfinite(high_u) else high_u
     if parameter.log and not math.isfinite(low):
         low = 0.0
     return (float(low), float(high)), exact

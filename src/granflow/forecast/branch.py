@@ -4,19 +4,148 @@ With the slip clock nothing evolves at rest, so under an imposed force sigma(t) 
 coordinate is ``x(t) = F^-1(max_{t' <= t} sigma(t'))`` on the rising branch [x0, x_peak]
 (x0 while sigma is below F(x0)), the record's slip is ``x - x0``, and the layer fails when
 sigma reaches F_peak. No integration is needed.
+
+The inversion is compiled (:func:`branch_values`): points in order of the held force, each
+warm-started from the last by the tangent (F is concave on the rising branch, so the tangent
+from below never overshoots), then Newton's method on ``sqrt(F_peak - F(x))``, which is
+linear in x at the peak where F itself is flat, kept inside a bracket. The derivatives follow
+from the implicit function theorem: ``dx/dH = 1 / F'(x)`` with ``F'(x) = a/x - alpha (F - Fd)``,
+and ``dx/dp = -(dF/dp) / F'(x)`` for each parameter p.
 """
+
+import math
 
 import numpy as np
 
-from granflow.model.friction import friction_slip
+from granflow.model.kernel import curve_start, point, point_value
+from granflow.model.special import compiled
 
-__all__ = ["branch_slip"]
+__all__ = ["branch_slip", "branch_values"]
 
-_GRID = 1200
-_NEWTON = 3
+_BEYOND = 1e3  # the slope of the penalty past the peak, in units of the branch's mean slope
 
 
-def branch_slip(force, params, s_peak):
+@compiled
+def _invert(h, lo, x_peak, peak_force, a, alpha, fd, s0, start):
+    """The root x in [lo, x_peak] of F(x) = h (F(lo) <= h < F_peak).
+
+    Each step takes the larger of Newton's step on F (from the left of the root it stays
+    left: F is concave) and Newton's step on ``sqrt(F_peak - F)`` (linear at the peak, where
+    F is flat) while the latter stays inside the bracket; it stops when the step is below
+    1e-13 of x or below what the rounding of F allows there (1e-15 F_peak / F'(x)).
+    """
+    hi = x_peak
+    target = math.sqrt(peak_force - h)
+    x = lo
+    for _ in range(60):
+        s = alpha * x
+        f = point_value(s, math.exp(s0 - s), a, fd, 0.0, True, False, start)
+        derivative = a / x - alpha * (f - fd)
+        if f <= h:
+            lo = x
+        else:
+            hi = x
+        if not derivative > 0.0:
+            x_new = 0.5 * (lo + hi)
+        else:
+            x_new = x + (h - f) / derivative
+            gap = peak_force - f
+            if gap > 0.0:
+                w = math.sqrt(gap)
+                x_root = x + (w - target) * 2.0 * w / derivative
+                if x_root > x_new and x_root < hi:
+                    x_new = x_root
+            if not (x_new >= lo and x_new <= hi):
+                x_new = 0.5 * (lo + hi)
+            tolerance = 1e-13 * x + 1e-15 * peak_force / derivative
+            if abs(x_new - x) <= tolerance:
+                return x_new
+        x = x_new
+        if hi - lo <= 1e-15 * x_peak:
+            return x
+    return x
+
+
+@compiled
+def branch_values(base, error, nuisance, params, peak, transform, slip, jacobian):
+    """The model's slip under a held force, and its derivatives in the caller's coordinates.
+
+    Parameters
+    ----------
+    base : numpy.ndarray
+        (n,) the fitted force history at the points (or groups of points) [N].
+    error : numpy.ndarray
+        (n, m) d(history) / d(nuisance) at the points [N].
+    nuisance : numpy.ndarray
+        (m,) the nuisance coordinates z [-]: the true history is ``base + error @ z``.
+    params : tuple of float
+        ``(a, alpha, Fd, x0)`` [N, 1/m, N, m] (paper initial condition).
+    peak : tuple of float
+        ``(F_peak, x_peak)`` [N, m] of that curve.
+    transform : numpy.ndarray
+        (4, k): d(a, alpha, Fd, x0) / d(coordinates) (the identity for Eq. 3's own).
+    slip : numpy.ndarray
+        (n,) filled with the slip x - x0 [m] on the rising branch under the held force (the
+        running maximum of the true history).
+    jacobian : numpy.ndarray
+        (n, k + m) filled with d slip / d(coordinates, z).
+
+    Past the peak (a held force at or above F_peak, which a true history with the nuisance
+    shifted far may reach) the slip goes on linearly, 1e3 times steeper than the branch on
+    average: a penalty that points back (its derivative in F_peak's direction only, taken
+    as the first coordinate), not physics.
+    """
+    n, m = error.shape
+    k = transform.shape[1]
+    a, alpha, fd, x0 = params
+    peak_force, peak_slip = peak
+    start = curve_start(alpha, x0)
+    s0 = start[0]
+    f0 = fd * start[3]
+    held = -math.inf
+    argmax = 0
+    lo = x0
+    beyond = _BEYOND * (peak_slip - x0) / max(peak_force - f0, 1e-300)
+    for i in range(n):
+        h = base[i]
+        for q in range(m):
+            h += error[i, q] * nuisance[q]
+        if h > held:
+            held = h
+            argmax = i
+        h = held
+        if h <= f0:
+            slip[i] = 0.0
+            jacobian[i, :] = 0.0
+            continue
+        if h >= peak_force:
+            slip[i] = peak_slip - x0 + (h - peak_force) * beyond
+            jacobian[i, :] = 0.0
+            jacobian[i, 0] = -beyond
+            for q in range(m):
+                jacobian[i, k + q] = beyond * error[argmax, q]
+            lo = peak_slip
+            continue
+        if lo >= peak_slip:
+            lo = x0
+        x = _invert(h, lo, peak_slip, peak_force, a, alpha, fd, s0, start)
+        lo = x
+        s = alpha * x
+        values = point(x, s, math.exp(s0 - s), a, alpha, fd, x0, 0.0, True, False, start)
+        derivative = a / x - alpha * (values[0] - fd)
+        slip[i] = x - x0
+        # dx/d(a, alpha, Fd, x0) = -dF/d(...) / F'(x); then through the coordinates
+        for j in range(k):
+            total = 0.0
+            for q in range(4):
+                total -= values[1 + q] * transform[q, j]
+            jacobian[i, j] = total / derivative - transform[3, j]
+        for q in range(m):
+            jacobian[i, k + q] = error[argmax, q] / derivative
+    return 0
+
+
+def branch_slip(force, params, s_peak=None):
     """The aging coordinate x [m] on the rising branch at imposed forces ``force`` [N].
 
     Parameters
@@ -25,26 +154,31 @@ def branch_slip(force, params, s_peak):
         Imposed force [N], already the running maximum of the history.
     params : Params
         Model parameters (paper initial condition).
-    s_peak : float
-        ``alpha x_peak`` [-], the end of the rising branch.
+    s_peak : float, optional
+        Ignored (the peak is found from ``params``); kept for callers of the earlier
+        signature.
 
     Returns
     -------
     numpy.ndarray
-        x [m]: x0 below F(x0), x_peak at or above F_peak, else the root of F(x) = force
-        (linear interpolation in ln x on a grid, then Newton steps, which converge from
-        either side because F is concave on the rising branch).
+        x [m]: x0 below F(x0), x_peak at or above F_peak, else the root of F(x) = force.
     """
-    x0, x_peak = params.x0, s_peak / params.alpha
-    grid = np.geomspace(x0, x_peak, _GRID)
-    curve = friction_slip(grid, params)
-    curve = np.maximum.accumulate(curve)
-    x = np.exp(np.interp(force, curve, np.log(grid)))
-    for _ in range(_NEWTON):
-        value = friction_slip(x, params)
-        slope = params.a / x - params.alpha * (value - params.Fd)
-        inside = slope > 0
-        step = np.where(inside, (value - force) / np.where(inside, slope, 1.0), 0.0)
-        x = np.clip(x - step, x0, x_peak)
-    x = np.where(force <= curve[0], x0, x)
-    return np.where(force >= curve[-1], x_peak, x)
+    from granflow.model.friction import peak
+
+    top = peak(params)
+    force = np.ascontiguousarray(force, dtype=float)
+    order = np.argsort(force, kind="stable")
+    slip = np.empty(force.size)
+    branch_values(
+        force[order],
+        np.zeros((force.size, 0)),
+        np.zeros(0),
+        (params.a, params.alpha, params.Fd, params.x0),
+        (top.force, top.slip),
+        np.eye(4),
+        slip,
+        np.empty((force.size, 4)),
+    )
+    x = np.empty(force.size)
+    x[order] = slip + params.x0
+    return np.minimum(x, top.slip)

@@ -1,85 +1,84 @@
 """Forecast the failure of a force-controlled layer from its slow slip (quasi-static, slip
-clock): the slip record before the cut constrains a, alpha, x0 and F_peak on the rising
-branch, and the layer fails when the continued force history reaches F_peak."""
+clock): the slip record before the cut constrains the rising branch of F(x), and the layer
+fails when the continued force history reaches F_peak.
+
+The likelihood is the engine's (:func:`granflow.forecast.models.branch_problem`), in the
+peak coordinates (:mod:`granflow.forecast.coordinates`); F_peak's distribution is its
+profile's, and the failure time's is the profile of P, the force at which the fitted history
+stands when the true one reaches F_peak (:class:`~granflow.forecast.models.Continuation`).
+"""
 
 from __future__ import annotations
 
-import dataclasses
 import math
+import warnings
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from granflow import _validate as check
 from granflow.errors import InvalidDataError
+from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
-from granflow.forecast.branch import branch_slip
-from granflow.forecast.creeping import (
-    CreepLikelihood,
-    creep_amplitude,
-    fit_creep,
-    profile_failure_time,
-    staircase_edges,
-    timed_likelihood,
-    timed_vector,
-)
-from granflow.forecast.likelihood import Likelihood, _best, fit_and_profile
+from granflow.forecast.branch import branch_values
+from granflow.forecast.coordinates import natural
+from granflow.forecast.inference import data_chisqr, estimate, scan
 from granflow.forecast.loading import fit_loading
+from granflow.forecast.models import Continuation, branch_problem, group_points, projects
+from granflow.forecast.observed import find_failure
 from granflow.forecast.prior import Prior
 from granflow.forecast.results import FailureForecast
+from granflow.forecast.steps import step_cdf, step_table
+from granflow.model.params import Params
 
 if TYPE_CHECKING:
     from granflow._typing import ArrayLike
     from granflow.forecast.results import FailureForecast
 
-__all__ = ["forecast_failure"]
+__all__ = ["check_level", "check_prior", "forecast_failure", "loading_error", "sigma_argument"]
 
 _NAN_PAIR = (math.nan, math.nan)
+_RATIOS = (0.3, 0.7, 0.9)
+_INITIAL_STATES = (1e-3, 1e-2, 1e-1)
+_PEAK_FACTORS = (1.05, 1.3, 2.0)
+_RANKED = 256  # groups used to scale the starts
+_NO_TREND = 0.01  # the trend test's p-value above which the record says nothing yet
 
 
-def _no_date(until, level, loading, n_points, message, prior, bound=None, earliest=math.inf):
-    """A forecast without a date; ``bound`` (a force [N]) keeps the lower end the record
-    does give: the layer has held the force so far, so it fails no earlier (nor before
-    ``earliest`` [s], where that is earlier than the history reaching ``bound``)."""
-    interval = _NAN_PAIR
-    if bound is not None:
-        interval = (min(loading.times_at(bound, math.inf)[0], earliest), math.inf)
-    return FailureForecast(
-        time=None,
-        time_interval=interval,
-        force=None,
-        force_interval=_NAN_PAIR if bound is None else (bound, math.inf),
-        slip=None,
-        slip_interval=_NAN_PAIR,
-        until=until,
-        level=level,
-        loading=loading,
-        params={},
-        noise=math.nan,
-        n_points=n_points,
-        approaching=False,
-        prior=None if prior is None else prior.to_dict(),
-        message=message,
-    )
+def check_prior(prior):
+    """A :class:`Prior` from a Prior, a mapping or None."""
+    if prior is None or isinstance(prior, Prior):
+        return prior
+    if isinstance(prior, dict):
+        return Prior(**prior)
+    raise InvalidDataError(f"prior must be a granflow.forecast.Prior or a mapping, got {prior!r}")
 
 
-def _starts(held, slip, floor, alphas=(0.3, 1.0, 3.0)):
-    """Starting values (a, alpha, x0, F_peak) over a small grid of x0, alpha (``alphas``
-    over the record's slip) and F_peak."""
-    total = max(float(np.max(slip)), 1e-12)
-    moving = slip > 0.02 * total
-    starts = []
-    for x0 in (0.05 * total, 0.2 * total, total):
-        x = x0 + slip[moving]
-        a = float(np.polyfit(np.log(x), held[moving], 1)[0]) if moving.sum() > 2 else floor
-        a = min(max(a, 1e-3 * floor), 10.0 * floor)
-        for alpha in alphas:
-            for factor in (1.05, 1.3, 2.0):
-                starts.append((a, alpha / total, x0, floor * factor))
-    return tuple(starts), total
+def check_level(level):
+    """The confidence level, checked: a number strictly between 0 and 1."""
+    level = check.real_scalar(level, "level")
+    if not 0 < level < 1:
+        raise InvalidDataError(f"level must lie between 0 and 1, got {level:g}")
+    return level
 
 
-def _loading_error(loading, time, each_level=False):
+def sigma_argument(sigma, noise, unit):
+    """The noise level from ``sigma=`` or from the deprecated ``noise=`` (with a warning that
+    names ``sigma``); None where neither is given."""
+    if noise is not None:
+        warnings.warn(
+            "the forecasts' noise= is deprecated: pass sigma= (the same standard deviation, "
+            "as the fits take it)",
+            DeprecationWarning,
+            stacklevel=3,
+        )
+        if sigma is not None:
+            raise InvalidDataError("give sigma= or its old name noise=, not both")
+        sigma = noise
+    return None if sigma is None else check.positive(sigma, "sigma", unit)
+
+
+def loading_error(loading, time, each_level=False):
     """The fitted history's error as standard-normal coordinates z: ``c = root @ z`` (``root``
     a square root of the errors' covariance) ends with the errors (c0, c1) of its offset and
     slope on the regression's abscissa u (time for a ramp, step index for a staircase, both
@@ -121,279 +120,77 @@ def _loading_error(loading, time, each_level=False):
     return root, basis.astype(float), anchor, slope
 
 
-def _offset_and_slope(z, error):
-    """(c0, c1): the errors [N, N per unit of u] of the continued history's offset and slope
-    at coordinates z (the last two of ``root @ z``)."""
-    c = error[0] @ z
-    return c[-2], c[-1]
-
-
-def _on_fitted_history(peak_force, z, error):
-    """The force [N] at which the fitted history stands when the true history (the fitted one
-    plus its error, coordinates z) reaches ``peak_force``: both are lines on the regression's
-    abscissa beyond the record, so the failure's time (or step) is the fitted history's at
-    that force."""
-    _, _, anchor, slope = error
-    if not math.isfinite(peak_force) or z.size == 0:
-        return peak_force
-    c0, c1 = _offset_and_slope(z, error)
-    if not slope + c1 > 0:
-        return math.inf
-    return anchor + slope * (peak_force - anchor - c0) / (slope + c1)
-
-
-def _peak_at(level, z, error):
-    """The inverse of :func:`_on_fitted_history`: the true history's force [N] where the
-    fitted one stands at ``level`` [N] beyond the record."""
-    _, _, anchor, slope = error
-    if z.size == 0:
-        return level
-    c0, c1 = _offset_and_slope(z, error)
-    return anchor + c0 + (slope + c1) * (level - anchor) / slope
-
-
-def _time_profile(likelihood, fit, error, level):
-    """The profile over the force P [N] at which the fitted history stands when the layer
-    fails: the failure's time (or step) is the fitted history's at P, so P's interval is the
-    time's. Same likelihood and best fit as ``fit``, F_peak now a function of P and of the
-    history's error."""
-
-    def peak_of(level_p, z):
-        return _peak_at(level_p, z, error)
-
-    centre = _on_fitted_history(fit.peak_force, fit.nuisance, error)
-    vector = fit.vector.copy()
-    vector[3] = math.log(max(centre - likelihood.floor, 1e-300))
-    best = (vector, fit.chisqr, fit.noise, fit.threshold)
-    return fit_and_profile(dataclasses.replace(likelihood, peak_of=peak_of), level, best=best)
-
-
-_STEP_MASS = 1e-4  # steps less likely than this end the staircase's table
-_TABLE_STEPS = 1000  # at most this many steps are listed
-
-
-def _confidence(fit, likelihood):
-    """The confidence distribution of the profiled force P [N] (a function P -> [0, 1]): the
-    distribution of the signed root of the profile's statistic, ``r = sign(P - P_best)
-    sqrt(delta chi-square)``, interpolated linearly in P over the path, through the interval's
-    ends (where it is the level's quantile) and extrapolated from its outermost two nodes.
-    ``r`` is Student's t with the fit's degrees of freedom where the noise is estimated
-    (the interval's statistic is then F(1, dof)), else standard normal. Above the path of a
-    profile not bounded above, and everywhere for a path of fewer than two nodes, it
-    returns NaN: the record does not say."""
-    from scipy.stats import norm
-    from scipy.stats import t as student
-
-    nodes = {fit.peak_force: 0.0}
-    for force, delta, *_ in fit.path:
-        if math.isfinite(force) and math.isfinite(delta):
-            nodes[force] = math.copysign(math.sqrt(max(delta, 0.0)), force - fit.peak_force)
-    root = math.sqrt(fit.threshold)
-    low, high = fit.interval
-    if low > likelihood.floor:
-        nodes[low] = -root
-    if math.isfinite(high):
-        nodes[high] = root
-    force = np.array(sorted(nodes))
-    signed = np.maximum.accumulate(np.array([nodes[f] for f in force]))
-    if likelihood.noise is None:
-        dof = max(likelihood.size - 4, 1)
-
-        def cdf(r):
-            return student.cdf(r, dof)
-    else:
-        cdf = norm.cdf
-
-    def at(level):
-        if force.size < 2:
-            return math.nan  # no profile to read
-        if level > force[-1] and not math.isfinite(high):
-            return math.nan
-        if level < force[0] or level > force[-1]:
-            i = (0, 1) if level < force[0] else (-2, -1)
-            run = force[i[1]] - force[i[0]]
-            slope = (signed[i[1]] - signed[i[0]]) / run if run > 0 else 0.0
-            if slope <= 0:
-                return 0.0 if level < force[0] else 1.0
-            return float(cdf(signed[i[0]] + slope * (level - force[i[0]])))
-        return float(cdf(np.interp(level, force, signed)))
-
-    return at
-
-
-def _steps(timing, likelihood, loading, level):
-    """The staircase's failure step by step, from the time profile ``timing`` (over the force
-    P at which the fitted history stands when the layer fails): the layer fails at the start of
-    the continued step j (level ``L_j = L_last + j step``, j = 1, 2, ...) when
-    ``L_(j-1) < P <= L_j``, so that step's probability is ``C(L_j) - C(L_(j-1))`` with C the
-    confidence distribution of P (:func:`_confidence`; the record has held ``L_last``, so
-    the first step takes all the mass below its level).
-
-    Returns ``(table, interval)``: the table {"step": number of the step, the record's first
-    as 1; "level" [N]; "earliest", "latest": the range of its start [s]; "probability" [-];
-    "below": the probability of the earlier steps (together less than ``_STEP_MASS``), left
-    out; "beyond": the probability left above the last step listed, NaN where the record
-    does not bound it}; the interval [s] is the smallest run of steps about the most likely
-    ones whose probability reaches ``level``, open above where the record does not bound
-    the failure; where the profile is open above, or the table's ``_TABLE_STEPS`` steps
-    hold less than ``level``, it is the profile's own, from the step of its low end to that
-    of its high end.
-    """
-    confidence = _confidence(timing, likelihood)
-    last, step = loading.levels[-1], loading.step
-    fallback = loading.times_at(*timing.interval)
-
-    def reached(j):  # C is monotone in j: the steps before the first reached are left out
-        cumulative = confidence(last + j * step)
-        return math.isnan(cumulative) or cumulative >= _STEP_MASS
-
-    before, first = 0, 1
-    while not reached(first) and first < 2**40:
-        before, first = first, 2 * first
-    while first - before > 1:
-        middle = (before + first) // 2
-        before, first = (before, middle) if reached(middle) else (middle, first)
-    below = confidence(last + before * step) if before > 0 else 0.0
-    rows, held, beyond = [], below, math.nan
-    for j in range(first, first + _TABLE_STEPS):
-        cumulative = confidence(last + j * step)
-        if math.isnan(cumulative):
-            break  # above the path of a profile open above: the record does not say
-        rows.append((len(loading.levels) + j, last + j * step, max(cumulative - held, 0.0)))
-        held = max(held, cumulative)
-        if 1.0 - held < _STEP_MASS:
-            break
-    if rows and not math.isnan(confidence(rows[-1][1] + step)):
-        beyond = 1.0 - held
-    earliest, latest = loading.step_starts(len(loading.levels) - 1 + first, len(rows))
-    table = {
-        "step": [row[0] for row in rows],
-        "level": [row[1] for row in rows],
-        "earliest": earliest.tolist(),
-        "latest": latest.tolist(),
-        "probability": [row[2] for row in rows],
-        "below": float(below),
-        "beyond": beyond,
-    }
-    probability = np.array(table["probability"])
-    chosen = np.argsort(-probability, kind="stable")
-    enough = np.flatnonzero(np.cumsum(probability[chosen]) >= level - 1e-12)
-    if not enough.size or not math.isfinite(timing.interval[1]):
-        # open above, or more steps likely than the table lists: the profile's own ends
-        return table, fallback
-    kept = chosen[: enough[0] + 1]
-    best = loading.edge_range(timing.peak_force)
-    low = min(table["earliest"][int(kept.min())], best[0])
-    return table, (low, max(table["latest"][int(kept.max())], best[1]))
-
-
-_AMPLITUDE_STARTS = (0.003, 0.01, 0.03)  # A over the quasi-static F_peak
-_VELOCITY_STARTS = (-1.0, 0.0, 1.0)  # v_ref: the record's last velocity times exp(3 w)
-_ALPHA_STARTS = (0.1, 0.3, 1.0, 3.0)  # alpha over the record's slip
-
-
-def _forecast_creep(quasi_static, record, until, level, amplitude, prior):
-    """The forecast with the direct effect (:mod:`granflow.forecast.creeping`), started from
-    the quasi-static fit: v_ref at the record's last velocity (so that the lag of the
-    friction behind the force vanishes there) and A at a few fractions of F_peak unless it
-    is given."""
-    time, slip_cut, loading, error = record
-    scale = quasi_static.scale
-    u_static, _ = _best(quasi_static, scale, False)
-    peak_static = quasi_static.floor + math.exp(u_static[3])
-    tail = max(time.size // 10, 3)
-    slope = np.polyfit(time[-tail:], slip_cut[-tail:], 1)[0]
-    velocity = max(float(slope), float(np.ptp(slip_cut)) / max(float(np.ptp(time)), 1e-300))
-    fixed = amplitude is not None
-    centre = (amplitude if fixed else 0.01 * peak_static, velocity, peak_static)
-    likelihood = CreepLikelihood(
-        time=time,
-        slip=slip_cut,
-        loading=loading,
-        error=error,
-        centre=centre,
-        fixed_amplitude=fixed,
-        floor=0.0,
-        size=time.size,
-        bounds=quasi_static.bounds,
-        ceiling=quasi_static.floor,
-        window=max((hi - lo for lo, hi in loading.windows), default=0.0),
-        edges=staircase_edges(loading),
-        prior=quasi_static.prior,
-        prior_size=quasi_static.prior_size,
-        noise=quasi_static.noise,
-        scale=scale,
-    )
-    # the quasi-static best fit and a wider grid than its starts, at each amplitude and at
-    # reference velocities about the last one
-    held = np.maximum.accumulate(loading.force(time))
-    grid, _ = _starts(held, np.maximum(slip_cut, 0.0), quasi_static.floor, _ALPHA_STARTS)
-    starts = []
-    for a, alpha, x0, peak_force in [(*np.exp(u_static[:3]), peak_static), *grid]:
-        for factor in (0.01,) if fixed else _AMPLITUDE_STARTS:
-            for shift in _VELOCITY_STARTS:
-                u = np.concatenate([np.log([a, alpha, x0, peak_force]), np.zeros(6)])
-                u[4] = math.log(factor / 0.01)
-                u[5] = shift
-                u[8:] = u_static[-2:]  # the offset's and the slope's (the last two)
-                starts.append(u)
-    fit, best = fit_creep(likelihood, starts, level)
-    state = fit.params
-    n_points = time.size
-    held = quasi_static.floor
-    if state.peak_force > 20.0 * held or not math.isfinite(state.failure_time):
-        message = "the fitted creep shows no failure in sight: no sign of approaching failure"
-        # the lower ends the record does give: F_peak's, and the failure times on its profile
-        earliest = fit.along(lambda s: s.failure_time)[0]
-        bound = fit.interval[0]
-        return _no_date(until, level, loading, n_points, message, prior, bound, earliest)
-    timed = timed_likelihood(likelihood, state, until)
-    u_time = timed_vector(likelihood, best[0], state, until)
-    timing, time_fit = profile_failure_time(timed, level, (u_time, *best[1:]))
-    # the failure times along the strength's profile lie in the time's confidence set too,
-    # and the strengths along the time's in the strength's: where one profile stalls (a
-    # branch it cannot follow from its warm starts), the other widens it
-    along = fit.along(lambda s: s.failure_time)
-    interval = (min(timing[0], along[0]), max(timing[1], along[1]))
-    along = time_fit.along(lambda s: s.peak_force)
-    force_interval = (min(fit.interval[0], along[0]), max(fit.interval[1], along[1]))
-    message = ""
-    if math.isinf(interval[1]):
-        message = "the record does not yet bound the failure from above"
-    p = state.params
+def _no_date(until, level, loading, n_points, message, prior, observed=None, bound=None):
+    """A forecast without a date; ``bound`` (a force [N]) keeps the lower end the record
+    does give: the layer has held the force so far, so it fails no earlier."""
+    interval = _NAN_PAIR
+    if bound is not None:
+        interval = (loading.times_at(bound, math.inf)[0], math.inf)
     return FailureForecast(
-        time=state.failure_time,
+        time=None,
         time_interval=interval,
-        force=state.peak_force,
-        force_interval=force_interval,
-        slip=state.peak_slip - p.x0,
-        slip_interval=fit.along(lambda s: s.peak_slip - s.params.x0),
+        force=None,
+        force_interval=_NAN_PAIR if bound is None else (bound, math.inf),
+        slip=None,
+        slip_interval=_NAN_PAIR,
         until=until,
         level=level,
         loading=loading,
-        params={
-            "a": p.a,
-            "alpha": p.alpha,
-            "Fd": p.Fd,
-            "x0": p.x0,
-            "A": state.amplitude,
-            "v_ref": state.velocity,
-        },
-        noise=fit.noise,
+        params=FrozenMap(),
+        sigma=math.nan,
         n_points=n_points,
-        approaching=True,
+        approaching=False,
         prior=None if prior is None else prior.to_dict(),
         message=message,
-        method="model (creep)",
+        cdf={"time": [], "probability": []},
+        observed_failure=None if observed is None else observed.time,
+        observed=None if observed is None else _observed_dict(observed),
     )
 
 
-def _check_prior(prior):
-    if prior is None or isinstance(prior, Prior):
-        return prior
-    if isinstance(prior, dict):
-        return Prior(**prior)
-    raise InvalidDataError(f"prior must be a granflow.forecast.Prior or a mapping, got {prior!r}")
+def _observed_dict(observed):
+    return {"window": list(observed.window), "force": observed.force, "index": observed.index}
+
+
+def _starts(groups, floor, m, project):
+    """Starting slot values (gap, ratio, s0[, x_peak], z = 0) over a grid of the curve's
+    shape and F_peak. The slip scales with x_peak at fixed F_peak, ratio and s0, so each
+    start takes the x_peak that fits the record best (a linear least-squares scale), which
+    the projected model finds itself."""
+    stride = max(groups.base.size // _RANKED, 1)
+    base = np.ascontiguousarray(groups.base[::stride])
+    weight = groups.count[::stride]
+    data = groups.mean[::stride]
+    unit = np.empty(base.size)
+    scratch = np.empty((base.size, 4))
+    transform = np.empty((4, 4))
+    starts = []
+    for factor in _PEAK_FACTORS:
+        peak_force = floor * factor
+        for ratio in _RATIOS:
+            for s0 in _INITIAL_STATES:
+                a, alpha, fd, x0, _ = natural(peak_force, ratio, s0, 1.0, transform)
+                if not math.isfinite(alpha):
+                    continue
+                start = [peak_force - floor, ratio, s0]
+                if not project:
+                    branch_values(
+                        base,
+                        np.zeros((base.size, 0)),
+                        np.zeros(0),
+                        (a, alpha, fd, x0),
+                        (peak_force, 1.0),
+                        transform,
+                        unit,
+                        scratch,
+                    )
+                    norm = float(np.sum(weight * unit * unit))
+                    x_peak = float(np.sum(weight * unit * data)) / norm if norm > 0 else 0.0
+                    if not (math.isfinite(x_peak) and x_peak > 0):
+                        continue
+                    start.append(x_peak)
+                starts.append(start + [0.0] * m)
+    return starts
 
 
 def forecast_failure(
@@ -404,37 +201,38 @@ def forecast_failure(
     *,
     prior: Any = None,
     level: float = 0.9,
-    noise: float | None = None,
+    sigma: float | None = None,
     direct_effect: Any = None,
+    noise: float | None = None,
 ) -> FailureForecast:
     """Forecast when a layer under a rising imposed force fails, from its slip before ``until``.
 
     Quasi-static with the slip clock (SPEC §2): the layer creeps up the rising branch of F(x),
     ``x0 + slip(t) = F^-1(sigma(t))``, and fails when the imposed force sigma reaches F_peak.
     The force history is read from ``force`` (a ramp's line, or a staircase's levels) and
-    continued beyond the cut. The interval is the profile likelihood's for F_peak (the other
-    parameters re-fitted at each F_peak, the slip noise estimated from the residuals).
+    continued beyond the cut. F_peak's distribution is its profile likelihood's (the other
+    parameters re-fitted at each F_peak, the slip noise estimated from the residuals: Student's
+    t), and every interval, probability and step probability of the forecast comes from it.
 
     The fitted history is itself uncertain (the force column is noisy), and the slip is very
-    sensitive to it near the peak: an error of the history of a fraction of the force noise
-    can shift the slip by as much as its noise. So the history's error, a line
-    ``c0 + c1 u`` on the regression's abscissa (time, or step index) with the regression's
-    covariance, enters the likelihood as two standard-normal nuisance coordinates, fitted
-    and profiled with the others (errors in variables); the slip record then constrains the
-    history too. (An irregular staircase, whose levels are each their own step's mean, has
-    no such line: each level then has its own error coordinate, and the slope is the
-    continuing step's, as uncertain as the record's step heights differ, which acts beyond
-    the record only.) The failure time has its own profile, over
-    the force at which the fitted history stands when the true history (fitted plus error)
-    reaches F_peak: the time (or step) at which the fitted history reaches that force.
+    sensitive to it near the peak. So the history's error, a line ``c0 + c1 u`` on the
+    regression's abscissa (time, or step index) with the regression's covariance, enters the
+    likelihood as standard-normal nuisance coordinates, fitted and profiled with the others
+    (errors in variables). (An irregular staircase, whose levels are each their own step's
+    mean, has no such line: each level then has its own coordinate, and the slope is the
+    continuing step's, as uncertain as the record's step heights differ.) The failure time
+    has its own profile, over the force at which the fitted history stands when the true
+    history reaches F_peak.
+
     Under a staircase the layer fails at the start of the first step that reaches F_peak,
-    each start bounded by the samples between which the record's steps began (their
-    regular spacing continued beyond the record). That outcome is discrete: the forecast gives
-    each step beyond the record its probability (``steps``, from the confidence
-    distribution of the force at failure, the signed root of its profile likelihood), and
-    the time interval is the smallest run of whole steps about the most likely ones whose
-    probability reaches ``level``. It holds the failure as often as its steps claim
-    (``time_probability``), which is more than ``level`` once one step is nearly certain.
+    each start bounded by the samples between which the record's steps began (their regular
+    spacing continued beyond the record): the forecast gives each step beyond the record its
+    probability (``steps``), and the time interval is the smallest run of whole steps about
+    the most likely ones whose probability reaches ``level``.
+
+    A record that already shows its failure (the slip running away: see
+    :mod:`granflow.forecast.observed`) says so: ``observed_failure`` is its time, and the
+    forecast uses the samples before it only (``until`` is cut there).
 
     Parameters
     ----------
@@ -445,29 +243,27 @@ def forecast_failure(
     force : array_like
         Imposed force at ``t`` [N].
     until : float, optional
-        The cut [s]: only points with ``t <= until`` are used; default the whole record.
+        The cut [s]: only points with ``t <= until`` are used; default the whole record (or,
+        where it shows its failure, up to the last sample before it).
     prior : Prior or mapping, optional
         Gaussian priors on a, alpha, Fd from other runs (:class:`~granflow.forecast.Prior`).
     level : float
         Level of the predictive intervals [-]; default 0.9.
-    noise : float, optional
+    sigma : float, optional
         Slip noise standard deviation [m]; default estimated from the fit's residuals.
     direct_effect : bool, float or DirectEffect, optional
         None (default): the quasi-static model above. Otherwise the layer creeps with the
-        direct effect of :class:`granflow.DirectEffect`, ``dx/dt = 2 v_ref sinh(sigma/A)
-        exp(-F(x)/A)``, and fails when it runs past the peak of F(x), at a continuous time
-        even under a staircase, and below F_peak after a long enough hold (static fatigue):
-        ``True`` fits the amplitude A [N], a float or ``DirectEffect(amplitude=A)`` holds it
-        fixed; v_ref is fitted (:mod:`granflow.forecast.creeping`). ``force`` is then still
-        the strength F_peak, which the force at failure exceeds under a fast ramp (the layer
-        lags behind) and falls short of after a long hold. The history's error is handled
-        as in the quasi-static model (two nuisance coordinates, fitted and profiled).
+        direct effect of :class:`granflow.DirectEffect` (:mod:`granflow.forecast.creeping`):
+        ``True`` fits the amplitude A [N], a float or ``DirectEffect(amplitude=A)`` holds it.
+    noise : float, optional
+        Deprecated name of ``sigma``.
 
     Returns
     -------
     FailureForecast
-        ``time``, ``time_interval`` [s], ``force``, ``force_interval`` [N], ``slip`` [m] ...;
-        ``time`` is None with a ``message`` when the record shows no approaching failure.
+        ``time``, ``time_interval`` [s], ``force``, ``force_interval`` [N], ``slip`` [m],
+        ``probability_within(seconds)``; ``time`` is None with a ``message`` when the record
+        shows no approaching failure.
 
     Raises
     ------
@@ -484,91 +280,162 @@ def forecast_failure(
     >>> bool(ff.time_interval[0] <= truth <= ff.time_interval[1])
     True
     """
+    from granflow.forecast.creeping import creep_amplitude
+
     amplitude = None if direct_effect is None else creep_amplitude(direct_effect)
-    level = check.real_scalar(level, "level")
-    if not 0 < level < 1:
-        raise InvalidDataError(f"level must lie between 0 and 1, got {level:g}")
-    prior = _check_prior(prior)
-    time, cut, until = _inputs.record(t, {"slip": (slip, "m"), "force": (force, "N")}, until)
-    if noise is not None:
-        noise = check.positive(noise, "noise", "m")
+    level = check_level(level)
+    prior = check_prior(prior)
+    sigma = sigma_argument(sigma, noise, "m")
+    whole, columns, _ = _inputs.record(t, {"slip": (slip, "m"), "force": (force, "N")}, None)
+    observed = find_failure(whole, columns["slip"], columns["force"])
+    message = ""
+    if observed is not None:
+        last = float(whole[observed.index])
+        if until is None or check.real_scalar(until, "until", "s") > last:
+            if until is not None:
+                message = (
+                    f"the record fails at {observed.time:.4g} s: forecast from the samples "
+                    f"before it (up to {last:.4g} s), not up to until = {float(until):.4g} s"
+                )
+            until = last
+    time, cut, until = _inputs.record(
+        whole, {"slip": (columns["slip"], "m"), "force": (columns["force"], "N")}, until
+    )
+    slip_cut = cut["slip"]
     loading = fit_loading(time, cut["force"])
     if loading.rate <= 0:
-        message = "the imposed force does not rise, so it never reaches the peak"
-        return _no_date(until, level, loading, time.size, message, prior)
-    held = np.maximum.accumulate(loading.force(time))
-    slip_cut = cut["slip"]
-    spread = 1.4826 * float(np.median(np.abs(np.diff(slip_cut)))) + 1e-300
-    if float(np.ptp(slip_cut)) < 10.0 * spread:
-        message = "the layer has not slipped beyond the noise: no sign of approaching failure"
-        return _no_date(until, level, loading, time.size, message, prior)
-    floor = float(held[-1])
-    starts, total = _starts(held, np.maximum(slip_cut, 0.0), floor)
-    error = _loading_error(loading, time, each_level=True)
-    root, basis = error[0], error[1]
+        text = "the imposed force does not rise, so it never reaches the peak"
+        return _no_date(until, level, loading, time.size, text, prior, observed)
+    if amplitude is not None or direct_effect is not None:
+        from granflow.forecast.creeping import forecast_creep
+
+        return forecast_creep(
+            time, slip_cut, loading, until, level, amplitude, prior, sigma, observed, message
+        )
+    return _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, message)
+
+
+def _trend_test(fit, groups):
+    """The p-value of the fitted rising branch against a slip that does not move (a
+    constant): an F test of the data's chi-square, 3 parameters more, ``n - 4`` degrees of
+    freedom (the normal's chi-square where the noise was given)."""
+    from scipy.special import chdtrc, fdtrc
+
+    weights = groups.count / fit.sigma**2
+    mean = float(np.sum(weights * groups.mean) / np.sum(weights))
+    within = groups.within / fit.sigma**2
+    flat = float(np.sum(weights * (groups.mean - mean) ** 2)) + within
+    fitted = data_chisqr(fit.problem, fit.values) + within
+    gain = max(flat - fitted, 0.0)
+    if fit.dof is None:
+        return float(chdtrc(3, gain))
+    return float(fdtrc(3, fit.dof, (gain / 3.0) / max(fitted / fit.dof, 1e-300)))
+
+
+def _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, message):
+    """The quasi-static forecast of a checked record cut at ``until``."""
+    root, basis, anchor, slope = loading_error(loading, time, each_level=True)
     base = loading.force(time)
+    groups = group_points(base, basis @ root, slip_cut)
+    floor = float(np.max(base))
+    m = root.shape[1]
+    continuation = Continuation(anchor, slope, root[-2].copy(), root[-1].copy())
+    project = projects(prior)
+    shape = 3 if project else 4
 
-    def residuals(params, s_peak, z):
-        true = np.maximum.accumulate(base + basis @ (root @ z))
-        return slip_cut - (branch_slip(true, params, s_peak) - params.x0)
+    def build(noise, values, timed=False):
+        return branch_problem(
+            groups,
+            floor,
+            noise,
+            values,
+            prior=prior,
+            continuation=continuation if timed else None,
+        )
 
-    likelihood = Likelihood(
-        residuals=residuals,
-        floor=floor,
-        starts=starts,
-        bounds=((1e-4 * floor, 1e-3 / total, 1e-6 * total), (100 * floor, 1e3 / total, 10 * total)),
-        size=time.size,
-        prior=None if prior is None else prior.residuals,
-        prior_size=0 if prior is None else len(prior.names),
-        noise=noise,
-        scale=_inputs.rough_noise(slip_cut),
-        nuisance=root.shape[0],
+    fit = estimate(
+        lambda noise, values: build(noise, values)[0],
+        _starts(groups, floor, m, project),
+        size=groups.size,
+        within=groups.within,
+        sigma=sigma,
+        rough=_inputs.rough_noise(slip_cut),
+        nuisance=shape,
     )
-    if direct_effect is not None:
-        return _forecast_creep(
-            likelihood,
-            (time, slip_cut, loading, _loading_error(loading, time)),
-            until,
-            level,
-            amplitude,
-            prior,
+    values = fit.values
+    curve = build(fit.sigma, values)[1]
+    trend = _trend_test(fit, groups)
+    if trend > _NO_TREND:
+        text = (
+            "the layer has not slipped beyond the noise (the slip's trend against none: "
+            f"p = {trend:.2g}): no information on the failure yet"
         )
-    fit = fit_and_profile(likelihood, level)
-    low, high = fit.interval
-    message = ""
-    if math.isinf(high):
-        message = "the record does not yet bound the failure from above"
-    if fit.peak_force > 0.99 * 20.0 * floor:
-        message = (
-            "the fitted peak lies beyond any plausible load: no sign of approaching failure "
-            f"(not before {loading.times_at(low, low)[0]:.4g} s)"
-        )
-        return _no_date(until, level, loading, time.size, message, prior, bound=low)
-    params = fit.params
-    timing = _time_profile(likelihood, fit, error, level)
-    from granflow.model.friction import peak
+        return _no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
+    def shapes(gap):
+        """More starts at a gap (the shape grid, the nuisance at its optimum)."""
+        return [
+            [gap, ratio, s0, *values[3:shape], *values[shape:]]
+            for ratio in _RATIOS
+            for s0 in _INITIAL_STATES
+        ]
 
-    def rise(p):
-        return peak(p).slip - p.x0
-
-    steps, interval = None, loading.times_at(*timing.interval)
+    force_profile, strength = scan(fit, 0, level, offset=floor, starts=shapes)
+    # the time: the same likelihood with P (the fitted history's force at failure) for F_peak
+    timed = values.copy()
+    level_p = continuation.level(floor + values[0], values[shape:])
+    timed[0] = max(level_p - floor, 1e-9 * floor) if math.isfinite(level_p) else 99.0 * floor
+    time_problem = build(fit.sigma, timed, timed=True)[0]
+    _, timing = scan(
+        fit, 0, level, offset=floor, problem=time_problem, values=timed, starts=shapes
+    )
+    force_interval = strength.interval(level)
+    level_interval = timing.interval(level)
+    steps = None
     if loading.kind == "steps":
-        steps, interval = _steps(timing, likelihood, loading, level)
+        steps, time_interval = step_table(timing, loading, level)
+        cdf_time, cdf_probability = step_cdf(steps)
+    else:
+        time_interval = loading.times_at(*level_interval)
+        nodes, probabilities = timing.table()
+        cdf_time = [loading.time_at(q) for q in nodes]
+        cdf_probability = probabilities
+    median = timing.median()
+    approaching = math.isfinite(median)
+    if not approaching:
+        message = message or "the record does not yet bound the failure: no date"
+    elif math.isinf(time_interval[1]):
+        message = message or "the record does not yet bound the failure from above"
+    best = curve(values)[2]
+    params = None if best is None else Params(*best[0])
+    slips = [] if best is None else [best[1][1] - params.x0]
+    for point in force_profile.points:
+        if force_interval[0] <= floor + point.value <= force_interval[1]:
+            found = curve(point.values)[2]
+            if found is not None:
+                slips.append(found[1][1] - found[0][3])
+    slip_interval = (min(slips), max(slips)) if slips else _NAN_PAIR
+    if math.isinf(force_interval[1]):
+        slip_interval = (slip_interval[0], math.inf)
     return FailureForecast(
-        time=loading.time_at(timing.peak_force),
-        time_interval=interval,
-        force=fit.peak_force,
-        force_interval=fit.interval,
-        slip=rise(params),
-        slip_interval=fit.along(rise),
+        time=loading.time_at(median) if approaching else None,
+        time_interval=time_interval,
+        force=floor + values[0] if approaching else None,
+        force_interval=force_interval,
+        slip=slips[0] if approaching and slips else None,
+        slip_interval=slip_interval,
         until=until,
         level=level,
         loading=loading,
-        params={"a": params.a, "alpha": params.alpha, "Fd": params.Fd, "x0": params.x0},
-        noise=fit.noise,
+        params=FrozenMap(
+            {} if params is None else {n: getattr(params, n) for n in ("a", "alpha", "Fd", "x0")}
+        ),
+        sigma=fit.sigma,
         n_points=time.size,
-        approaching=True,
+        approaching=approaching,
         prior=None if prior is None else prior.to_dict(),
         message=message,
         steps=steps,
+        cdf={"time": [float(v) for v in cdf_time], "probability": list(cdf_probability)},
+        observed_failure=None if observed is None else observed.time,
+        observed=None if observed is None else _observed_dict(observed),
     )

@@ -1,6 +1,7 @@
 """Forecast the static yield of a rate-controlled start-up from its beginning: fit Eq. 3 to
-the record before the cut with F_peak as a parameter, and carry the profile likelihood of
-F_peak to the peak's slip and time."""
+the record before the cut in the peak coordinates (:mod:`granflow.forecast.coordinates`),
+in which F_peak and the peak's slip x_peak are parameters, and read the distributions of
+both from their profiles (the peak's time is x_peak / v)."""
 
 from __future__ import annotations
 
@@ -11,11 +12,13 @@ import numpy as np
 
 from granflow import _validate as check
 from granflow.errors import InvalidDataError
+from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
-from granflow.forecast.failure import _check_prior
-from granflow.forecast.likelihood import Likelihood, fit_and_profile
+from granflow.forecast.coordinates import natural
+from granflow.forecast.failure import check_level, check_prior, sigma_argument
+from granflow.forecast.inference import estimate, scan
+from granflow.forecast.models import startup_problem, startup_values
 from granflow.forecast.results import PeakForecast
-from granflow.model.friction import friction_time, peak
 from granflow.model.run import Run
 
 if TYPE_CHECKING:
@@ -24,6 +27,11 @@ if TYPE_CHECKING:
     from granflow.model.run import Run
 
 __all__ = ["forecast_peak"]
+
+_RATIOS = (0.3, 0.6, 0.85)
+_INITIAL_STATES = (1e-3, 1e-2, 1e-1)
+_SLIP_FACTORS = (0.5, 1.0, 2.0, 4.0)  # x_peak over the record's slip
+_RANKED = 256  # points used to scale the starts
 
 
 def _columns(run_or_t):
@@ -39,14 +47,30 @@ def _columns(run_or_t):
     return t, force, None
 
 
-def _starts(force, scale, span):
-    top = float(np.max(force))
-    return tuple(
-        (0.3 * top, alpha / span, x0 * span, top * factor)
-        for x0 in (0.002, 0.02, 0.1)
-        for alpha in (0.3, 1.0, 3.0)
-        for factor in (1.02, 1.15, 1.5)
-    )
+def _starts(time, force, velocity):
+    """Starting values (F_peak, r, s0, x_peak) over a grid of the curve's shape and x_peak
+    (over the record's slip), each with the F_peak that fits best: at fixed r, s0 and
+    x_peak the force scales with F_peak (a linear least-squares scale)."""
+    stride = max(time.size // _RANKED, 1)
+    t = np.ascontiguousarray(time[::stride])
+    data = force[::stride]
+    span = velocity * float(time[-1])
+    unit = np.empty(t.size)
+    jacobian = np.empty((t.size, 4))
+    starts = []
+    for ratio in _RATIOS:
+        for s0 in _INITIAL_STATES:
+            for factor in _SLIP_FACTORS:
+                peak_slip = factor * span
+                if startup_values(t, velocity, 1.0, ratio, s0, peak_slip, unit, jacobian):
+                    continue
+                norm = float(unit @ unit)
+                peak_force = float(unit @ data) / norm if norm > 0 else 0.0
+                if math.isfinite(peak_force) and peak_force > 0:
+                    starts.append([peak_force, ratio, s0, peak_slip])
+    if not starts:
+        raise InvalidDataError("the friction force never rises above zero before the cut")
+    return starts
 
 
 def forecast_peak(
@@ -56,10 +80,16 @@ def forecast_peak(
     *,
     prior: Any = None,
     level: float = 0.9,
+    sigma: float | None = None,
     noise: float | None = None,
 ) -> PeakForecast:
     """Forecast the peak (static yield) of a rate-controlled start-up from the record before
     ``until``.
+
+    Eq. 3 (paper initial condition, the force held at F(x0) before the model takes over) is
+    fitted in its peak coordinates ``(F_peak, Fd / F_peak, alpha x0, x_peak)``; F_peak's and
+    x_peak's distributions are their profile likelihoods' (the force noise estimated from
+    the residuals: Student's t), and the peak's time is x_peak / v on the record's clock.
 
     Parameters
     ----------
@@ -74,13 +104,16 @@ def forecast_peak(
         Gaussian priors on a, alpha, Fd from other runs of the campaign.
     level : float
         Level of the predictive intervals [-]; default 0.9.
-    noise : float, optional
+    sigma : float, optional
         Force noise standard deviation [N]; default estimated from the fit.
+    noise : float, optional
+        Deprecated name of ``sigma``.
 
     Returns
     -------
     PeakForecast
-        ``force``, ``force_interval`` [N], ``slip`` [m], ``time`` [s] and their intervals.
+        ``force``, ``force_interval`` [N], ``slip`` [m], ``time`` [s] and their intervals;
+        ``probability_within(seconds)``.
 
     Raises
     ------
@@ -103,51 +136,53 @@ def forecast_peak(
     if velocity is None:
         raise InvalidDataError("forecast_peak needs the start-up's velocity [m/s]")
     velocity = check.positive(velocity, "velocity", "m/s")
-    level = check.real_scalar(level, "level")
-    if not 0 < level < 1:
-        raise InvalidDataError(f"level must lie between 0 and 1, got {level:g}")
-    prior = _check_prior(prior)
+    level = check_level(level)
+    prior = check_prior(prior)
+    sigma = sigma_argument(sigma, noise, "N")
     time, cut, until = _inputs.record(t, {"force": (force, "N")}, until)
     values = cut["force"]
-    if noise is not None:
-        noise = check.positive(noise, "noise", "N")
-    span = velocity * float(time[-1])
-    top = float(np.max(values))
-    if not top > 0:
+    if not float(np.max(values)) > 0:
         raise InvalidDataError("the friction force never rises above zero before the cut")
 
-    def residuals(params, s_peak):
-        return values - friction_time(time, params, velocity, below="hold")
+    def build(noise_level, start):
+        return startup_problem(time, values, velocity, noise_level, start, prior=prior)
 
-    likelihood = Likelihood(
-        residuals=residuals,
-        floor=0.0,
-        starts=_starts(values, top, span),
-        bounds=((1e-4 * top, 1e-3 / span, 1e-6 * span), (100 * top, 1e3 / span, 10 * span)),
+    fit = estimate(
+        build,
+        _starts(time, values, velocity),
         size=time.size,
-        prior=None if prior is None else prior.residuals,
-        prior_size=0 if prior is None else len(prior.names),
-        noise=noise,
-        scale=_inputs.rough_noise(values),
+        within=0.0,
+        sigma=sigma,
+        rough=_inputs.rough_noise(values),
     )
-    fit = fit_and_profile(likelihood, level)
-    slip = peak(fit.params).slip
-    slip_interval = fit.along(lambda p: peak(p).slip)
-    message = "" if math.isfinite(fit.interval[1]) else "the record does not bound F_peak above"
-    p = fit.params
+    _, strength = scan(fit, 0, level)
+    _, reach = scan(fit, 3, level)
+    best = fit.values
+    transform = np.empty((4, 4))
+    a, alpha, fd, x0, _ = natural(*best[:4], transform)
+    force_interval = strength.interval(level)
+    slip_interval = reach.interval(level)
+    message = ""
+    if math.isinf(force_interval[1]) or math.isinf(slip_interval[1]):
+        message = "the record does not bound the peak from above"
+    nodes, probabilities = reach.table()
     return PeakForecast(
-        force=fit.peak_force,
-        force_interval=fit.interval,
-        slip=slip,
+        force=float(best[0]),
+        force_interval=force_interval,
+        slip=float(best[3]),
         slip_interval=slip_interval,
-        time=slip / velocity,
+        time=float(best[3]) / velocity,
         time_interval=(slip_interval[0] / velocity, slip_interval[1] / velocity),
         velocity=velocity,
         until=until,
         level=level,
-        params={"a": p.a, "alpha": p.alpha, "Fd": p.Fd, "x0": p.x0},
-        noise=fit.noise,
+        params=FrozenMap({"a": a, "alpha": alpha, "Fd": fd, "x0": x0}),
+        sigma=fit.sigma,
         n_points=time.size,
         prior=None if prior is None else prior.to_dict(),
         message=message,
+        cdf={
+            "time": [float(q) / velocity for q in nodes],
+            "probability": [float(p) for p in probabilities],
+        },
     )

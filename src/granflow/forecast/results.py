@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from granflow._html import HtmlReport
-from granflow.fitting.results import decode, encode
+from granflow.fitting.results import FrozenMap, decode, encode
 from granflow.forecast.loading import Loading
 
 if TYPE_CHECKING:
@@ -46,6 +46,28 @@ def _fmt_interval(pair, scale, unit):
     return f"[{_fmt(pair[0], scale, '')}, {_fmt(pair[1], scale, '')}] {unit}"
 
 
+def _within(cdf, until, seconds):
+    """CDF of a tabulated time distribution at ``until + seconds`` [s] (0 before its first
+    node; its last value after its last)."""
+    import numbers
+
+    if not isinstance(seconds, numbers.Real) or isinstance(seconds, bool):
+        from granflow.errors import InvalidDataError
+
+        raise InvalidDataError(f"seconds must be a number [s], got {seconds!r}")
+    seconds = float(seconds)
+    if not seconds >= 0:
+        from granflow.errors import InvalidDataError
+
+        raise InvalidDataError(f"seconds must be zero or positive [s], got {seconds:g}")
+    times, probability = cdf.get("time", []), cdf.get("probability", [])
+    if not times:
+        return 0.0
+    when = until + seconds
+    value = float(np.interp(when, times, probability, left=0.0, right=probability[-1]))
+    return min(max(value, 0.0), 1.0)
+
+
 class _Codec(HtmlReport):
     """to_dict/from_dict of a flat frozen dataclass of floats, pairs, strings and dicts."""
 
@@ -56,6 +78,8 @@ class _Codec(HtmlReport):
             value = getattr(self, item.name)
             if hasattr(value, "to_dict"):
                 value = value.to_dict()
+            elif isinstance(value, FrozenMap):
+                value = dict(value)
             elif isinstance(value, tuple):
                 value = list(value)
             out[item.name] = value
@@ -64,24 +88,55 @@ class _Codec(HtmlReport):
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Any:
         """Inverse of :meth:`to_dict`."""
-        d = decode(d, cls)
+        d = dict(decode(d, cls))
+        if "noise" in d and "sigma" not in d:  # written before sigma took noise's place
+            d["sigma"] = d.pop("noise")
         values = {}
         for item in dataclasses.fields(cls):
+            if item.name not in d and item.default is not dataclasses.MISSING:
+                continue
             value = d.get(item.name)
             if item.name.endswith("_interval"):
                 value = _interval(value)
             elif item.name == "loading" and value is not None:
                 value = Loading.from_dict(value)
             elif item.name == "params":
-                value = dict(value or {})
+                value = FrozenMap(value or {})
             elif isinstance(value, float | int) and not isinstance(value, bool):
                 value = int(value) if item.type in (int, "int") else float(value)
             values[item.name] = value
         return cls(**values)
 
 
+class _Fitted:
+    """What every model-based forecast shares with the fits: ``to_params()`` and the noise
+    under its fits' name, ``sigma`` (``noise`` still answers, with a warning)."""
+
+    def to_params(self) -> Any:
+        """The best-fit parameters as :class:`granflow.Params` (slip domain, SI); None where
+        the forecast has none."""
+        from granflow.model.params import Params
+
+        if not all(name in self.params for name in ("a", "alpha", "Fd", "x0")):
+            return None
+        return Params(**{name: self.params[name] for name in ("a", "alpha", "Fd", "x0")})
+
+    @property
+    def noise(self) -> float:
+        """Deprecated name of :attr:`sigma`."""
+        import warnings
+
+        warnings.warn(
+            "the forecasts' .noise is deprecated: read .sigma (the same standard deviation, "
+            "as the fits name it)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.sigma
+
+
 @dataclass(frozen=True)
-class PeakForecast(_Codec):
+class PeakForecast(_Fitted, _Codec):
     """The static yield of a rate-controlled start-up, forecast from its beginning.
 
     Attributes
@@ -98,9 +153,9 @@ class PeakForecast(_Codec):
         The cut: the last record time used [s].
     level : float
         Level of the intervals [-] (0.9: 90 %).
-    params : dict
-        Best-fit a [N], alpha [1/m], Fd [N], x0 [m].
-    noise : float
+    params : mapping
+        Best-fit a [N], alpha [1/m], Fd [N], x0 [m] (:meth:`to_params` gives the Params).
+    sigma : float
         Force noise standard deviation used [N].
     n_points : int
         Points fitted.
@@ -108,6 +163,9 @@ class PeakForecast(_Codec):
         The prior used (:meth:`Prior.to_dict`), if any.
     message : str
         What limits the forecast, or "".
+    cdf : dict
+        The distribution of the peak's time: "time" [s] and "probability" [-], the CDF at
+        those times (read by :meth:`probability_within`).
     """
 
     force: float
@@ -119,12 +177,18 @@ class PeakForecast(_Codec):
     velocity: float
     until: float
     level: float
-    params: dict
-    noise: float
+    params: FrozenMap
+    sigma: float
     n_points: int
     prior: dict | None = None
     message: str = ""
     clock: str = PEAK_CLOCK
+    cdf: dict = dataclasses.field(default_factory=lambda: {"time": [], "probability": []})
+
+    def probability_within(self, seconds: float) -> float:
+        """The probability [-] that the peak comes within ``seconds`` [s] after the last
+        sample used (``until``), from the distribution behind the intervals."""
+        return _within(self.cdf, self.until, seconds)
 
     def __repr__(self):
         return (
@@ -152,7 +216,7 @@ class PeakForecast(_Codec):
 
 
 @dataclass(frozen=True)
-class FailureForecast(_Codec):
+class FailureForecast(_Fitted, _Codec):
     """The failure of a force-controlled layer, forecast from its slow slip.
 
     Attributes
@@ -172,10 +236,10 @@ class FailureForecast(_Codec):
         Level of the intervals [-].
     loading : Loading
         The imposed force history read from the record and its continuation.
-    params : dict
+    params : mapping
         Best-fit a [N], alpha [1/m], Fd [N], x0 [m] (empty without a fit); with the direct
-        effect also A [N] and v_ref [m/s].
-    noise : float
+        effect also A [N] and v_ref [m/s]. :meth:`to_params` gives the Params.
+    sigma : float
         Slip noise standard deviation used [m] (NaN without a fit).
     n_points : int
         Points fitted.
@@ -197,6 +261,21 @@ class FailureForecast(_Codec):
         run of whole steps about the most likely ones whose probability reaches ``level``:
         an outcome this discrete is held more often than ``level`` (see :meth:`step_table`
         and :attr:`time_probability`).
+    cdf : dict
+        The distribution of the failure time behind every interval and probability: "time"
+        [s] and "probability" [-], its CDF at those times; below 1 at the last time where the
+        record does not bound the failure (the rest lies beyond). Read by
+        :meth:`probability_within`.
+    observed_failure : float or None
+        Where the record itself shows the failure (its slip running away): the failure time
+        [s], the middle of the sampling interval in which it came; None where the record
+        has not failed. The forecast then uses the samples before it only.
+    observed : dict or None
+        The observed failure's "window" (last sample before, first after [s]), "force" [N]
+        and "index" (the last sample before).
+    declined : bool
+        Whether the forecast declined to give a date because the record does not follow
+        the model.
     """
 
     time: float | None
@@ -208,8 +287,8 @@ class FailureForecast(_Codec):
     until: float
     level: float
     loading: Loading
-    params: dict
-    noise: float
+    params: FrozenMap
+    sigma: float
     n_points: int
     approaching: bool
     prior: dict | None = None
@@ -217,6 +296,20 @@ class FailureForecast(_Codec):
     method: str = "model"
     clock: str = FAILURE_CLOCK
     steps: dict | None = None
+    cdf: dict = dataclasses.field(default_factory=lambda: {"time": [], "probability": []})
+    observed_failure: float | None = None
+    observed: dict | None = None
+    declined: bool = False
+
+    def probability_within(self, seconds: float) -> float:
+        """The probability [-] that the layer fails within ``seconds`` [s] after the last
+        sample used (``until``): the failure time's CDF (the distribution behind the
+        interval; under a staircase the sum of the steps' probabilities, each spread over
+        the window of its start). Near 0 where the record shows no failure ahead; 1 where
+        the record has already failed by then."""
+        if self.observed_failure is not None and self.until + seconds >= self.observed_failure:
+            return 1.0
+        return _within(self.cdf, self.until, seconds)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Any:

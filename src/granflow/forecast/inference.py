@@ -1,0 +1,187 @@
+"""Fit a forecast's problem and scan its profiles: the engine's multistart Levenberg-Marquardt
+(:func:`granflow.fitting.engine.multistart`) and profile scan
+(:func:`granflow.fitting.profile.profile_scan`), with the noise estimated from the residuals.
+
+The data's weights are ``sqrt(count) / sigma``, so chi-square is standardised and the
+penalty's residuals (nuisance coordinates, priors) add to it as they are. Where sigma is not
+known it is estimated: the problem is first solved at a rough noise level (the optimum does
+not depend on it without a penalty), then the noise is the residuals' root mean square with
+``n - 4`` degrees of freedom (the shape's four parameters; the nuisance coordinates carry
+their own prior), and the problem is solved again from that optimum at the estimate.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import ndtri, stdtrit
+
+from granflow.errors import FitError
+from granflow.fitting.engine import multistart
+from granflow.fitting.profile import profile_scan
+from granflow.forecast.distribution import Distribution
+
+__all__ = ["Estimate", "estimate", "heights", "scan"]
+
+_SHAPE = 4  # the peak coordinates
+_PRECISION = 1e-3  # of a profile's delta chi-square: far below its heights' resolution
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A solved forecast problem.
+
+    Attributes
+    ----------
+    problem : Problem
+        The engine's problem at the noise ``sigma``.
+    values : numpy.ndarray
+        The best fit's global values [SI].
+    chisqr : float
+        Standardised chi-square at the best fit (data and penalty) [-].
+    sigma : float
+        The noise used [data unit].
+    dof : int or None
+        Degrees of freedom of the noise estimate; None where the noise was given.
+    hessian : numpy.ndarray
+        J^T J at the best fit in the optimiser's coordinates.
+    nfev : int
+        Passes over the data.
+    """
+
+    problem: object
+    values: np.ndarray
+    chisqr: float
+    sigma: float
+    dof: int | None
+    hessian: np.ndarray
+    nfev: int
+
+
+def data_chisqr(problem, values):
+    """Sum of the squared weighted data residuals at ``values`` (without the penalty)."""
+    curve = problem.curves[0]
+    model = problem.model.function(curve.z, *values)
+    residuals = curve.w * (model - curve.y)
+    return float(residuals @ residuals)
+
+
+def _solve_at(problem, values, rtol):
+    """LM from ``values``: (values, chisqr, hessian, steps)."""
+    u, chisqr, _, steps, hessian = problem.lm(problem.internal(values), max_iter=200, rtol=rtol)
+    return problem.values(u), chisqr, hessian, steps
+
+
+def estimate(build, starts, *, size, within, sigma=None, rough, nuisance=None):
+    """The best fit of the problem ``build(sigma, values)`` from ``starts``.
+
+    In two stages where the problem has nuisance coordinates (slots ``nuisance`` on, each a
+    standard normal): first the curve alone, with them held at 0, from every start (the
+    engine's multistart); the noise is estimated there; then everything together from that
+    optimum. The nuisance coordinates barely move the optimum, but left free from the start
+    they send the first steps far along their own weak curvature.
+
+    Parameters
+    ----------
+    build : callable
+        ``build(sigma, values) -> Problem``.
+    starts : sequence of sequence of float
+        Candidate slot values.
+    size : int
+        Number of data points (the noise estimate's n).
+    within : float
+        The points' sum of squares about their groups' means [data unit^2] (0 ungrouped).
+    sigma : float, optional
+        The known noise [data unit]; default estimated.
+    rough : float
+        A rough noise level [data unit] for the first solve.
+    nuisance : int, optional
+        The first nuisance slot.
+
+    Returns
+    -------
+    Estimate
+    """
+    first = rough if sigma is None else sigma
+    problem = build(first, starts[0])
+    held = [] if nuisance is None else list(range(nuisance, len(problem.parameters)))
+    for index in held:
+        problem.parameters[index].fixed = True
+    if held:
+        problem = type(problem)(
+            problem.curves, problem.parameters, model=problem.model, penalty=problem.penalty
+        )
+    solution = multistart(problem, starts, 1.0, rtol=_PRECISION / max(size, 1))
+    values = problem.values(solution.x)
+    nfev = solution.nfev
+    if not np.all(np.isfinite(values)):
+        raise FitError("the forecast's fit did not converge to finite values")
+    dof = None
+    if sigma is None:
+        dof = max(size - _SHAPE, 1)
+        squares = data_chisqr(problem, values) * first**2 + within
+        sigma = max(math.sqrt(squares / dof), 1e-300)
+    problem = build(sigma, values)
+    values, chisqr, hessian, steps = _solve_at(problem, values, _PRECISION / max(size, 1))
+    return Estimate(problem, values, chisqr, sigma, dof, hessian, nfev + steps)
+
+
+def heights(level, dof):
+    """The heights of the signed root a forecast's profiles are scanned to: the one-sided
+    and two-sided quantiles of ``level``, of Student's t with ``dof`` degrees of freedom
+    (the normal where dof is None); the tails beyond are extrapolated."""
+
+    def quantile(p):
+        return float(stdtrit(dof, p)) if dof is not None else float(ndtri(p))
+
+    return tuple(sorted({quantile(level), quantile(0.5 * (1 + level))}))
+
+
+def scan(fit, index, level, *, offset=0.0, problem=None, values=None, hessian=None, starts=None):
+    """The profile of slot ``index`` of ``fit`` (or of ``problem`` at ``values``, the same
+    likelihood in other coordinates) and its :class:`Distribution` (q = ``offset`` +
+    the slot's value). ``starts(value)`` gives more starts for a conditional minimum (see
+    :func:`~granflow.fitting.profile.profile_scan`)."""
+    problem = fit.problem if problem is None else problem
+    values = fit.values if values is None else values
+    if hessian is None:
+        hessian = fit.hessian if problem is fit.problem else None
+    if hessian is None:
+        _, _, hessian = problem.state(problem.internal(values), problem.free)
+    position = problem.free.index(index)
+    try:
+        covariance = np.linalg.inv(hessian)
+        halfwidth = math.sqrt(max(covariance[position, position], 1e-16))
+    except np.linalg.LinAlgError:
+        halfwidth = 0.1
+    halfwidth = min(max(halfwidth, 1e-6), 2.0)
+    targets = heights(level, fit.dof)
+    profile = profile_scan(
+        problem,
+        values,
+        index,
+        fit.chisqr,
+        targets,
+        halfwidth,
+        variance=1.0,
+        internal_hessian=hessian,
+        check=True,
+        tolerance=_PRECISION,
+        starts=starts,
+    )
+    u, r = profile.signed_roots()
+    parameter = problem.parameters[index]
+    low_end, high_end = parameter.internal_bounds()
+    distribution = Distribution(
+        u=u,
+        r=r,
+        offset=float(offset),
+        scale=float(parameter.scale),
+        log=bool(parameter.log),
+        dof=fit.dof,
+        open_below=not all(profile.reached[-1]),
+        open_above=not all(profile.reached[1]),
+        low_end=float(low_end),
+        high_end=float(high_end),
+    )
+    return profile, distribution
