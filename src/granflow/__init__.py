@@ -49,7 +49,7 @@ if TYPE_CHECKING:  # the public names as type checkers and editors see them
     from granflow.forecast.results import BaselineForecast as BaselineForecast
     from granflow.forecast.results import FailureForecast as FailureForecast
     from granflow.forecast.results import PeakForecast as PeakForecast
-    from granflow.forecast.results import RunningForecast as RunningForecast
+    from granflow.forecast.running import RunningForecast as RunningForecast
     from granflow.io.campaign import Campaign as Campaign
     from granflow.io.reader import read as read
     from granflow.io.reader import read_runs as read_runs

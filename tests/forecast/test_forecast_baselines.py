@@ -60,7 +60,7 @@ def test_the_running_forecast_converges_on_the_observed_failure(running):
     assert errors[-1] < errors[0] or errors[-1] < 0.02 * running.observed
     assert model["low"][-1] <= running.observed <= model["high"][-1]
     assert len(running.rows()) == 6
-    back = gf.RunningForecast.from_dict(running.to_dict())
+    back = gf.forecast.ForecastSeries.from_dict(running.to_dict())
     np.testing.assert_array_equal(back.cuts, running.cuts)
     np.testing.assert_array_equal(back.methods["voight"]["high"], running.methods["voight"]["high"])
     assert "Running forecast" in running.report()

@@ -156,14 +156,14 @@ class RunForecast(Value):
         return bool(self.holds(dated[-1]) and dated[-1].width < dated[0].width)
 
     def running(self):
-        """The forecasts as a :class:`granflow.forecast.RunningForecast` (for
+        """The forecasts as a :class:`granflow.forecast.ForecastSeries` (for
         :func:`granflow.plotting.plot_forecast`)."""
-        from granflow.forecast.results import RunningForecast
+        from granflow.forecast.results import ForecastSeries
 
         def column(values):
             return np.array([math.nan if v is None else v for v in values], dtype=float)
 
-        return RunningForecast(
+        return ForecastSeries(
             cuts=column(cut.cut for cut in self.cuts),
             methods={
                 "model": {

@@ -506,7 +506,7 @@ class Problem:
         return float(residuals @ residuals) * self.force_scale**2
 
 
-def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10):
+def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10, tries=None):
     """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
 
     Parameters
@@ -526,6 +526,8 @@ def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10
 
     rtol : float
         Levenberg-Marquardt stops when a step gains less than this fraction of chi-square.
+    tries : int, optional
+        At most this many starts are solved (the best ranked); default all, as needed.
 
     Returns
     -------
@@ -547,6 +549,8 @@ def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10
         if best is None or cost < best[1]:
             best = (u, cost, converged, count, hessian)
         if noise > 0 and best[1] <= expected:
+            break
+        if tries is not None and count >= tries:
             break
     u, cost, converged, tried, hessian = best
     values = None if restart is None else restart(problem.values(u))

@@ -231,10 +231,12 @@ class _Conditional:
         return ProfilePoint(u, float(values[self.index]), float(delta), values)
 
 
-def _side(conditional, direction, targets, step, record, check=False):
+def _side(conditional, direction, targets, step, record, check=False, precision=2e-2, hints=()):
     """Secant searches, one after the other, for the coordinates where sqrt(delta) reaches
-    each of ``targets`` (increasing) on one side. With ``check``, a point past a target is
-    solved from more starts (see :class:`_Conditional`). Returns (ends, reached)."""
+    each of ``targets`` (increasing) on one side, to ``precision`` of sqrt(delta). With
+    ``check``, a point past a target is solved from more starts (see :class:`_Conditional`);
+    ``hints`` (one internal coordinate per target, or NaN) are where each search looks
+    first (a previous scan's ends). Returns (ends, reached)."""
     parameter = conditional.parameter
     lower_u, upper_u = parameter.internal_bounds()
     limit = upper_u if direction > 0 else lower_u
@@ -257,6 +259,10 @@ def _side(conditional, direction, targets, step, record, check=False):
             origin = (ends[-1], previous)
         points = [(origin[0], origin[1] - target)]
         u = origin[0] + direction * step
+        hint = hints[count] if count < len(hints) else math.nan
+        if math.isfinite(hint) and (hint - origin[0]) * direction > 0:
+            u = hint
+            step = max(0.25 * abs(hint - origin[0]), 1e-8)
         height = target**2 if check else math.inf
         end = None
         for _ in range(12):
@@ -275,12 +281,12 @@ def _side(conditional, direction, targets, step, record, check=False):
                 record.append(conditional.point(u, delta, u_others))
             value = math.sqrt(delta) - target
             points.append((u, value))
-            if abs(value) < 2e-2:
+            if abs(value) < precision:
                 end = u
                 break
             (u1, g1), (u2, g2) = points[-2], points[-1]
             slope = (g2 - g1) / (u2 - u1) if u2 != u1 else 0.0
-            if abs(value) < 0.1 and slope * direction > 0:
+            if abs(value) < 5.0 * precision and slope * direction > 0:
                 # sqrt(delta chi-square) is nearly linear in u: the secant root is within
                 # a small fraction of the tolerance of the true root, no evaluation needed
                 end = u2 - g2 / slope
@@ -316,6 +322,8 @@ def profile_scan(
     check=False,
     tolerance=None,
     starts=None,
+    precision=2e-2,
+    hints=None,
 ):
     """Scan the profile likelihood of the global parameter ``index`` (free) on both sides of
     the optimum ``values`` to the heights ``targets`` of sqrt(delta chi-square / variance).
@@ -349,6 +357,11 @@ def profile_scan(
         ``starts(value) -> iterable of global values``: more starts for a conditional minimum
         at the profiled parameter's ``value`` (a likelihood with several branches), tried
         where the warm starts jump (see :class:`_Conditional`).
+    precision : float
+        How close to each target sqrt(delta) must come (2e-2: 0.5 % of the 95 % height).
+    hints : dict, optional
+        ``{-1: [...], 1: [...]}``: internal coordinates per side and target where each search
+        looks first (a previous scan's :attr:`Profile.ends`, for a record that has grown).
 
     Returns
     -------
@@ -362,7 +375,14 @@ def profile_scan(
     step = max(wald_halfwidth_u, 1e-8)
     for direction in (-1, 1):
         ends[direction], reached[direction] = _side(
-            conditional, direction, list(targets), step, record, check
+            conditional,
+            direction,
+            list(targets),
+            step,
+            record,
+            check,
+            precision,
+            () if hints is None else hints.get(direction, ()),
         )
     optimum = ProfilePoint(
         conditional.u_hat, float(values[index]), 0.0, np.asarray(values, dtype=float)

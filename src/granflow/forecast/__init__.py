@@ -20,7 +20,7 @@ __getattr__, __dir__, __all__ = attach(
         "peak": ["forecast_peak"],
         "prior": ["Prior"],
         "baselines": ["inverse_velocity_forecast", "voight_forecast"],
-        "running": ["running_forecast"],
-        "results": ["BaselineForecast", "FailureForecast", "PeakForecast", "RunningForecast"],
+        "running": ["RunningForecast", "running_forecast"],
+        "results": ["BaselineForecast", "FailureForecast", "ForecastSeries", "PeakForecast"],
     },
 )

@@ -32,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow.model.friction import friction_slip
+from granflow.model.kernel import curve_start, point_value
+from granflow.model.special import compiled, compiled_inline
 
 __all__ = [
     "FAILURE_VELOCITY",
@@ -70,38 +71,178 @@ _RISING = np.concatenate(
 )
 _FALLING = np.geomspace(1e-6, 1.0, _FALLING_POINTS)
 _PROBE = 1.0 + np.geomspace(1e-5, 20.0, 120)
+GRID_SIZE = _RISING.size + _FALLING.size
 
 
-def _relative_expm1(k):
-    """(exp(k) - 1) / k, 1 at k = 0, for arrays."""
-    k = np.asarray(k, dtype=float)
-    out = np.ones_like(k)
-    np.divide(np.expm1(k), k, out=out, where=k != 0)
-    return out
-
-
-def _scalar_exp_times_relative_expm1(base, k):
-    """:func:`_exp_times_relative_expm1` of two scalars, in plain floats (the Newton
-    iterations of :meth:`History.time_of` call it on scalars, where NumPy's overhead
-    dominates)."""
+@compiled_inline
+def _exp_relative(base, k):
+    """exp(base) (exp(k) - 1) / k without overflow for large k (the exponent clipped)."""
     if k > 0:
         top, k = base + k, -k
     else:
         top = base
-    scale = math.expm1(k) / k if k != 0 else 1.0
+    scale = math.expm1(k) / k if k != 0.0 else 1.0
     return math.exp(min(top, _LARGEST_EXPONENT)) * scale
 
 
-def _exp_times_relative_expm1(base, k):
-    """exp(base) (exp(k) - 1) / k without overflow for large k (the exponent is clipped)."""
-    if np.ndim(base) == 0 and np.ndim(k) == 0:
-        return _scalar_exp_times_relative_expm1(float(base), float(k))
-    base = np.asarray(base, dtype=float)
-    k = np.asarray(k, dtype=float)
-    rising = k > 0
-    top = np.minimum(np.where(rising, base + k, base), _LARGEST_EXPONENT)
-    scale = np.where(rising, _relative_expm1(-k), _relative_expm1(k))
-    return np.exp(top) * scale
+@compiled_inline
+def _piece(begin, rate, span, amplitude, reference):
+    """int over ``span`` [s] from a piece's start of sinh(sigma/A) exp(-reference/A) dt [s],
+    sigma = begin + rate t."""
+    k = rate * span / amplitude
+    up = _exp_relative((begin - reference) / amplitude, k)
+    down = _exp_relative(-(begin + reference) / amplitude, -k)
+    return 0.5 * span * (up - down)
+
+
+@compiled
+def history_cumulative(starts, begin, rate, amplitude, reference, out):
+    """S at every piece's start [s] into ``out``."""
+    out[0] = 0.0
+    for i in range(starts.shape[0] - 1):
+        span = starts[i + 1] - starts[i]
+        out[i + 1] = out[i] + _piece(begin[i], rate[i], span, amplitude, reference)
+
+
+@compiled
+def history_integral(t, starts, begin, rate, cumulative, amplitude, reference, out):
+    """``S(t) = int_0^t sinh(sigma/A) exp(-reference/A) dt'`` [s] at ``t`` [s] into ``out``,
+    from the pieces' ``cumulative`` (:func:`history_cumulative`)."""
+    pieces = starts.shape[0]
+    for j in range(t.shape[0]):
+        tj = t[j]
+        index = np.searchsorted(starts, tj, side="right") - 1
+        index = min(max(index, 0), pieces - 1)
+        out[j] = cumulative[index] + _piece(
+            begin[index], rate[index], tj - starts[index], amplitude, reference
+        )
+
+
+@compiled
+def history_time_of(target, starts, begin, rate, cumulative, amplitude, reference):
+    """The time [s] at which S reaches ``target`` [s]; inf if it never does (the force
+    stops rising below what the target needs)."""
+    index = np.searchsorted(cumulative, target, side="right") - 1
+    index = max(index, 0)
+    remaining = target - cumulative[index]
+    first, slope = begin[index], rate[index]
+    level = math.sinh(min(first / amplitude, _LARGEST_EXPONENT)) * math.exp(
+        max(-reference / amplitude, -_LARGEST_EXPONENT)
+    )
+    if slope <= 0.0:
+        if not level > 0.0:
+            return math.inf
+        when = remaining / level
+        if index < starts.shape[0] - 1 and when > starts[index + 1] - starts[index]:
+            when = starts[index + 1] - starts[index]
+        return starts[index] + when
+    # the rising exponential alone, then Newton on the whole integrand
+    if not remaining > 0.0:
+        return starts[index]
+    ratio = math.log(2.0 * slope * remaining / amplitude) - (first - reference) / amplitude
+    # span = (A / r) ln(1 + exp(ratio)), without overflow
+    softplus = ratio + math.log1p(math.exp(-ratio)) if ratio > 0 else math.log1p(math.exp(ratio))
+    span = amplitude / slope * softplus
+    for _ in range(4):
+        value = _piece(first, slope, span, amplitude, reference) - remaining
+        sigma = first + slope * span
+        derivative = math.sinh(min(sigma / amplitude, _LARGEST_EXPONENT)) * math.exp(
+            max(-reference / amplitude, -_LARGEST_EXPONENT)
+        )
+        if not derivative > 0.0:
+            break
+        span = max(span - value / derivative, 0.0)
+    return starts[index] + span
+
+
+@compiled
+def curve_grid(params, peak_force, peak_slip, amplitude, x, exponent, gamma):
+    """Gamma(x) = int_{x0}^{x} exp((F - F_peak) / A) dx' [m] on the grid of
+    :func:`creep_curve` into ``x``, ``exponent`` and ``gamma`` (each :data:`GRID_SIZE`)."""
+    a, alpha, fd, x0 = params
+    start = curve_start(alpha, x0)
+    s0 = start[0]
+    rise = peak_slip - x0
+    n_rising = _RISING.shape[0]
+    for i in range(n_rising):
+        x[i] = x0 + rise * _RISING[i]
+    # past the peak: a coarse look for the failure point, then a fine grid up to it
+    end = peak_slip * _PROBE[_PROBE.shape[0] - 1]
+    for i in range(_PROBE.shape[0]):
+        z = peak_slip * _PROBE[i]
+        s = alpha * z
+        if point_value(s, math.exp(s0 - s), a, fd, 0.0, True, False, start) <= (
+            peak_force - _DROP * amplitude
+        ):
+            end = z
+            break
+    for i in range(_FALLING.shape[0]):
+        x[n_rising + i] = peak_slip + (end - peak_slip) * _FALLING[i]
+    for i in range(x.shape[0]):
+        s = alpha * x[i]
+        value = point_value(s, math.exp(s0 - s), a, fd, 0.0, True, x[i] <= x0, start)
+        exponent[i] = (min(value, peak_force) - peak_force) / amplitude
+    gamma[0] = 0.0
+    for i in range(x.shape[0] - 1):
+        width = x[i + 1] - x[i]
+        gamma[i + 1] = gamma[i] + width * _exp_relative(exponent[i], exponent[i + 1] - exponent[i])
+
+
+@compiled
+def slip_at(target, x, exponent, gamma, out):
+    """x [m] at which Gamma reaches each ``target`` [m] (the grid's end beyond it) into
+    ``out``: the inverse of the quadrature's own interpolant (an exponent linear in x on
+    each cell)."""
+    last = x.shape[0] - 1
+    for j in range(target.shape[0]):
+        value = target[j]
+        if value >= gamma[last]:
+            out[j] = x[last]
+            continue
+        index = np.searchsorted(gamma, value, side="right") - 1
+        index = min(max(index, 0), last - 1)
+        width = x[index + 1] - x[index]
+        slope = (exponent[index + 1] - exponent[index]) / width
+        remaining = max(value - gamma[index], 0.0)
+        scaled = remaining * math.exp(-exponent[index])
+        k = slope * scaled
+        # x - x_i = ln(1 + k) / slope = scaled ln(1 + k) / k
+        factor = 1.0 - 0.5 * k if abs(k) < 1e-10 else math.log1p(max(k, -1.0 + 1e-16)) / k
+        out[j] = x[index] + min(scaled * factor, width)
+
+
+@compiled_inline
+def _log_sinh(y):
+    """ln sinh(y) for y > 0 without overflow."""
+    return y + math.log1p(-math.exp(-2.0 * y)) - math.log(2.0) if y > 0 else -math.inf
+
+
+@compiled
+def failure_point(x, exponent, gamma, peak_slip, peak_force, amplitude, velocity, force):
+    """Gamma [m] where the velocity ``2 v_ref sinh(sigma/A) exp(-F/A)`` passes
+    ``FAILURE_VELOCITY`` past the peak, with sigma = ``force`` [N] during the run-away (the
+    grid's end if F never falls that far, the peak if the layer is that fast there)."""
+    # the exponent (F - F_peak)/A at which v = FAILURE_VELOCITY
+    target = (
+        math.log(2.0 * velocity)
+        + _log_sinh(force / amplitude)
+        - math.log(FAILURE_VELOCITY)
+        - peak_force / amplitude
+    )
+    start = np.searchsorted(x, peak_slip)
+    if not target < 0.0:
+        return gamma[start]
+    last = x.shape[0] - 1
+    for i in range(start, last + 1):
+        if exponent[i] <= target:
+            i = i - 1
+            g0, g1 = exponent[i], exponent[i + 1]
+            width = x[i + 1] - x[i]
+            fraction = (g0 - target) / (g0 - g1) if g0 > g1 else 1.0
+            span = fraction * width
+            slope = (g1 - g0) / width
+            return gamma[i] + span * _exp_relative(g0, slope * span)
+    return gamma[last]
 
 
 @dataclass(frozen=True)
@@ -123,80 +264,42 @@ class History:
         index = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, None)
         return self.begin[index] + self.rate[index] * (t - self.starts[index])
 
-    def rises(self):
-        """Whether no piece falls and the last rises (else the force stops short)."""
-        return bool(np.all(self.rate >= 0)) and (
-            self.rate[-1] > 0 or (self.begin.size > 1 and self.begin[-1] > self.begin[-2])
-        )
-
-    def _piece_integral(self, index, span, amplitude, reference):
-        """int over ``span`` [s] from the start of pieces ``index`` of
-        sinh(sigma/A) exp(-reference/A) dt [s]."""
-        begin, rate = self.begin[index], self.rate[index]
-        k = rate * span / amplitude
-        up = _exp_times_relative_expm1((begin - reference) / amplitude, k)
-        down = _exp_times_relative_expm1(-(begin + reference) / amplitude, -k)
-        return 0.5 * span * (up - down)
-
     def _cumulative(self, amplitude, reference):
-        """S at every piece's start [s]; the last one's kept (a history is immutable, and
-        a fit asks for the same amplitude and reference several times)."""
-        cached = self.__dict__.get("_cumulative_cache")
-        if cached is not None and cached[0] == amplitude and cached[1] == reference:
-            return cached[2]
-        spans = np.diff(self.starts)
-        pieces = self._piece_integral(np.arange(spans.size), spans, amplitude, reference)
-        out = np.concatenate([[0.0], np.cumsum(pieces)])
-        object.__setattr__(self, "_cumulative_cache", (amplitude, reference, out))
+        """S at every piece's start [s]."""
+        out = np.empty(self.starts.size)
+        history_cumulative(self.starts, self.begin, self.rate, amplitude, reference, out)
         return out
 
     def integral(self, t, amplitude, reference):
         """``S(t) = int_0^t sinh(sigma/A) exp(-reference/A) dt'`` [s] at ``t`` [s]."""
-        t = np.asarray(t, dtype=float)
-        index = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, None)
-        cumulative = self._cumulative(amplitude, reference)
-        return cumulative[index] + self._piece_integral(
-            index, t - self.starts[index], amplitude, reference
+        t = np.ascontiguousarray(t, dtype=float)
+        out = np.empty(t.shape)
+        history_integral(
+            t.ravel(),
+            self.starts,
+            self.begin,
+            self.rate,
+            self._cumulative(amplitude, reference),
+            amplitude,
+            reference,
+            out.ravel(),
         )
+        return out
 
     def time_of(self, target, amplitude, reference):
         """The time [s] at which :meth:`integral` reaches ``target`` (a scalar [s]); inf if
         it never does (the force stops rising below what the target needs)."""
-        cumulative = self._cumulative(amplitude, reference)
-        index = int(np.searchsorted(cumulative, target, side="right")) - 1
-        index = max(index, 0)
-        remaining = target - cumulative[index]
-        begin, rate = float(self.begin[index]), float(self.rate[index])
-        level = math.sinh(min(begin / amplitude, _LARGEST_EXPONENT)) * math.exp(
-            max(-reference / amplitude, -_LARGEST_EXPONENT)
-        )
-        if rate <= 0:
-            if not level > 0:
-                return math.inf
-            when = remaining / level
-            last = index == self.starts.size - 1
-            if not last and when > self.starts[index + 1] - self.starts[index]:
-                when = self.starts[index + 1] - self.starts[index]
-            return float(self.starts[index] + when)
-        # the rising exponential alone, then Newton on the whole integrand
-        if not remaining > 0:
-            return float(self.starts[index])
-        ratio = math.log(2.0 * rate * remaining / amplitude) - (begin - reference) / amplitude
-        # span = (A / r) ln(1 + exp(ratio)), without overflow
-        softplus = (
-            ratio + math.log1p(math.exp(-ratio)) if ratio > 0 else math.log1p(math.exp(ratio))
-        )
-        span = amplitude / rate * softplus
-        for _ in range(4):
-            value = float(self._piece_integral(index, span, amplitude, reference)) - remaining
-            sigma = begin + rate * span
-            slope = math.sinh(min(sigma / amplitude, _LARGEST_EXPONENT)) * math.exp(
-                max(-reference / amplitude, -_LARGEST_EXPONENT)
+        return float(
+            history_time_of(
+                float(target),
+                self.starts,
+                self.begin,
+                self.rate,
+                self._cumulative(amplitude, reference),
+                amplitude,
+                reference,
             )
-            if not slope > 0:
-                break
-            span = max(span - value / slope, 0.0)
-        return float(self.starts[index] + span)
+        )
 
 
 def ramp_history(start, rate):
@@ -250,37 +353,18 @@ class CreepCurve:
     def slip_at(self, gamma):
         """x [m] at which Gamma reaches ``gamma`` [m] (the grid's end beyond it): the
         inverse of the quadrature's own interpolant (an exponent linear in x per cell)."""
-        gamma = np.asarray(gamma, dtype=float)
-        index = np.clip(np.searchsorted(self.gamma, gamma, side="right") - 1, 0, self.x.size - 2)
-        width = self.x[index + 1] - self.x[index]
-        slope = (self.exponent[index + 1] - self.exponent[index]) / width
-        remaining = np.maximum(gamma - self.gamma[index], 0.0)
-        scaled = remaining * np.exp(-self.exponent[index])
-        k = slope * scaled
-        # x - x_i = ln(1 + k) / slope = scaled ln(1 + k) / k
-        safe = np.where(np.abs(k) < 1e-10, 1.0, k)
-        factor = np.where(
-            np.abs(k) < 1e-10, 1.0 - 0.5 * k, np.log1p(np.maximum(safe, -1.0 + 1e-16)) / safe
-        )
-        step = np.minimum(scaled * factor, width)
-        return np.where(gamma >= self.gamma[-1], self.x[-1], self.x[index] + step)
+        gamma = np.ascontiguousarray(gamma, dtype=float)
+        out = np.empty(gamma.shape)
+        slip_at(gamma.ravel(), self.x, self.exponent, self.gamma, out.ravel())
+        return out
 
 
 def creep_curve(params, amplitude, peak_slip, peak_force):
     """The :class:`CreepCurve` of ``params`` (paper initial condition) with direct-effect
     amplitude ``amplitude`` [N], whose peak is at ``peak_slip`` [m] and ``peak_force`` [N]."""
-    x0 = params.x0
-    rise = peak_slip - x0
-    rising = x0 + rise * _RISING
-    # past the peak: a coarse look for the failure point, then a fine grid up to it
-    probe = peak_slip * _PROBE
-    fallen = friction_slip(probe, params) <= peak_force - _DROP * amplitude
-    end = probe[int(np.argmax(fallen))] if fallen.any() else probe[-1]
-    x = np.concatenate([rising, peak_slip + (end - peak_slip) * _FALLING])
-    exponent = (np.minimum(friction_slip(x, params), peak_force) - peak_force) / amplitude
-    width = np.diff(x)
-    cells = width * _exp_times_relative_expm1(exponent[:-1], np.diff(exponent))
-    gamma = np.concatenate([[0.0], np.cumsum(cells)])
+    x, exponent, gamma = np.empty(GRID_SIZE), np.empty(GRID_SIZE), np.empty(GRID_SIZE)
+    natural = (params.a, params.alpha, params.Fd, params.x0)
+    curve_grid(natural, float(peak_force), float(peak_slip), float(amplitude), x, exponent, gamma)
     return CreepCurve(x, exponent, gamma, float(peak_force), float(peak_slip), float(amplitude))
 
 
@@ -302,38 +386,22 @@ def creep_slip(t, curve, velocity, history):
     return curve.slip_at(2.0 * velocity * np.maximum(scaled, 0.0))
 
 
-def _log_sinh(y):
-    """ln sinh(y) for y > 0 without overflow."""
-    return y + math.log1p(-math.exp(-2.0 * y)) - math.log(2.0) if y > 0 else -math.inf
-
-
 def failure_gamma(curve, velocity, force):
     """Gamma [m] where the velocity ``2 v_ref sinh(sigma/A) exp(-F/A)`` passes
     ``FAILURE_VELOCITY`` past the peak, with sigma = ``force`` [N] during the run-away (the
     grid's end if F never falls that far, the peak if the layer is that fast there)."""
-    amplitude = curve.amplitude
-    # the exponent (F - F_peak)/A at which v = FAILURE_VELOCITY
-    target = (
-        math.log(2.0 * velocity)
-        + _log_sinh(force / amplitude)
-        - math.log(FAILURE_VELOCITY)
-        - curve.peak_force / amplitude
+    return float(
+        failure_point(
+            curve.x,
+            curve.exponent,
+            curve.gamma,
+            curve.peak_slip,
+            curve.peak_force,
+            curve.amplitude,
+            float(velocity),
+            float(force),
+        )
     )
-    start = int(np.searchsorted(curve.x, curve.peak_slip))
-    if not target < 0:
-        return float(curve.gamma[start])
-    past = curve.exponent[start:]
-    below = np.flatnonzero(past <= target)
-    if below.size == 0:
-        return curve.end_gamma
-    i = start + int(below[0]) - 1
-    g0, g1 = curve.exponent[i], curve.exponent[i + 1]
-    width = curve.x[i + 1] - curve.x[i]
-    fraction = (g0 - target) / (g0 - g1) if g0 > g1 else 1.0
-    span = fraction * width
-    slope = (g1 - g0) / width
-    cell = span * float(_exp_times_relative_expm1(g0, slope * span))
-    return float(curve.gamma[i]) + cell
 
 
 def creep_failure_time(curve, velocity, history):
@@ -354,7 +422,7 @@ def velocity_for_failure(curve, history, failure_time):
     """v_ref [m/s] that puts the failure at ``failure_time`` [s]: Gamma at the failure
     point over 2 S(t_f), the failure point (which depends on v_ref through the
     velocity) iterated to a fixed point from the grid's end."""
-    scaled = float(history.integral(failure_time, curve.amplitude, curve.peak_force))
+    scaled = float(history.integral(np.array([failure_time]), curve.amplitude, curve.peak_force)[0])
     if not scaled > 0:
         return math.inf
     force = float(history.force(failure_time))

@@ -1,66 +1,77 @@
 """The failure forecast of a creeping layer: the direct effect (:mod:`granflow.forecast.creep`)
-fitted to the slip before the cut.
+fitted to the slip before the cut, as a model of the fitting engine.
 
-The fitted coordinates are ``(ln a, ln alpha, ln x0, q, w_A, w_v, w_e, w_d, z0, z1)``: Eq. 3's curve
-by its peak force (Fd in closed form, as in :mod:`~granflow.forecast.likelihood`), the
-direct effect's amplitude A and reference velocity v_ref about their starting values
-and a staircase's shift and stretch of its edges inside their sampling windows (``w``,
-unpenalised), and the force history's error as two standard-normal coordinates (as
-in the quasi-static forecast). Two likelihoods share them and differ in the profiled
-coordinate q:
+The curve is in the peak coordinates (:mod:`granflow.forecast.coordinates`). With x = x_peak
+xi the curve is ``F_peak f(xi; r, s0)``, so ``Gamma(x) = x_peak gamma(xi)`` with gamma the
+unit curve's, and the slip ``x - x0 = x_peak (xi(t) - xi0)`` where ``gamma(xi) = 2 w S(t)``,
+``w = v_ref / x_peak``: x_peak scales the slip and is projected out (variable projection,
+as in :class:`~granflow.forecast.models.BranchCurve`). Two models share the data and differ
+in one slot:
 
-* the strength's: ``q = ln F_peak``; v_ref is ``w_v``'s and the failure time follows;
-* the time's: ``q = ln(t_f - until)``; F_peak is ``w_v``'s instead, and v_ref follows from
-  t_f in closed form, ``Gamma(x_fail) = 2 v_ref S(t_f)``, so the profile over the failure
-  time is a profile over one fitted coordinate.
+* the strength's: slots ``(F_peak, r, s0, A, lag[, e, d], z0, z1)``; the failure time
+  follows;
+* the time's: slots ``(t_f - until, r, s0, A, F_peak[, e, d], z0, z1)``; w follows from
+  t_f in closed form (``gamma(xi_fail) = 2 w S(t_f)``), so the profile over the failure
+  time is a profile over a slot.
 
-Both duck-type :class:`~granflow.forecast.likelihood.Likelihood` for
-:func:`~granflow.forecast.likelihood.fit_and_profile`: ``floor`` is 0 for the strength (under
-creep the layer can hold more than F_peak for a while, or fail below it) and ``until`` for
-the time, so the profiled quantity is ``floor + exp(q)`` in both.
+The direct effect makes the friction lag behind the force: sliding at velocity v the layer
+holds ``F(x) = sigma - A ln(v / v_ref)``. Over a record whose velocity changes little, the
+data fix that lag far better than A and v_ref apart, so v_ref enters through it: ``lag =
+A ln(w_ref / w)`` [N], the lag at the reference rate ``w_ref`` (the record's last velocity
+over the quasi-static fit's x_peak), ``w = w_ref exp(-lag / A)``.
+
+``A`` is absent where it is held. A staircase's edges, known to within their sampling
+windows only, move by ``(e, d)`` (offset and stretch, unpenalised: :func:`history_with_error`),
+and the force history's error is two standard-normal coordinates (as in the quasi-static
+forecast). The Jacobian is taken by forward differences: the shape's slots rebuild the
+unit curve, the others only the history and its inversion.
 """
 
-import dataclasses
+from __future__ import annotations
+
 import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
-from scipy.stats import f as f_dist
 
 from granflow.errors import InvalidDataError
+from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
+from granflow.fitting.results import FrozenMap
+from granflow.forecast import _inputs
+from granflow.forecast.coordinates import natural
 from granflow.forecast.creep import (
+    GRID_SIZE,
     History,
-    creep_curve,
-    creep_failure_time,
-    creep_slip,
+    curve_grid,
+    failure_point,
+    history_cumulative,
+    history_integral,
+    history_time_of,
     ramp_history,
-    velocity_for_failure,
+    slip_at,
 )
-from granflow.forecast.likelihood import _bounds, _side, fit_and_profile, params_from_peak
-from granflow.forecast.likelihood import _solve as _solve_fixed
+from granflow.forecast.inference import estimate, scan
+from granflow.forecast.models import NUISANCE_BOUND, S0_RANGE, Penalty, ratio_parameter
+from granflow.forecast.results import FailureForecast
+from granflow.model.params import Params
 
 __all__ = [
-    "CreepLikelihood",
+    "CreepModel",
     "CreepState",
     "creep_amplitude",
-    "fit_creep",
-    "profile_failure_time",
+    "forecast_creep",
+    "history_with_error",
+    "staircase_edges",
 ]
 
-_FREE = 4  # w_A, w_v, w_e, w_d
-_NUISANCE = 2  # the history's error
-_AMPLITUDE_SCALE = 1.0  # ln A = ln A_c + w_A
-_VELOCITY_SCALE = 3.0  # ln v_ref = ln v_c + 3 w_v
-_PEAK_SCALE = 0.5  # time likelihood: ln F_peak = ln F_c + 0.5 w_v (a factor e^4 either way)
-_EDGE_SCALE = 0.1  # steps: the edges move by 0.1 w_e sampling intervals
-_PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 w_d sampling intervals longer
+_EDGE_SCALE = 0.1  # steps: the edges move by 0.1 e sampling intervals
+_PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 d sampling intervals longer
 _CONTINUED_STEPS = 400
-_EDGE_MARGIN = 0.95  # a repaired start's Fd = 0 curve peaks at this fraction of F_peak
-_FITTED = 6  # a, alpha, x0, F_peak, A, v_ref
-_SOLVED = 4  # starts solved, the best by their chi-square
-_MORE_SOLVED = 16  # at most, while the best fit's noise exceeds the record's
-_LOCAL = 2.0  # a fit's noise over the record's rough noise that marks a local optimum
+_AMPLITUDE_STARTS = (0.003, 0.01, 0.03)  # A over F_peak
+_VELOCITY_STARTS = (-3.0, 0.0, 3.0)  # ln of v_ref over the record's last velocity
+_FIXED_POINT = 3
+_STEP = 1e-7  # forward differences: relative in log slots, absolute in linear ones
+_NO_FAILURE = 20.0  # a strength this many times the largest force held: no failure in sight
 
 
 @dataclass(frozen=True)
@@ -145,15 +156,15 @@ def staircase_edges(loading):
     return found, max(0.5 * (first[0] + first[1]), loading.end)
 
 
-def history_with_error(loading, error, z, ceiling, shift=(0.0, 0.0), edges=None):
-    """The imposed force history: the fitted one plus its error (coordinates ``z``), and its
-    continuation beyond the record (steps up to ``ceiling`` [N], then the last level).
+def history_with_error(loading, root, z, ceiling, shift=(0.0, 0.0), edges=None):
+    """The imposed force history: the fitted one plus its error (``root @ z``, the offset and
+    slope errors of :func:`~granflow.forecast.failure.loading_error`), and its continuation
+    beyond the record (steps up to ``ceiling`` [N], then the last level).
 
     A staircase's edges (:func:`staircase_edges`, or ``edges``: its result) are known to
     within their sampling windows only, and a creeping layer slips fastest just after each
     edge, so they move: ``shift`` = (offset [s], stretch [s]) puts edge k (1 the first,
     n the record's last) ``offset + (k - n) stretch`` later (both fitted)."""
-    root, _, _, _ = error
     c0, c1 = root @ z if z.size else (0.0, 0.0)
     if loading.kind == "ramp":
         origin = loading.error[3]
@@ -177,301 +188,378 @@ def history_with_error(loading, error, z, ceiling, shift=(0.0, 0.0), edges=None)
     return History(starts, values, np.zeros(values.size))
 
 
-@dataclass(frozen=True)
-class CreepLikelihood:
-    """The slip record against the creep model; see the module's docstring.
+class CreepModel:
+    """The creep model of one record at slot values (see the module's docstring).
 
-    ``timed`` False: the strength's likelihood (q = ln F_peak, ``floor`` 0); True: the
-    time's (q = ln(t_f - floor), ``floor`` the cut).
+    Parameters
+    ----------
+    time, slip : numpy.ndarray
+        The record up to the cut [s, m].
+    loading : Loading
+        Its force history.
+    root : numpy.ndarray
+        (2, 2): the history's offset and slope errors per nuisance coordinate [N].
+    amplitude : float or None
+        A held [N], or None (fitted).
+    until : float
+        The cut [s] (the time variant's floor).
+    rate : float
+        The reference rate w_ref [1/s] of the lag.
+    peak_slip : float
+        x_peak [m] at which the time variant reads the failure's velocity threshold (the
+        strength's best fit's; the threshold moves the failure by milliseconds only).
+    timed : bool
+        The time variant.
     """
 
-    time: np.ndarray
-    slip: np.ndarray
-    loading: object
-    error: tuple
-    centre: tuple  # (A_c, v_c, F_c)
-    fixed_amplitude: bool
-    floor: float
-    size: int
-    bounds: tuple
-    timed: bool = False
-    ceiling: float = math.inf
-    window: float = 0.0
-    edges: tuple | None = None
-    prior: object = None
-    prior_size: int = 0
-    noise: float | None = None
-    scale: float = 1.0
-    nuisance: int = _FREE + _NUISANCE
-    starts: tuple = ()
-    peak_of: object = None
-    restarts: bool = True  # profile points near the threshold solved from more starts
+    def __init__(self, time, slip, loading, root, amplitude, until, rate, peak_slip, timed=False):
+        self.time, self.slip, self.loading, self.root = time, slip, loading, root
+        self.fixed = amplitude
+        self.until, self.timed = until, timed
+        self.reference_rate, self.reference_slip = rate, peak_slip
+        self.staircase = loading.kind == "steps"
+        self.edges = staircase_edges(loading)
+        self.window = max((hi - lo for lo, hi in loading.windows), default=0.0)
+        self.ceiling = float(np.max(loading.force(time)))
+        names = ["gap" if timed else "peak_force", "ratio", "s0"]
+        if amplitude is None:
+            names.append("amplitude")
+        names.append("peak_force" if timed else "lag")
+        if self.staircase:
+            names += ["e", "d"]
+        names += ["z0", "z1"]
+        self.names = tuple(names)
+        self.first_nuisance = len(names) - 2
+        self.shape = len(names) - 2 - (2 if self.staircase else 0)  # slots that move the curve
+        self._curve_key, self._curve = None, None
+        self._cache = {}
 
-    def curve(self, u):
-        """(CreepState, (CreepCurve, History)) at internal vector u, or None where
-        infeasible."""
-        with np.errstate(all="ignore"):
-            return self._curve(u)
+    def unpack(self, values):
+        """The slot values by name."""
+        out = dict(zip(self.names, values, strict=True))
+        if self.fixed is not None:
+            out["amplitude"] = self.fixed
+        return out
 
-    def _curve(self, u):
-        a, alpha, x0 = (float(v) for v in np.exp(u[:3]))
-        amplitude_c, velocity_c, peak_c = self.centre
-        amplitude = amplitude_c * (1.0 if self.fixed_amplitude else math.exp(u[4]))
-        z = np.asarray(u[8:], dtype=float)
-        shift = (_EDGE_SCALE * u[6] * self.window, _PERIOD_SCALE * u[7] * self.window)
-        if self.timed:
-            peak_force = peak_c * math.exp(_PEAK_SCALE * u[5])
-            failure_time = self.floor + math.exp(u[3])
-        else:
-            peak_force = math.exp(u[3])
-            velocity = velocity_c * math.exp(_VELOCITY_SCALE * u[5])
-        found = params_from_peak(a, alpha, x0, peak_force)
-        if found is None:
-            return None
-        params, s_peak = found
-        peak_slip = s_peak / alpha
-        shape = creep_curve(params, amplitude, peak_slip, peak_force)
+    def _unit_curve(self, peak_force, ratio, s0, amplitude):
+        """(natural params of the unit curve, (x, exponent, gamma)) or None; the last one
+        kept (the forward differences of the other slots reuse it)."""
+        key = (peak_force, ratio, s0, amplitude)
+        if key != self._curve_key:
+            transform = np.empty((4, 4))
+            a, alpha, fd, x0, _ = natural(peak_force, ratio, s0, 1.0, transform)
+            if not (math.isfinite(a) and a > 0 and amplitude > 0):
+                self._curve_key, self._curve = key, None
+                return None
+            grid = (np.empty(GRID_SIZE), np.empty(GRID_SIZE), np.empty(GRID_SIZE))
+            curve_grid((a, alpha, fd, x0), peak_force, 1.0, amplitude, *grid)
+            self._curve_key, self._curve = key, ((a, alpha, fd, x0), grid)
+        return self._curve
+
+    def history(self, slots, peak_force, amplitude):
+        """The imposed history at the slots' nuisance and edge shift."""
+        z = np.array([slots["z0"], slots["z1"]])
+        shift = (0.0, 0.0)
+        if self.staircase:
+            window = self.window
+            shift = (_EDGE_SCALE * slots["e"] * window, _PERIOD_SCALE * slots["d"] * window)
         ceiling = max(self.ceiling, peak_force + 40.0 * amplitude)
-        history = history_with_error(self.loading, self.error, z, ceiling, shift, self.edges)
+        return history_with_error(self.loading, self.root, z, ceiling, shift, self.edges)
+
+    def evaluate(self, values):
+        """(slip [m] at the record's times, CreepState) at the slot ``values``; the slip is
+        None outside the box."""
+        key = values.tobytes()
+        if key in self._cache:
+            return self._cache[key]
+        found = self._evaluate(values)
+        if len(self._cache) > 64:
+            self._cache.clear()
+        self._cache[key] = found
+        return found
+
+    def _evaluate(self, values):
+        slots = self.unpack(values)
+        peak_force, amplitude = slots["peak_force"], slots["amplitude"]
+        unit = self._unit_curve(peak_force, slots["ratio"], slots["s0"], amplitude)
+        if unit is None:
+            return None, None
+        params, (x, exponent, gamma) = unit
+        history = self.history(slots, peak_force, amplitude)
+        cumulative = np.empty(history.starts.size)
+        history_cumulative(
+            history.starts, history.begin, history.rate, amplitude, peak_force, cumulative
+        )
+        pieces = (history.starts, history.begin, history.rate, cumulative, amplitude, peak_force)
         if self.timed:
-            velocity = velocity_for_failure(shape, history, failure_time)
-            if not (math.isfinite(velocity) and velocity > 0):
-                return None
+            failure_time = self.until + slots["gap"]
+            w = self._rate_for_failure(unit, history, pieces, failure_time)
+            if not (math.isfinite(w) and w > 0):
+                return None, None
         else:
-            failure_time = creep_failure_time(shape, velocity, history)
-            if not math.isfinite(velocity):
-                return None
-        state = CreepState(params, amplitude, velocity, peak_force, peak_slip, failure_time)
-        return (state, (shape, history))
+            exponent_of_rate = -slots["lag"] / amplitude
+            if not abs(exponent_of_rate) < 700.0:
+                return None, None
+            w = self.reference_rate * math.exp(exponent_of_rate)
+        integral = np.empty(self.time.size)
+        history_integral(self.time, *pieces, integral)
+        target = 2.0 * w * np.maximum(integral, 0.0)
+        xi = np.empty(self.time.size)
+        slip_at(target, x, exponent, gamma, xi)
+        shape = xi - params[3]
+        norm = float(shape @ shape)
+        scale = float(shape @ self.slip) / norm if norm > 0 else 0.0
+        if not (math.isfinite(scale) and scale > 0):
+            return None, None
+        velocity = w * scale
+        if not self.timed:
+            failure_time = self._failure_time(unit, history, pieces, w, velocity)
+        a, alpha, fd, x0 = params
+        state = CreepState(
+            Params(a=a, alpha=alpha / scale, Fd=fd, x0=x0 * scale),
+            amplitude,
+            velocity,
+            peak_force,
+            scale,
+            failure_time,
+        )
+        return scale * shape, state
 
-    def repaired(self, u, target):
-        """A start ``u`` with the profiled coordinate at ``target``, made feasible where F_peak
-        lies below the peak of the Fd = 0 curve at its a (a fit on the family's edge, Fd ->
-        0, whose profile lowers F_peak): a lowered so that the Fd = 0 curve peaks at
-        ``_EDGE_MARGIN`` of F_peak. A start only: the likelihood itself is unchanged."""
-        from granflow.model.friction import peak
-        from granflow.model.params import Params
+    @staticmethod
+    def _failure_time(unit, history, pieces, w, velocity):
+        """When the layer passes the failure velocity past the peak [s] (inf if never)."""
+        _, (x, exponent, gamma) = unit
+        amplitude, peak_force = pieces[4], pieces[5]
+        rough = history_time_of(gamma[-1] / (2.0 * w), *pieces)
+        if not math.isfinite(rough):
+            return rough
+        force = float(history.force(rough))
+        point = failure_point(x, exponent, gamma, 1.0, peak_force, amplitude, velocity, force)
+        return float(history_time_of(point / (2.0 * w), *pieces))
 
-        u = np.array(u, dtype=float)
-        u[3] = target
-        if self.curve(u) is not None:
-            return u
-        timed = self.centre[2] * math.exp(_PEAK_SCALE * u[5])
-        peak_force = timed if self.timed else math.exp(u[3])
-        a, alpha, x0 = (float(v) for v in np.exp(u[:3]))
-        try:
-            unit = peak(Params(a=1.0, alpha=alpha, Fd=0.0, x0=x0)).force
-        except (ValueError, ArithmeticError):
-            return u
-        if unit > 0 and peak_force < a * unit:
-            u[0] = math.log(_EDGE_MARGIN * peak_force / unit)
-        return u
+    def _rate_for_failure(self, unit, history, pieces, failure_time):
+        """w that puts the failure at ``failure_time`` [s]: gamma at the failure point over
+        2 S(t_f), the failure point (which depends on the velocity) iterated to a fixed
+        point from the grid's end, at the reference x_peak."""
+        _, (x, exponent, gamma) = unit
+        amplitude, peak_force = pieces[4], pieces[5]
+        scaled = np.empty(1)
+        history_integral(np.array([failure_time]), *pieces, scaled)
+        if not scaled[0] > 0:
+            return math.inf
+        force = float(history.force(failure_time))
+        w = gamma[-1] / (2.0 * scaled[0])
+        for _ in range(_FIXED_POINT):
+            velocity = w * self.reference_slip
+            point = failure_point(x, exponent, gamma, 1.0, peak_force, amplitude, velocity, force)
+            w = point / (2.0 * scaled[0])
+        return w
 
-    def model(self, u):
-        """The model's slip [m] at the record's times, or None where u is infeasible."""
-        found = self.curve(u)
-        if found is None:
-            return None
-        state, (shape, history) = found
-        return creep_slip(self.time, shape, state.velocity, history) - state.params.x0
-
-    def vector(self, u, noise, with_prior):
-        """The standardised residual vector at u (large and flat where u is infeasible)."""
-        with np.errstate(all="ignore"):
-            return self._vector(u, noise, with_prior)
-
-    def _vector(self, u, noise, with_prior):
-        size = self.size + _NUISANCE + (self.prior_size if with_prior else 0)
-        found = self.curve(u)
-        if found is None:
-            return np.full(size, 1e6)
-        state, (shape, history) = found
-        model = creep_slip(self.time, shape, state.velocity, history) - state.params.x0
-        out = np.concatenate([(self.slip - model) / noise, np.asarray(u[8:], dtype=float)])
-        if with_prior:
-            out = np.concatenate([out, self.prior(state.params)])
-        return np.where(np.isfinite(out), out, 1e6)
-
-
-def _bounded(likelihood, u):
-    low, high = _bounds(likelihood)
-    return np.clip(u, low + 1e-9, high - 1e-9), (low, high)
-
-
-def _solve(likelihood, u, noise, with_prior):
-    start, bounds = _bounded(likelihood, u)
-    result = least_squares(
-        lambda v: likelihood.vector(v, noise, with_prior),
-        start,
-        bounds=bounds,
-        max_nfev=400,
-    )
-    return result.x, 2.0 * result.cost
-
-
-def fit_creep(likelihood, starts, level):
-    """The best fit of the strength's likelihood from ``starts`` (internal vectors) and the
-    profile of F_peak: ``(Fit, best)`` with ``best`` the ``(vector, chisqr, noise,
-    threshold)`` of :func:`~granflow.forecast.likelihood.fit_and_profile`.
-
-    The noise is estimated as in the quasi-static forecast unless the likelihood fixes it:
-    fitted in units of a rough scale, rescaled to the residuals' variance with
-    ``size - 6`` degrees of freedom (``size - 8`` for a staircase; F(1, dof) threshold),
-    then refitted at that noise (the nuisance coordinates make the optimum depend on it).
-    """
-    with_prior = likelihood.prior is not None
-    noise = likelihood.noise
-    fixed = noise is not None
-    first = likelihood.scale if noise is None else noise
-    scored = []
-    for u in starts:
-        value = likelihood.vector(u, first, with_prior)
-        scored.append((float(value @ value), tuple(u)))
-    scored.sort()
-    # the staircase's edges are two more fitted coordinates
-    dof = max(likelihood.size - _FITTED - (2 if likelihood.window > 0 else 0), 1)
-    fits = []
-    for count, (_, u) in enumerate(scored[:_MORE_SOLVED]):
-        if count >= _SOLVED:
-            # a fit far worse than the record's own noise is a local optimum: more starts
-            best_value = min(item[1] for item in fits)
-            if first * math.sqrt(best_value / dof) < _LOCAL * likelihood.scale:
-                break
-        fits.append(_solve(likelihood, np.array(u), first, with_prior))
-    u, value = min(fits, key=lambda item: item[1])
-    if fixed:
-        from scipy.stats import chi2
-
-        threshold = float(chi2.ppf(level, 1))
-        chisqr = value
-    else:
-        data = likelihood.vector(u, first, False)[: likelihood.size]
-        noise = max(first * math.sqrt(float(data @ data) / dof), 1e-300)
-        threshold = float(f_dist.ppf(level, 1, dof))
-        u, chisqr = _solve(likelihood, u, noise, with_prior)
-    best = (u, chisqr, noise, threshold)
-    return fit_and_profile(likelihood, level, best=best), best
+    def function_and_jacobian(self, values, log):
+        """(slip, d slip / d slots by forward differences); a flat penalty outside the box."""
+        base, _ = self.evaluate(values)
+        size, n = self.time.size, values.size
+        if base is None:
+            return np.full(size, 1e3 * (np.max(np.abs(self.slip)) + 1e-12)), np.zeros((size, n))
+        jacobian = np.empty((size, n))
+        for k in range(n):
+            step = _STEP * abs(values[k]) if log[k] else _STEP
+            step = step if step > 0 else _STEP
+            moved = values.copy()
+            moved[k] += step
+            shifted, _ = self.evaluate(moved)
+            if shifted is None:
+                moved[k] -= 2.0 * step
+                shifted, _ = self.evaluate(moved)
+                step = -step
+            jacobian[:, k] = 0.0 if shifted is None else (shifted - base) / step
+        return base, jacobian
 
 
-def timed_likelihood(likelihood, state, until):
-    """The time's likelihood sharing the strength's data, centred on ``state``."""
-    centre = (likelihood.centre[0], likelihood.centre[1], state.peak_force)
-    return dataclasses.replace(likelihood, centre=centre, floor=until, timed=True)
-
-
-def timed_vector(likelihood, u, state, until):
-    """The strength's best vector ``u`` in the time likelihood's coordinates."""
-    out = np.array(u, dtype=float)
-    out[3] = math.log(max(state.failure_time - until, 1e-300))
-    out[5] = 0.0
-    return out
-
-
-_PROBED_EDGES = 1  # steps beyond each end of the time's interval where another mode is sought
-
-
-def _continued_edges(likelihood):
-    """The staircase's edges [s]: the record's and those of its continued steps (unshifted)."""
-    known, begin = likelihood.edges
-    count = _CONTINUED_STEPS
-    return np.concatenate([known, begin + likelihood.loading.duration * np.arange(count)])
-
-
-def _crossing_between(inside, outside, threshold):
-    """The profiled coordinate where the signed root of the chi-square, linear between an
-    ``inside`` and an ``outside`` profile point ``(q, delta, u)``, meets the threshold's."""
-    (q_a, d_a, _), (q_b, d_b, _) = inside, outside
-    r_a, r_b = math.sqrt(d_a), math.sqrt(d_b)
-    return q_a + (math.sqrt(threshold) - r_a) * (q_b - q_a) / (r_b - r_a)
-
-
-def profile_failure_time(likelihood, level, best):
-    """The time likelihood's interval of t_f [s] and its profile (a
-    :class:`~granflow.forecast.likelihood.Fit`), from its best fit ``best`` (the
-    ``(vector, chisqr, noise, threshold)`` of :func:`fit_creep`): the profile
-    (:func:`~granflow.forecast.likelihood.fit_and_profile`), and under a staircase the
-    modes beyond it.
-
-    A creeping layer under a staircase fails soon after an edge or, by static fatigue,
-    later in a hold; between one edge's mode and the next the profile rises over the hold,
-    so a search that stops at the first crossing of the threshold misses a failure one step
-    earlier or later that fits as well. So beyond each end, the failure at the same delay
-    after each of the next edges is solved (with F_peak moved by the steps between, and
-    from the best fit); where one is inside the threshold, the profile goes on from it to
-    its own crossing, and the probing from there.
-    """
-    fit = fit_and_profile(likelihood, level, best=best)
-    low, high = fit.interval
-    if likelihood.edges is None or likelihood.loading.kind == "ramp":
-        return (low, high), fit
-    u_best, chisqr, noise, threshold = best
-    found = likelihood.curve(u_best)
-    if found is None:
-        return (low, high), fit
-    state = found[0]
-    edges = _continued_edges(likelihood)
-    until = likelihood.floor
-    k_best = int(np.searchsorted(edges, state.failure_time, side="right")) - 1
-    delay = state.failure_time - (edges[k_best] if k_best >= 0 else 0.0)
-    step = likelihood.loading.step
-    with_prior = likelihood.prior is not None
-    low_bound, high_bound = _bounds(likelihood)
-
-    def probe(k):
-        target = edges[k] + delay
-        if not target > until:
-            return None
-        q = math.log(target - until)
-        start = np.array(u_best, dtype=float)
-        ratio = 1.0 + (k - k_best) * step / state.peak_force
-        if ratio > 0:
-            start[5] = math.log(ratio) / _PEAK_SCALE
-        start = np.clip(start, low_bound + 1e-9, high_bound - 1e-9)
-        u, value = _solve_fixed(likelihood, start, noise, with_prior, fixed=q)
-        return q, max(value - chisqr, 0.0), u
-
-    for direction in (-1, 1):
-        end = low if direction < 0 else high
-        if not math.isfinite(end) or end <= until:
-            continue
-        k = int(np.searchsorted(edges, end - delay, side="left" if direction > 0 else "right"))
-        k = k if direction > 0 else k - 1
-        missed = 0
-        while missed < _PROBED_EDGES and 0 <= k < edges.size:
-            point = probe(k)
-            if point is None:
-                break
-            k += direction
-            if point[1] > threshold:
-                missed += 1
-                continue
-            # another mode inside: go on from it to its own crossing
-            missed = 0
-            points, bounded = _side(
-                likelihood,
-                point[2],
-                chisqr,
-                noise,
-                with_prior,
-                direction,
-                0.02,
-                threshold,
-                point[0] + direction * 12.0,
+def creep_problem(model, sigma, values, prior=None):
+    """The engine's Problem of a :class:`CreepModel` at noise ``sigma`` [m] and slot
+    ``values``."""
+    log = []
+    parameters = []
+    held = float(np.max(model.loading.force(model.time)))
+    duration = float(model.time[-1] - model.time[0]) or 1.0
+    for name, value in zip(model.names, values, strict=True):
+        if name == "peak_force":
+            parameter = GlobalParameter(
+                name, float(value), log=True, lower=1e-3 * held, upper=1e3 * held
             )
-            inside = point
-            for item in points:
-                if item[1] > threshold:
-                    break
-                inside = item
-            if not bounded:
-                end = until if direction < 0 else math.inf
-                break
-            outside = next(item for item in points if item[1] > threshold)
-            end = until + math.exp(_crossing_between(inside, outside, threshold))
-            k = int(np.searchsorted(edges, end - delay, side="left" if direction > 0 else "right"))
-            k = k if direction > 0 else k - 1
-        if direction < 0:
-            low = min(low, end)
+        elif name == "gap":
+            parameter = GlobalParameter(
+                name, float(value), log=True, lower=1e-9 * duration, upper=1e4 * duration
+            )
+        elif name == "ratio":
+            parameter = ratio_parameter(value)
+        elif name == "s0":
+            parameter = GlobalParameter(
+                name, float(value), log=True, lower=S0_RANGE[0], upper=S0_RANGE[1]
+            )
+        elif name == "amplitude":
+            parameter = GlobalParameter(name, float(value), log=True, lower=1e-6 * held, upper=held)
+        elif name == "lag":
+            parameter = GlobalParameter(name, float(value), log=False, lower=-held, upper=held)
+            parameter.scale = 1e-3 * held
+        elif name in ("e", "d"):
+            parameter = GlobalParameter(name, float(value), log=False, lower=-10.0, upper=10.0)
+            parameter.scale = 1.0
         else:
-            high = max(high, end)
-    return (low, high), fit
+            parameter = GlobalParameter(
+                name, float(value), log=False, lower=-NUISANCE_BOUND, upper=NUISANCE_BOUND
+            )
+            parameter.scale = 1.0
+        parameters.append(parameter)
+        log.append(parameter.log)
+
+    def function(z, *current):
+        current = np.array(current, dtype=float)
+        slip, _ = model.evaluate(current)
+        if slip is None:
+            return np.full(z.shape[0], 1e3 * (np.max(np.abs(model.slip)) + 1e-12))
+        return slip[z.astype(np.int64)]
+
+    def jacobian(z, *current):
+        return model.function_and_jacobian(np.array(current, dtype=float), log)
+
+    engine_model = Model(slots=model.names, function=function, jacobian=jacobian, log=tuple(log))
+
+    def natural_of(current):
+        _, state = model.evaluate(np.asarray(current, dtype=float))
+        if state is None:
+            return None
+        p = state.params
+        # the prior's derivatives by forward differences through the model
+        base = np.array([p.a, p.alpha, p.Fd, p.x0])
+        chain = np.zeros((4, len(current)))
+        for k in range(len(current)):
+            step = _STEP * abs(current[k]) if log[k] else _STEP
+            moved = np.array(current, dtype=float)
+            moved[k] += step
+            _, other = model.evaluate(moved)
+            if other is not None:
+                q = other.params
+                chain[:, k] = (np.array([q.a, q.alpha, q.Fd, q.x0]) - base) / step
+        return base, chain
+
+    penalty = Penalty(model.first_nuisance, 2, prior, natural_of)
+    data = Curve(
+        z=np.arange(model.time.size, dtype=float),
+        y=np.ascontiguousarray(model.slip),
+        w=np.full(model.time.size, 1.0 / sigma),
+        links=tuple((k, 1.0) for k in range(len(values))),
+    )
+    return Problem([data], parameters, model=engine_model, penalty=penalty)
+
+
+def _starts(model, quasi_static):
+    """Starting slot values: the quasi-static best fit's shape (F_peak, r, s0), A at a few
+    fractions of F_peak (unless held) and no lag at the reference rate."""
+    peak_force, ratio, s0 = quasi_static
+    starts = []
+    amplitudes = (None,) if model.fixed is not None else _AMPLITUDE_STARTS
+    for factor in amplitudes:
+        slots = {"peak_force": peak_force, "ratio": ratio, "s0": s0, "lag": 0.0}
+        slots.update(e=0.0, d=0.0, z0=0.0, z1=0.0)
+        if factor is not None:
+            slots["amplitude"] = factor * peak_force
+        starts.append([slots[name] for name in model.names])
+    return starts
+
+
+def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, observed, message):
+    """The forecast with the direct effect of a checked record cut at ``until``: see
+    :func:`granflow.forecast_failure`."""
+    from granflow.forecast.failure import (
+        _no_date,
+        _observed_dict,
+        loading_error,
+        quasi_static_fit,
+    )
+
+    root, _, _, _ = loading_error(loading, time)
+    fit_qs, peak_slip = quasi_static_fit(time, slip, loading, prior, sigma)
+    tail = max(time.size // 10, 3)
+    last = float(np.polyfit(time[-tail:], slip[-tail:], 1)[0])
+    velocity = max(last, float(np.ptp(slip)) / max(float(np.ptp(time)), 1e-300))
+    model = CreepModel(time, slip, loading, root, amplitude, until, velocity / peak_slip, peak_slip)
+    starts = _starts(model, fit_qs)
+    if not starts:
+        text = "the creep model has no curve for this record: no sign of approaching failure"
+        return _no_date(until, level, loading, time.size, text, prior, observed)
+    fitted = len(model.names) - 2 + 1  # the slots but the nuisance, and x_peak
+    fit = estimate(
+        lambda noise, values: creep_problem(model, noise, values, prior),
+        starts,
+        size=time.size - fitted + 4,
+        within=0.0,
+        sigma=sigma,
+        rough=_inputs.rough_noise(slip),
+        nuisance=model.first_nuisance,
+    )
+    _, state = model.evaluate(fit.values)
+    held = float(np.max(loading.force(time)))
+    if (
+        state is None
+        or state.peak_force > _NO_FAILURE * held
+        or not math.isfinite(state.failure_time)
+    ):
+        text = "the fitted creep shows no failure in sight: no sign of approaching failure"
+        return _no_date(until, level, loading, time.size, text, prior, observed, bound=held)
+    force_profile, strength = scan(fit, 0, level)
+    # the time: the same data with t_f for v_ref
+    timed = CreepModel(
+        time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True
+    )
+    values = dict(zip(model.names, fit.values, strict=True))
+    values["gap"] = max(state.failure_time - until, 1e-9)
+    timed_values = np.array([values[name] for name in timed.names])
+    time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
+    _, timing = scan(fit, 0, level, offset=until, problem=time_problem, values=timed_values)
+    time_interval = timing.interval(level)
+    force_interval = strength.interval(level)
+    nodes, probabilities = timing.table()
+    slips = [state.peak_slip - state.params.x0]
+    for point in force_profile.points:
+        if force_interval[0] <= point.value <= force_interval[1]:
+            _, other = model.evaluate(point.values)
+            if other is not None:
+                slips.append(other.peak_slip - other.params.x0)
+    slip_interval = (min(slips), max(slips))
+    if math.isinf(force_interval[1]):
+        slip_interval = (slip_interval[0], math.inf)
+    if not message and math.isinf(time_interval[1]):
+        message = "the record does not yet bound the failure from above"
+    p = state.params
+    return FailureForecast(
+        time=state.failure_time,
+        time_interval=time_interval,
+        force=state.peak_force,
+        force_interval=force_interval,
+        slip=state.peak_slip - p.x0,
+        slip_interval=slip_interval,
+        until=until,
+        level=level,
+        loading=loading,
+        params=FrozenMap(
+            {
+                "a": p.a,
+                "alpha": p.alpha,
+                "Fd": p.Fd,
+                "x0": p.x0,
+                "A": state.amplitude,
+                "v_ref": state.velocity,
+            }
+        ),
+        sigma=fit.sigma,
+        n_points=time.size,
+        approaching=True,
+        prior=None if prior is None else prior.to_dict(),
+        message=message,
+        method="model (creep)",
+        cdf={"time": [float(v) for v in nodes], "probability": [float(v) for v in probabilities]},
+        observed_failure=None if observed is None else observed.time,
+        observed=None if observed is None else _observed_dict(observed),
+    )

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -35,7 +36,16 @@ if TYPE_CHECKING:
     from granflow._typing import ArrayLike
     from granflow.forecast.results import FailureForecast
 
-__all__ = ["check_level", "check_prior", "forecast_failure", "loading_error", "sigma_argument"]
+__all__ = [
+    "Warm",
+    "check_level",
+    "check_prior",
+    "forecast_failure",
+    "loading_error",
+    "quasi_static",
+    "sigma_argument",
+    "warm_forecast",
+]
 
 _NAN_PAIR = (math.nan, math.nan)
 _RATIOS = (0.3, 0.7, 0.9)
@@ -286,6 +296,23 @@ def forecast_failure(
     level = check_level(level)
     prior = check_prior(prior)
     sigma = sigma_argument(sigma, noise, "m")
+    record = _prepared(t, slip, force, until)
+    time, slip_cut, loading, until, observed, message = record
+    if loading.rate <= 0:
+        text = "the imposed force does not rise, so it never reaches the peak"
+        return _no_date(until, level, loading, time.size, text, prior, observed)
+    if direct_effect is not None:
+        from granflow.forecast.creeping import forecast_creep
+
+        return forecast_creep(
+            time, slip_cut, loading, until, level, amplitude, prior, sigma, observed, message
+        )
+    return quasi_static(*record[:4], level, prior, sigma, observed, message)[0]
+
+
+def _prepared(t, slip, force, until):
+    """(time, slip, loading, until, observed failure, message) of a record: checked, cut at
+    ``until``, and where it shows its failure cut before it."""
     whole, columns, _ = _inputs.record(t, {"slip": (slip, "m"), "force": (force, "N")}, None)
     observed = find_failure(whole, columns["slip"], columns["force"])
     message = ""
@@ -301,18 +328,23 @@ def forecast_failure(
     time, cut, until = _inputs.record(
         whole, {"slip": (columns["slip"], "m"), "force": (columns["force"], "N")}, until
     )
-    slip_cut = cut["slip"]
-    loading = fit_loading(time, cut["force"])
+    return time, cut["slip"], fit_loading(time, cut["force"]), until, observed, message
+
+
+def warm_forecast(t, slip, force, *, prior=None, level=0.9, sigma=None, warm=None):
+    """The quasi-static :func:`forecast_failure` of a whole record, warm-started from the
+    :class:`Warm` state of its forecast before it grew; ``(forecast, warm state)`` (the
+    state None where there was no fit)."""
+    level = check_level(level)
+    prior = check_prior(prior)
+    sigma = sigma_argument(sigma, None, "m")
+    time, slip_cut, loading, until, observed, message = _prepared(t, slip, force, None)
     if loading.rate <= 0:
         text = "the imposed force does not rise, so it never reaches the peak"
-        return _no_date(until, level, loading, time.size, text, prior, observed)
-    if amplitude is not None or direct_effect is not None:
-        from granflow.forecast.creeping import forecast_creep
-
-        return forecast_creep(
-            time, slip_cut, loading, until, level, amplitude, prior, sigma, observed, message
-        )
-    return _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, message)
+        return _no_date(until, level, loading, time.size, text, prior, observed), None
+    return quasi_static(
+        time, slip_cut, loading, until, level, prior, sigma, observed, message, warm
+    )
 
 
 def _trend_test(fit, groups):
@@ -332,8 +364,24 @@ def _trend_test(fit, groups):
     return float(fdtrc(3, fit.dof, (gain / 3.0) / max(fitted / fit.dof, 1e-300)))
 
 
-def _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, message):
-    """The quasi-static forecast of a checked record cut at ``until``."""
+@dataclass(frozen=True)
+class Warm:
+    """What a quasi-static forecast leaves for the forecast of the same record grown (a
+    :class:`~granflow.forecast.running.RunningForecast`'s next update): its two optima and
+    its profiles' ends, valid while the slots stay the same (``layout``)."""
+
+    layout: tuple
+    first: np.ndarray
+    values: np.ndarray
+    force_ends: dict
+    time_ends: dict
+
+
+def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
+    """(fit, build, groups, floor, continuation, shape) of the quasi-static model of a
+    record: the engine's best fit (:func:`~granflow.forecast.inference.estimate`) and the
+    pieces to rebuild its problem, in the strength's or the time's coordinates; ``warm``
+    (a :class:`Warm` of the same layout) starts the fit from its optima."""
     root, basis, anchor, slope = loading_error(loading, time, each_level=True)
     base = loading.force(time)
     groups = group_points(base, basis @ root, slip_cut)
@@ -361,6 +409,38 @@ def _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed,
         sigma=sigma,
         rough=_inputs.rough_noise(slip_cut),
         nuisance=shape,
+        tries=tries,
+        warm=None if warm is None else (warm.first, warm.values),
+    )
+    return fit, build, groups, floor, continuation, shape
+
+
+def quasi_static_fit(time, slip_cut, loading, prior, sigma):
+    """((F_peak [N], r, s0), x_peak [m]) of the quasi-static model's best fit to a record
+    (the creep forecast's first start; from its two best starts only, since a creeping
+    record does not follow it to its noise)."""
+    fit, build, _, floor, _, _ = _branch(time, slip_cut, loading, prior, sigma, tries=2)
+    found = build(fit.sigma, fit.values)[1](fit.values)[2]
+    peak_slip = found[1][1] if found is not None else max(float(np.ptp(slip_cut)), 1e-12)
+    return (floor + fit.values[0], fit.values[1], fit.values[2]), peak_slip
+
+
+def _layout(loading, time, prior):
+    """The slots' layout of a record's quasi-static problem: warm starts carry over while
+    it stays the same."""
+    root = loading_error(loading, time, each_level=True)[0]
+    return (loading.kind, loading.on_line, root.shape[1], projects(prior))
+
+
+def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, message, warm=None):
+    """The quasi-static forecast of a checked record cut at ``until``, and the :class:`Warm`
+    state it leaves (None without a fit); ``warm`` is the previous one's, of the same
+    record before it grew."""
+    layout = _layout(loading, time, prior)
+    if warm is not None and warm.layout != layout:
+        warm = None
+    fit, build, groups, floor, continuation, shape = _branch(
+        time, slip_cut, loading, prior, sigma, warm=warm
     )
     values = fit.values
     curve = build(fit.sigma, values)[1]
@@ -370,7 +450,9 @@ def _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed,
             "the layer has not slipped beyond the noise (the slip's trend against none: "
             f"p = {trend:.2g}): no information on the failure yet"
         )
-        return _no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
+        forecast = _no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
+        return forecast, Warm(layout, fit.first, values, {}, {})
+
     def shapes(gap):
         """More starts at a gap (the shape grid, the nuisance at its optimum)."""
         return [
@@ -379,14 +461,23 @@ def _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed,
             for s0 in _INITIAL_STATES
         ]
 
-    force_profile, strength = scan(fit, 0, level, offset=floor, starts=shapes)
+    force_profile, strength = scan(
+        fit, 0, level, offset=floor, starts=shapes, hints=None if warm is None else warm.force_ends
+    )
     # the time: the same likelihood with P (the fitted history's force at failure) for F_peak
     timed = values.copy()
     level_p = continuation.level(floor + values[0], values[shape:])
     timed[0] = max(level_p - floor, 1e-9 * floor) if math.isfinite(level_p) else 99.0 * floor
     time_problem = build(fit.sigma, timed, timed=True)[0]
-    _, timing = scan(
-        fit, 0, level, offset=floor, problem=time_problem, values=timed, starts=shapes
+    time_profile, timing = scan(
+        fit,
+        0,
+        level,
+        offset=floor,
+        problem=time_problem,
+        values=timed,
+        starts=shapes,
+        hints=None if warm is None else warm.time_ends,
     )
     force_interval = strength.interval(level)
     level_interval = timing.interval(level)
@@ -416,7 +507,7 @@ def _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed,
     slip_interval = (min(slips), max(slips)) if slips else _NAN_PAIR
     if math.isinf(force_interval[1]):
         slip_interval = (slip_interval[0], math.inf)
-    return FailureForecast(
+    forecast = FailureForecast(
         time=loading.time_at(median) if approaching else None,
         time_interval=time_interval,
         force=floor + values[0] if approaching else None,
@@ -439,3 +530,22 @@ def _quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed,
         observed_failure=None if observed is None else observed.time,
         observed=None if observed is None else _observed_dict(observed),
     )
+    left = Warm(
+        layout,
+        fit.first,
+        values,
+        _absolute(force_profile, floor),
+        _absolute(time_profile, floor),
+    )
+    return forecast, left
+
+
+def _absolute(profile, floor):
+    """A profile's ends as the profiled quantity's values [N] (their internal coordinates
+    depend on the problem's scales): the hints of the next scan, converted back there."""
+    parameter = profile.optimum
+    scale = parameter.value
+    return {
+        side: [floor + scale * math.exp(u) if math.isfinite(u) else math.nan for u in ends]
+        for side, ends in profile.ends.items()
+    }

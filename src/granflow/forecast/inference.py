@@ -24,7 +24,8 @@ from granflow.forecast.distribution import Distribution
 __all__ = ["Estimate", "estimate", "heights", "scan"]
 
 _SHAPE = 4  # the peak coordinates
-_PRECISION = 1e-3  # of a profile's delta chi-square: far below its heights' resolution
+_PRECISION = 1e-3  # of chi-square, for the fit's stopping rule
+_ROOT_PRECISION = 1e-4  # of a profile end's signed root
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,8 @@ class Estimate:
         J^T J at the best fit in the optimiser's coordinates.
     nfev : int
         Passes over the data.
+    first : numpy.ndarray
+        The first stage's optimum (the nuisance held at 0), for a warm start.
     """
 
     problem: object
@@ -56,6 +59,7 @@ class Estimate:
     dof: int | None
     hessian: np.ndarray
     nfev: int
+    first: np.ndarray
 
 
 def data_chisqr(problem, values):
@@ -72,7 +76,9 @@ def _solve_at(problem, values, rtol):
     return problem.values(u), chisqr, hessian, steps
 
 
-def estimate(build, starts, *, size, within, sigma=None, rough, nuisance=None):
+def estimate(
+    build, starts, *, size, within, sigma=None, rough, nuisance=None, tries=None, warm=None
+):
     """The best fit of the problem ``build(sigma, values)`` from ``starts``.
 
     In two stages where the problem has nuisance coordinates (slots ``nuisance`` on, each a
@@ -97,13 +103,18 @@ def estimate(build, starts, *, size, within, sigma=None, rough, nuisance=None):
         A rough noise level [data unit] for the first solve.
     nuisance : int, optional
         The first nuisance slot.
+    tries : int, optional
+        At most this many starts solved (:func:`~granflow.fitting.engine.multistart`).
+    warm : tuple, optional
+        ``(first, values)``: a previous estimate's two optima (of the same record before it
+        grew), where the two stages start instead of the grid.
 
     Returns
     -------
     Estimate
     """
     first = rough if sigma is None else sigma
-    problem = build(first, starts[0])
+    problem = build(first, starts[0] if warm is None else warm[0])
     held = [] if nuisance is None else list(range(nuisance, len(problem.parameters)))
     for index in held:
         problem.parameters[index].fixed = True
@@ -111,19 +122,45 @@ def estimate(build, starts, *, size, within, sigma=None, rough, nuisance=None):
         problem = type(problem)(
             problem.curves, problem.parameters, model=problem.model, penalty=problem.penalty
         )
-    solution = multistart(problem, starts, 1.0, rtol=_PRECISION / max(size, 1))
-    values = problem.values(solution.x)
+    rtol = _PRECISION / max(size, 1)
+    solution = None
+    if warm is not None:
+        # the previous optimum first; the grid only where it has gone implausible
+        solution = multistart(problem, [warm[0]], 1.0, rtol=rtol, tries=1)
+        cost = problem.chisqr(problem.values(solution.x))
+        if not cost <= 2.0 * max(size - _SHAPE, 1):
+            solution = None
+    if solution is None:
+        solution = multistart(problem, starts, 1.0, rtol=rtol, tries=tries)
+    first_values = problem.values(solution.x)
     nfev = solution.nfev
-    if not np.all(np.isfinite(values)):
+    if not np.all(np.isfinite(first_values)):
         raise FitError("the forecast's fit did not converge to finite values")
     dof = None
     if sigma is None:
         dof = max(size - _SHAPE, 1)
-        squares = data_chisqr(problem, values) * first**2 + within
+        squares = data_chisqr(problem, first_values) * first**2 + within
         sigma = max(math.sqrt(squares / dof), 1e-300)
+    start = first_values if warm is None else np.asarray(warm[1], dtype=float)
+    problem = build(sigma, start)
+    values, chisqr, _, steps = _solve_at(problem, start, rtol)
+    if warm is not None and not chisqr <= problem.chisqr(
+        problem.values(problem.internal(first_values))
+    ):
+        # the previous optimum has drifted onto a poorer branch: the stage-1 optimum's
+        other, other_chisqr, _, more = _solve_at(problem, first_values, rtol)
+        steps += more
+        if other_chisqr < chisqr:
+            values, chisqr = other, other_chisqr
+    # polished to the optimum (Gauss-Newton converges quadratically there), then the
+    # problem rebuilt about it: what follows depends on the optimum, not on the path to it
     problem = build(sigma, values)
-    values, chisqr, hessian, steps = _solve_at(problem, values, _PRECISION / max(size, 1))
-    return Estimate(problem, values, chisqr, sigma, dof, hessian, nfev + steps)
+    u, polished = problem.gauss_newton(problem.internal(values), problem.free, {}, 1e-12)
+    if polished is not None and polished <= chisqr and np.all(np.isfinite(u)):
+        values = problem.values(u)
+        problem = build(sigma, values)
+    chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
+    return Estimate(problem, values, float(chisqr), sigma, dof, hessian, nfev + steps, first_values)
 
 
 def heights(level, dof):
@@ -137,11 +174,25 @@ def heights(level, dof):
     return tuple(sorted({quantile(level), quantile(0.5 * (1 + level))}))
 
 
-def scan(fit, index, level, *, offset=0.0, problem=None, values=None, hessian=None, starts=None):
+def scan(
+    fit,
+    index,
+    level,
+    *,
+    offset=0.0,
+    problem=None,
+    values=None,
+    hessian=None,
+    starts=None,
+    hints=None,
+):
     """The profile of slot ``index`` of ``fit`` (or of ``problem`` at ``values``, the same
     likelihood in other coordinates) and its :class:`Distribution` (q = ``offset`` +
-    the slot's value). ``starts(value)`` gives more starts for a conditional minimum (see
-    :func:`~granflow.fitting.profile.profile_scan`)."""
+    the slot's value). ``starts(value)`` gives more starts for a conditional minimum, and
+    ``hints`` (a previous scan's ends, as values of q) where each end is sought first (see
+    :func:`~granflow.fitting.profile.profile_scan`). The ends are found to 1e-4 of the
+    signed root, so that a scan warm-started from a previous one's ends reaches the same
+    ends as one from nothing."""
     problem = fit.problem if problem is None else problem
     values = fit.values if values is None else values
     if hessian is None:
@@ -156,6 +207,12 @@ def scan(fit, index, level, *, offset=0.0, problem=None, values=None, hessian=No
         halfwidth = 0.1
     halfwidth = min(max(halfwidth, 1e-6), 2.0)
     targets = heights(level, fit.dof)
+    parameter = problem.parameters[index]
+    internal_hints = None
+    if hints:
+        internal_hints = {
+            side: [_internal(parameter, q - offset) for q in ends] for side, ends in hints.items()
+        }
     profile = profile_scan(
         problem,
         values,
@@ -166,11 +223,12 @@ def scan(fit, index, level, *, offset=0.0, problem=None, values=None, hessian=No
         variance=1.0,
         internal_hessian=hessian,
         check=True,
-        tolerance=_PRECISION,
+        tolerance=_ROOT_PRECISION,
         starts=starts,
+        precision=_ROOT_PRECISION,
+        hints=internal_hints,
     )
     u, r = profile.signed_roots()
-    parameter = problem.parameters[index]
     low_end, high_end = parameter.internal_bounds()
     distribution = Distribution(
         u=u,
@@ -185,3 +243,11 @@ def scan(fit, index, level, *, offset=0.0, problem=None, values=None, hessian=No
         high_end=float(high_end),
     )
     return profile, distribution
+
+
+def _internal(parameter, value):
+    """The optimiser's coordinate of ``value``; NaN where it has none (a log parameter at or
+    below 0, a value that is not finite)."""
+    if not math.isfinite(value) or (parameter.log and not value > 0):
+        return math.nan
+    return parameter.to_internal(value)

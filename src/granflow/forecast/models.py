@@ -34,12 +34,16 @@ from granflow.model.special import compiled
 
 __all__ = [
     "NUISANCE_BOUND",
+    "RATIO_RANGE",
+    "S0_RANGE",
     "BranchCurve",
     "Continuation",
     "Groups",
+    "Penalty",
     "branch_problem",
     "group_points",
     "projects",
+    "ratio_parameter",
     "startup_problem",
     "startup_values",
 ]
@@ -217,7 +221,7 @@ class BranchCurve:
             scale = 1e-3 * max(float(np.max(np.abs(self.groups.mean))), 1e-12)
             d_scale = np.zeros(slots)
         else:
-            d_scale = ((weight * self.groups.mean) @ full - 2.0 * scale * ((weight * unit) @ full))
+            d_scale = (weight * self.groups.mean) @ full - 2.0 * scale * ((weight * unit) @ full)
             d_scale /= norm
         slip = scale * unit
         jacobian = scale * full + np.outer(unit, d_scale)
@@ -326,7 +330,8 @@ def _nuisance_parameters(values, first, m):
     ]
 
 
-def _ratio(value):
+def ratio_parameter(value):
+    """The engine's parameter of r = Fd / F_peak [-] at ``value``, in :data:`RATIO_RANGE`."""
     parameter = GlobalParameter(
         "ratio", float(value), log=False, lower=RATIO_RANGE[0], upper=RATIO_RANGE[1]
     )
@@ -395,7 +400,7 @@ def branch_problem(groups, floor, sigma, values, *, prior=None, continuation=Non
             lower=_GAP_RANGE[0] * floor,
             upper=_GAP_RANGE[1] * floor,
         ),
-        _ratio(values[1]),
+        ratio_parameter(values[1]),
         GlobalParameter("s0", float(values[2]), log=True, lower=S0_RANGE[0], upper=S0_RANGE[1]),
     ]
     if not project:
@@ -491,6 +496,7 @@ def startup_problem(t, force, velocity, sigma, values, *, prior=None):
         jacobian=jacobian,
         log=(True, False, True, True),
     )
+
     def natural_of(current):
         transform = np.empty((4, 4))
         found = natural(*np.asarray(current[:4], dtype=float), transform)
@@ -508,11 +514,9 @@ def startup_problem(t, force, velocity, sigma, values, *, prior=None):
         GlobalParameter(
             "peak_force", float(peak_force), log=True, lower=1e-3 * top, upper=1e3 * top
         ),
-        _ratio(ratio),
+        ratio_parameter(ratio),
         GlobalParameter("s0", float(s0), log=True, lower=S0_RANGE[0], upper=S0_RANGE[1]),
-        GlobalParameter(
-            "x_peak", float(peak_slip), log=True, lower=1e-6 * span, upper=1e6 * span
-        ),
+        GlobalParameter("x_peak", float(peak_slip), log=True, lower=1e-6 * span, upper=1e6 * span),
     ]
     curve = Curve(
         z=t,

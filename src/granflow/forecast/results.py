@@ -22,7 +22,7 @@ from granflow.forecast.loading import Loading
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["BaselineForecast", "FailureForecast", "PeakForecast", "RunningForecast"]
+__all__ = ["BaselineForecast", "FailureForecast", "ForecastSeries", "PeakForecast"]
 
 PEAK_CLOCK = "start-up: record time = model t; slip since the start of shear = model x = v t"
 FAILURE_CLOCK = "force control from rest: record time from 0; record slip = x - x0 (slip clock)"
@@ -444,8 +444,10 @@ class BaselineForecast(_Codec):
 
 
 @dataclass(frozen=True)
-class RunningForecast:
-    """What an observer would have said at each cut time: each method's t_f and interval.
+class ForecastSeries:
+    """What an observer would have said at each cut time: each method's t_f and interval
+    (:func:`granflow.forecast.running_forecast`; called ``RunningForecast`` before that name
+    went to the live forecast, :class:`granflow.RunningForecast`).
 
     Attributes
     ----------
@@ -497,14 +499,14 @@ class RunningForecast:
         ]
         header = ("cut [s]", "method", "t_f [s]", f"{self.level:.0%} interval [s]")
         return result_html(
-            f"RunningForecast: observed failure {observed}",
+            f"ForecastSeries: observed failure {observed}",
             [table(rows, header=header, numeric=(0, 2))],
         )
 
     def report(self) -> str:
         """The table as text, times in s."""
         observed = "unknown" if self.observed is None else f"{self.observed:.4g} s"
-        lines = [f"[[Running forecast]] observed failure: {observed}"]
+        lines = [f"[[Forecast series]] observed failure: {observed}"]
         lines.append(
             f"    {'cut [s]':>9} {'method':<17} {'t_f [s]':>9}   {self.level:.0%} interval"
         )
@@ -531,7 +533,7 @@ class RunningForecast:
         )
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "RunningForecast":
+    def from_dict(cls, d: Mapping[str, Any]) -> "ForecastSeries":
         """Inverse of :meth:`to_dict`."""
         d = decode(d, cls)
 

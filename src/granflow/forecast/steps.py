@@ -90,9 +90,7 @@ def step_cdf(table):
     point, at once)."""
     times, values = [], []
     held = table["below"]
-    for start, end, p in zip(
-        table["earliest"], table["latest"], table["probability"], strict=True
-    ):
+    for start, end, p in zip(table["earliest"], table["latest"], table["probability"], strict=True):
         times.append(float(start))
         values.append(held)
         held += p

@@ -16,11 +16,11 @@ _COLOURS = {"model": "C0", "inverse velocity": "C1", "voight": "C2"}
 
 
 def plot_forecast(result: Any, ax: Axes | None = None) -> Axes:
-    """Plot a :class:`~granflow.RunningForecast`.
+    """Plot a :class:`~granflow.forecast.ForecastSeries`.
 
     Parameters
     ----------
-    result : RunningForecast
+    result : ForecastSeries
         Forecasts at a sequence of cut times.
     ax : matplotlib.axes.Axes, optional
         Axes to draw on; default a new figure's.
