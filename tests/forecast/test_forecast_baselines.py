@@ -63,7 +63,7 @@ def test_the_running_forecast_converges_on_the_observed_failure(running):
     back = gf.forecast.ForecastSeries.from_dict(running.to_dict())
     np.testing.assert_array_equal(back.cuts, running.cuts)
     np.testing.assert_array_equal(back.methods["voight"]["high"], running.methods["voight"]["high"])
-    assert "Running forecast" in running.report()
+    assert "Forecast series" in running.report()
 
 
 def test_plot_forecast_draws_each_method_and_the_failure(running):

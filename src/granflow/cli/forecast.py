@@ -8,11 +8,14 @@ __all__ = ["add_forecast"]
 
 _EPILOG = """examples:
   granflow forecast ramp.txt --until 120s       (a stress ramp: when will it fail?)
+  granflow forecast ramp.txt --within 60s       (and how likely within the next minute?)
   granflow forecast startup.txt --until 15s     (a start-up: where is its peak?)
+  granflow forecast startup.csv --velocity 0.86um/s   (a plain CSV start-up)
   granflow forecast steps.txt --direct-effect   (a creeping layer: A and v_ref fitted)
   granflow forecast steps.txt --direct-effect 0.05mN   (A held at 0.05 mN)
 Each interval of the file is forecast: rate control gives the peak forecast, force control
-the failure forecast."""
+the failure forecast. A record that already shows its failure (the slip running away) says
+so: the observed failure time is printed, and the forecast uses the samples before it."""
 
 
 def add_forecast(subparsers):
@@ -22,12 +25,32 @@ def add_forecast(subparsers):
         "forecast",
         _run_forecast,
         help="forecast the peak (rate control) or the failure (force control) of a run",
-        description="Forecast, from the record up to --until, the static yield of a start-up or "
-        "the failure time and force of a force-controlled run, with 90 %% intervals.",
+        description="Forecast, from the record up to --until, the static yield of a start-up\n"
+        "or the failure time and force of a force-controlled run, with 90 % intervals.",
         epilog=_EPILOG,
     )
     parser.add_argument("file", help="an instrument export or a CSV of t, slip, force")
-    parser.add_argument("--until", help="the cut time (default: the whole record), e.g. 120s [s]")
+    parser.add_argument(
+        "--until",
+        help="the cut time (default: the whole record, or the last sample before a failure "
+        "it shows), e.g. 120s [s]",
+    )
+    parser.add_argument(
+        "--velocity",
+        help="a start-up's imposed velocity, e.g. 0.86um/s [m/s] (default: the file's own; "
+        "needed for a CSV without a velocity column)",
+    )
+    parser.add_argument(
+        "--level",
+        type=float,
+        default=0.9,
+        help="the intervals' confidence level, a number between 0 and 1 (default 0.9)",
+    )
+    parser.add_argument(
+        "--within",
+        help="also print the probability of failure (or of the peak) within this long after "
+        "the last sample used, e.g. 60s [s]",
+    )
     parser.add_argument("--format", choices=("rheocompass", "rheoplus", "trios", "csv"))
     parser.add_argument(
         "--direct-effect",
@@ -41,6 +64,8 @@ def add_forecast(subparsers):
 
 def _run_forecast(args):
     until = quantity(args.until, "t", "--until") if args.until else None
+    velocity = quantity(args.velocity, "velocity", "--velocity") if args.velocity else None
+    within = quantity(args.within, "t", "--within") if args.within else None
     direct_effect = None
     if args.direct_effect == "fit":
         direct_effect = True
@@ -48,12 +73,23 @@ def _run_forecast(args):
         direct_effect = quantity(args.direct_effect, "direct_effect", "--direct-effect")
     runs = granflow.read_runs(args.file, format=args.format)
     for run in runs:
-        if run.control == "rate":
-            result = granflow.forecast_peak(run, until=until)
+        if run.control == "rate" or velocity is not None:
+            result = granflow.forecast_peak(run, velocity=velocity, until=until, level=args.level)
         else:
             result = granflow.forecast_failure(
-                run.t, run.slip, run.force, until=until, direct_effect=direct_effect
+                run.t,
+                run.slip,
+                run.force,
+                until=until,
+                level=args.level,
+                direct_effect=direct_effect,
             )
         print(f"{run.name}:")
         print(result.report())
+        if within is not None:
+            what = "the peak" if run.control == "rate" or velocity is not None else "failure"
+            print(
+                f"    P({what} within {within:g} s of {result.until:.4g} s) = "
+                f"{result.probability_within(within):.3f}"
+            )
     return 0

@@ -29,6 +29,7 @@ from scipy.optimize import least_squares
 from granflow.fitting import _eq3_solver
 from granflow.fitting.results import FrozenMap as FrozenMap  # re-exported for callers
 from granflow.model import kernel
+from granflow.model.special import compiled
 
 SLOTS = ("a", "alpha", "Fd", "x0")
 
@@ -63,9 +64,64 @@ class Model:
         if self.normal is not None:
             return self.normal(z, y, w, *values)
         F, J = self.jacobian(z, *values)
-        r = w * (F - y)
-        weighted = J * w[:, None]
-        return float(r @ r), weighted.T @ weighted, weighted.T @ r
+        return normal_sums(
+            np.ascontiguousarray(J, dtype=float),
+            np.ascontiguousarray(F, dtype=float),
+            np.ascontiguousarray(y, dtype=float),
+            np.ascontiguousarray(w, dtype=float),
+        )
+
+
+def _bounded_step(u, g, H, bounds):
+    """The Gauss-Newton step from ``u`` kept inside ``bounds`` ((k, 2), internal): a
+    parameter that the free step would push through its bound is held there (on it, or
+    moved onto it) and the step re-solved over the others. None where a system is
+    singular."""
+    free = np.ones(u.size, dtype=bool)
+    step = np.zeros(u.size)
+    for _ in range(u.size + 1):
+        index = np.flatnonzero(free)
+        if not index.size:
+            return step
+        held = ~free
+        rhs = -g[index] - H[np.ix_(index, held)] @ step[held]
+        try:
+            step[index] = np.linalg.solve(H[np.ix_(index, index)], rhs)
+        except np.linalg.LinAlgError:
+            return None
+        target = u + step
+        low, high = target < bounds[:, 0], target > bounds[:, 1]
+        outside = (low | high) & free
+        if not outside.any():
+            return step
+        step[low & free] = bounds[low & free, 0] - u[low & free]
+        step[high & free] = bounds[high & free, 1] - u[high & free]
+        free &= ~outside
+    return step
+
+
+@compiled
+def normal_sums(jacobian, model, data, weights):
+    """(cost, J^T J, J^T r) with r = w (model - data) and the rows of J weighted by w, summed
+    in one compiled pass: no BLAS call, whose threads cost more than these small products on
+    a loaded machine."""
+    size, k = jacobian.shape
+    jtj = np.zeros((k, k))
+    jtr = np.zeros(k)
+    cost = 0.0
+    for i in range(size):
+        w = weights[i]
+        r = w * (model[i] - data[i])
+        cost += r * r
+        for a in range(k):
+            ja = w * jacobian[i, a]
+            jtr[a] += ja * r
+            for b in range(a, k):
+                jtj[a, b] += ja * w * jacobian[i, b]
+    for a in range(k):
+        for b in range(a):
+            jtj[a, b] = jtj[b, a]
+    return cost, jtj, jtr
 
 
 def _eq3_normal(z, y, w, a, alpha, Fd, x0):
@@ -391,14 +447,18 @@ class Problem:
                 max_steps,
             )
             return u, (float(chisqr) if found else None)
-        u = u_start
+        bounds = np.array([self.parameters[i].internal_bounds() for i in order]).reshape(-1, 2)
+        u = np.clip(np.asarray(u_start, dtype=float), bounds[:, 0], bounds[:, 1])
+        previous = math.inf
         for _ in range(max_steps):
             cost, g, H = self.state(u, order, pinned)
-            try:
-                step = np.linalg.solve(H, -g)
-            except np.linalg.LinAlgError:
+            if cost > previous:
+                break  # the quadratic model failed: a full step went uphill
+            previous = cost
+            step = _bounded_step(u, g, H, bounds)
+            if step is None:
                 break
-            decrease = -0.5 * float(g @ step)
+            decrease = -float(g @ step) - 0.5 * float(step @ H @ step)
             if not (math.isfinite(cost) and decrease >= 0.0):
                 break
             u = u + step

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.stats import chi2 as chi2_distribution
 
 PROFILE_LEVEL = float(chi2_distribution.ppf(0.95, 1))  # 3.841...
+_LARGEST_MOVE = 2.0  # of the others' predicted move per point, in the optimiser's coordinates
 
 
 def covariance(problem, values, variance, internal_hessian=None):
@@ -118,9 +119,18 @@ class _Conditional:
     one pinned: warm-started along the profile by the linear response at the optimum."""
 
     def __init__(
-        self, problem, values, index, variance, chisqr_min, internal_hessian, tolerance, starts
+        self,
+        problem,
+        values,
+        index,
+        variance,
+        chisqr_min,
+        internal_hessian,
+        tolerance,
+        starts,
+        damped=False,
     ):
-        self.problem, self.index, self.starts = problem, index, starts
+        self.problem, self.index, self.starts, self.damped = problem, index, starts, damped
         # Levenberg-Marquardt's relative tolerance: 1e-9, or what a precision ``tolerance`` of
         # delta (in variance units) asks of chi-square
         self.rtol = 1e-9
@@ -166,23 +176,35 @@ class _Conditional:
             if not math.isfinite(chisqr):
                 return math.inf, u_others_start
             return max(chisqr - self.chisqr_min, 0.0) / self.variance, u_others_start
-        predicted = u_others_start + self.follow * (u - u_last)
+        move = self.follow * (u - u_last)
+        largest = float(np.max(np.abs(move))) if move.size else 0.0
+        if largest > _LARGEST_MOVE:  # a near-singular response: trust it only so far
+            move *= _LARGEST_MOVE / largest
+        predicted = u_others_start + move
         # the tolerance: so close that one Gauss-Newton step's quadratic model gives
         # the conditional minimum to far better than 1e-3 of 3.84 variance
-        u_found, chisqr = problem.gauss_newton(predicted, self.others, pinned, 0.02 * self.variance)
+        tolerance = 0.02 * self.variance
+        u_found, chisqr = problem.gauss_newton(predicted, self.others, pinned, tolerance)
         if chisqr is None:
             u_found, chisqr, *_ = problem.lm(
-                u_found, self.others, pinned, max_iter=30, rtol=self.rtol
+                predicted if self.damped else u_found,
+                self.others,
+                pinned,
+                max_iter=30,
+                rtol=self.rtol,
             )
         delta = self._delta(chisqr)
         if delta > 2.0 * height + 4.0:
             candidates = [predicted, u_others_start, self.u_others_hat, *self._restarts(u)]
-            for start in self._ranked(u, candidates)[:2]:
+            for rank, start in enumerate(self._ranked(u, candidates)[:2]):
                 candidate, found, *_ = problem.lm(
-                    start, self.others, pinned, max_iter=60, rtol=self.rtol
+                    start, self.others, pinned, max_iter=30, rtol=self.rtol
                 )
-                if self._delta(found) < delta:
+                gain = delta - self._delta(found)
+                if gain > 0:
                     u_found, delta = candidate, self._delta(found)
+                if rank == 0 and not gain > 1.0:
+                    break  # the best-ranked start finds no other branch: a true rise
         if not math.isfinite(delta):
             return math.inf, u_others_start
         return delta, u_found
@@ -324,6 +346,7 @@ def profile_scan(
     starts=None,
     precision=2e-2,
     hints=None,
+    damped=False,
 ):
     """Scan the profile likelihood of the global parameter ``index`` (free) on both sides of
     the optimum ``values`` to the heights ``targets`` of sqrt(delta chi-square / variance).
@@ -362,13 +385,17 @@ def profile_scan(
     hints : dict, optional
         ``{-1: [...], 1: [...]}``: internal coordinates per side and target where each search
         looks first (a previous scan's :attr:`Profile.ends`, for a record that has grown).
+    damped : bool
+        Where Gauss-Newton's full steps fail, restart Levenberg-Marquardt from the predicted
+        start rather than from where Gauss-Newton stopped (for likelihoods curved too much
+        for full steps, where that point may lie far off).
 
     Returns
     -------
     Profile
     """
     conditional = _Conditional(
-        problem, values, index, variance, chisqr_min, internal_hessian, tolerance, starts
+        problem, values, index, variance, chisqr_min, internal_hessian, tolerance, starts, damped
     )
     record = []
     ends, reached = {}, {}

@@ -13,9 +13,9 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.stats import norm
 
+from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem, multistart
 from granflow.forecast import _inputs
 from granflow.forecast.results import BaselineForecast
 
@@ -128,6 +128,30 @@ def inverse_velocity_forecast(
     )
 
 
+def _voight_problem(centres, log_rate, until, span):
+    """The engine's problem of Voight's rate law in log v: ``ln v = ln C - p ln(t_f - t)``
+    with t_f = until + lead; slots (ln C, p [-], lead [s]), p and the lead positive."""
+
+    def function(z, log_c, power, lead):
+        return log_c - power * np.log(until + lead - z)
+
+    def jacobian(z, log_c, power, lead):
+        remaining = until + lead - z
+        columns = np.column_stack([np.ones_like(z), -np.log(remaining), -power / remaining])
+        return log_c - power * np.log(remaining), columns
+
+    model = Model(("log_c", "power", "lead"), function, jacobian, log=(False, True, True))
+    parameters = [
+        GlobalParameter("log_c", float(log_rate[-1] + math.log(span)), log=False),
+        GlobalParameter("power", 1.0, log=True, lower=math.exp(-5.0), upper=math.exp(5.0)),
+        GlobalParameter(
+            "lead", span, log=True, lower=span * math.exp(-12.0), upper=span * math.exp(8.0)
+        ),
+    ]
+    curve = Curve(centres, log_rate, np.ones_like(centres), ((0, 1.0), (1, 1.0), (2, 1.0)))
+    return Problem([curve], parameters, model=model)
+
+
 def voight_forecast(
     t: ArrayLike,
     slip: ArrayLike,
@@ -149,28 +173,21 @@ def voight_forecast(
         return _none(method, until, level, math.nan, centres.size, "too few moving points")
     log_rate = np.log(rates)
     span = centres[-1] - centres[0] + 1e-300
-
-    def residual(u):
-        log_c, log_p, log_lead = u
-        return log_rate - (log_c - math.exp(log_p) * np.log(until + math.exp(log_lead) - centres))
-
     slope = np.polyfit(centres, log_rate, 1)[0]
     if not slope > 0:
         return _none(method, until, level, math.nan, centres.size, "the slip rate does not grow")
-    start = np.array([log_rate[-1] + math.log(span), 0.0, math.log(span)])
-    fit = least_squares(
-        residual,
-        start,
-        bounds=([-np.inf, -5.0, math.log(span) - 12], [np.inf, 5.0, math.log(span) + 8]),
-    )
-    u = fit.x
+    problem = _voight_problem(centres, log_rate, until, span)
+    start = [log_rate[-1] + math.log(span), 1.0, span]
+    solution = multistart(problem, [start], 0.0)
+    values = problem.values(solution.x)
     dof = max(centres.size - 3, 1)
-    variance = 2 * fit.cost / dof
+    chisqr, _, hessian = problem.state(solution.x, problem.free)
+    variance = chisqr / dof
     try:
-        cov = variance * np.linalg.inv(fit.jac.T @ fit.jac)
-        se = math.sqrt(max(cov[2, 2], 0.0))
+        se = math.sqrt(max(variance * np.linalg.inv(hessian)[2, 2], 0.0))
     except np.linalg.LinAlgError:
         se = math.inf
+    u = (values[0], math.log(values[1]), math.log(values[2]))
     z = float(norm.ppf(0.5 + 0.5 * level))
     low = until + math.exp(max(u[2] - z * se, -700.0))
     upper = u[2] + z * se
@@ -181,7 +198,7 @@ def voight_forecast(
         time_interval=(float(low), float(high)),
         until=until,
         level=level,
-        exponent=1.0 + 1.0 / math.exp(u[1]),
+        exponent=1.0 + 1.0 / values[1],
         n_points=centres.size,
         approaching=True,
     )

@@ -1,62 +1,264 @@
-"""The calibration study of the failure forecasts: simulated ramps and staircases from several
-parameter sets with slip noise, cut at lead times of 50 %, 25 % and 10 % of the time to
-failure; for each method the median absolute error of t_f and the coverage of its intervals.
-The creep study does the same for creeping layers (the direct effect, simulated by
-granflow.simulate) and the creep forecast.
+"""The calibration study of the forecasts, over a design rather than a fleet.
+
+Each seed draws its own point of the design (:func:`draw`): Eq. 3's a, alpha, Fd and x0 each
+a factor of 1/3 to 3 (log-uniform) about SPEC §4's blue set (a = 3.31 mN, alpha = 4.19e4 /m,
+Fd = 10 mN, x0 = 0.198 um), the slip noise 0.1 % to 3 % of the slip to failure (x_peak -
+x0), 200 to 20 000 samples to failure, and force-history noise 0.03 % to 1 % of F_peak (all
+log-uniform). The records are the cells' (:data:`CELLS`):
+
+* ``ramp``: a force ramp from zero to failure (the quasi-static rising branch, slip clock);
+* ``steps``: a staircase of 8 to 20 equal steps, F_peak anywhere in its step;
+* ``steps irregular``: the same with the step heights scattered by 25 % (the record's and
+  the ones to come alike);
+* ``creep ramp`` and ``creep steps``: a layer that creeps with the direct effect (A a factor
+  0.003 to 0.03 of F_peak, v_ref 1e-8 to 1e-6 m/s), simulated by :func:`granflow.simulate`
+  (an ODE integration, independent of the creep forecast's closed form) until it fails;
+* ``start-up``: a rate-controlled start-up at 0.3 to 3 um/s, the force noise that of the
+  force history, forecast by :func:`~granflow.forecast_peak`.
+
+Each record is cut at leads of 50, 25 and 10 % of its time to failure (or to the peak), and
+each forecast is scored (:class:`Outcome`): whether its intervals hold the truth, the
+randomised PIT of a staircase's true step (Czado, Gneiting & Held 2009), and
+``probability_within`` at a set of horizons against whether the failure came within them.
 """
 
-import functools
+from __future__ import annotations
+
 import math
-from dataclasses import dataclass
+import time as clock
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from granflow.forecast.baselines import inverse_velocity_forecast, voight_forecast
-from granflow.forecast.failure import forecast_failure
-from granflow.forecast.synthetic import levels_record, ramp_record, staircase_record
-from granflow.model.friction import peak
+from granflow.model.friction import friction_time, peak
 from granflow.model.params import Params
 
 __all__ = [
+    "CELLS",
     "LEADS",
-    "PARAMETER_SETS",
-    "calibrate",
-    "creep_study",
-    "one_creep_seed",
-    "one_seed",
+    "Case",
+    "Outcome",
+    "coverage",
+    "draw",
+    "one_case",
+    "reliability",
     "step_pit",
-    "step_summary",
-    "summarise",
+    "study",
 ]
 
 LEADS = (0.5, 0.25, 0.1)
-#: (a [N], alpha [1/m], Fd [N], x0 [m]): the demo's tube at 55 mN, a heavier and a lighter one.
-PARAMETER_SETS = (
-    (3.3e-3, 5.0e4, 11.0e-3, 0.3e-6),
-    (6.0e-3, 7.0e4, 20.0e-3, 0.5e-6),
-    (1.5e-3, 3.5e4, 5.0e-3, 0.2e-6),
-)
-SLIP_NOISE = (2e-9, 10e-9)  # m
-FORCE_NOISE = 3e-5  # N
+CELLS = ("ramp", "steps", "steps irregular", "creep ramp", "creep steps", "start-up")
+#: SPEC §4's blue set: a [N], alpha [1/m], Fd [N], x0 [m].
+CENTRE = (3.31e-3, 4.19e4, 10e-3, 0.198e-6)
+FACTOR = 3.0  # each parameter a factor 1/3 to 3 about the centre
+SLIP_NOISE = (1e-3, 3e-2)  # of x_peak - x0
+SAMPLES = (200, 20000)  # to failure
+FORCE_NOISE = (3e-4, 1e-2)  # of F_peak
 IRREGULAR = 0.25  # the scatter of an irregular staircase's step heights over their mean
-METHODS = ("model", "inverse velocity", "voight")
+AMPLITUDE = (3e-3, 3e-2)  # the direct effect's A over F_peak
+REFERENCE_VELOCITY = (1e-8, 1e-6)  # m/s
+STARTUP_VELOCITY = (0.3e-6, 3e-6)  # m/s
+#: ``probability_within`` is read at these horizons, as fractions of the cut time.
+HORIZONS = (0.05, 0.1, 0.2, 0.4, 0.8)
+
+
+def _log_uniform(rng, low, high):
+    return float(math.exp(rng.uniform(math.log(low), math.log(high))))
+
+
+@dataclass(frozen=True)
+class Case:
+    """One seed's record and its truth.
+
+    Attributes
+    ----------
+    cell : str
+        One of :data:`CELLS`.
+    seed : int
+        The seed.
+    t, slip, force : numpy.ndarray
+        The record [s, m, N] (a start-up: slip empty, force the friction).
+    failure : float
+        The true failure time [s] (a start-up: the peak's time).
+    strength : float
+        The true F_peak [N].
+    params : Params
+        The true parameters.
+    noise : float
+        The slip noise over x_peak - x0 [-] (a start-up: the force noise over F_peak).
+    samples : int
+        Samples to failure.
+    velocity : float
+        A start-up's velocity [m/s] (0 otherwise).
+    """
+
+    cell: str
+    seed: int
+    t: np.ndarray
+    slip: np.ndarray
+    force: np.ndarray
+    failure: float
+    strength: float
+    params: Params
+    noise: float
+    samples: int
+    velocity: float = 0.0
+
+
+def draw(seed, cell):
+    """The :class:`Case` of one seed and cell: its point of the design and its record."""
+    from granflow.forecast.synthetic import (
+        creep_ramp_record,
+        creep_staircase_record,
+        levels_record,
+        ramp_record,
+        staircase_record,
+    )
+
+    rng = np.random.default_rng([seed, CELLS.index(cell)])
+    values = [c * _log_uniform(rng, 1.0 / FACTOR, FACTOR) for c in CENTRE]
+    params = Params(*values)
+    top = peak(params)
+    rise = top.slip - params.x0
+    noise = _log_uniform(rng, *SLIP_NOISE)
+    samples = round(_log_uniform(rng, *SAMPLES))
+    force_noise = _log_uniform(rng, *FORCE_NOISE) * top.force
+    noise_seed = int(rng.integers(2**31))
+    if cell == "start-up":
+        velocity = _log_uniform(rng, *STARTUP_VELOCITY)
+        peak_time = top.slip / velocity
+        dt = peak_time / samples
+        t = np.arange(1, samples + 1) * dt
+        t = t[velocity * t > params.x0]
+        force = friction_time(t, params, velocity)
+        force = force + force_noise * np.random.default_rng(noise_seed).standard_normal(t.size)
+        return Case(
+            cell,
+            seed,
+            t,
+            np.empty(0),
+            force,
+            peak_time,
+            top.force,
+            params,
+            force_noise / top.force,
+            samples,
+            velocity,
+        )
+    duration = _log_uniform(rng, 100.0, 1000.0)  # s to failure
+    dt = duration / samples
+    slip_noise = noise * rise
+    if cell == "ramp":
+        record = ramp_record(
+            params,
+            top.force / duration,
+            noise=slip_noise,
+            force_noise=force_noise,
+            seed=noise_seed,
+            dt=dt,
+        )
+    elif cell in ("steps", "steps irregular", "creep steps"):
+        steps = int(rng.integers(8, 21))
+        offset = float(rng.uniform())
+        step = top.force / (steps - offset)
+        hold = duration / steps
+        if cell == "steps":
+            record = staircase_record(
+                params,
+                step,
+                hold,
+                noise=slip_noise,
+                force_noise=force_noise,
+                seed=noise_seed,
+                dt=dt,
+            )
+        elif cell == "steps irregular":
+            heights = step * np.clip(1.0 + IRREGULAR * rng.standard_normal(4 * steps), 0.3, None)
+            record = levels_record(
+                params,
+                np.cumsum(heights),
+                hold,
+                noise=slip_noise,
+                force_noise=force_noise,
+                seed=noise_seed,
+                dt=dt,
+            )
+        else:
+            record = creep_staircase_record(
+                params,
+                step,
+                hold,
+                _direct_effect(rng, top.force),
+                noise=slip_noise,
+                force_noise=force_noise,
+                seed=noise_seed,
+                dt=dt,
+            )
+    else:  # creep ramp
+        record = creep_ramp_record(
+            params,
+            top.force / duration,
+            _direct_effect(rng, top.force),
+            noise=slip_noise,
+            force_noise=force_noise,
+            seed=noise_seed,
+            dt=dt,
+        )
+    t, slip, force, failure = record
+    return Case(cell, seed, t, slip, force, failure, top.force, params, noise, samples)
+
+
+def _direct_effect(rng, strength):
+    from granflow.simulation.options import DirectEffect
+
+    return DirectEffect(
+        amplitude=_log_uniform(rng, *AMPLITUDE) * strength,
+        velocity=_log_uniform(rng, *REFERENCE_VELOCITY),
+    )
 
 
 @dataclass(frozen=True)
 class Outcome:
-    """One forecast of the study: protocol, lead, method, error [s], whether the time interval
-    covered the true failure time, (model only, else None) whether the force interval
-    covered the true F_peak, and whether the time interval was open above."""
+    """One forecast of the study.
 
-    protocol: str
+    Attributes
+    ----------
+    cell, seed, lead : str, int, float
+        Which record, cut where (the lead: the fraction of the time to failure left).
+    noise, samples : float, int
+        The record's point of the design (:class:`Case`).
+    issued : bool
+        Whether the forecast gave an interval of the failure time (declined: False).
+    time_covered, force_covered : bool
+        Whether the intervals held the true failure time and F_peak.
+    open_above : bool
+        Whether the time interval was open above.
+    pit : float
+        A staircase's randomised PIT of the true step (NaN otherwise).
+    within : tuple of (float, bool)
+        ``(probability_within(h), failed within h)`` at each horizon h.
+    error : float
+        |t_f - truth| [s] (inf without a date).
+    cpu : float
+        CPU time of the forecast [s].
+    message : str
+        The forecast's message.
+    """
+
+    cell: str
+    seed: int
     lead: float
-    method: str
-    error: float
-    covered: bool
-    force_covered: bool | None = None
-    open_above: bool = False
-    claimed: float = math.nan
-    pit: float = math.nan
+    noise: float
+    samples: int
+    issued: bool
+    time_covered: bool
+    force_covered: bool
+    open_above: bool
+    pit: float
+    within: tuple = field(default_factory=tuple)
+    error: float = math.inf
+    cpu: float = 0.0
+    message: str = ""
 
 
 def step_pit(forecast, truth, rng):
@@ -67,8 +269,7 @@ def step_pit(forecast, truth, rng):
     calibrated, however discrete the outcome. The truth's step is the one whose window of
     starts holds it, or the nearest (by the windows' middles) where none does; a truth more
     than half a step before the first step listed, or after the last, lies among the steps
-    left out (``below``, ``beyond``). NaN where the forecast has no steps, or where the truth
-    lies above the steps listed by a forecast that does not bound them."""
+    left out (``below``, ``beyond``). NaN where the forecast has no steps."""
     steps = forecast.steps
     if steps is None or not steps["step"]:
         return math.nan
@@ -83,8 +284,6 @@ def step_pit(forecast, truth, rng):
         index = int(np.argmin(np.abs(middle - truth)))
     elif truth > middle[-1]:
         beyond = steps["beyond"]
-        if math.isnan(beyond):
-            return math.nan
         return float(1.0 - beyond + rng.uniform() * beyond)
     else:
         return float(steps["below"] * rng.uniform())
@@ -92,246 +291,125 @@ def step_pit(forecast, truth, rng):
     return float(before + rng.uniform() * probability[index])
 
 
-def _record(seed, protocol):
-    """``(t, slip, force, failure time)`` of one seed's record: "ramp", "steps" (a staircase
-    of 10-15 steps whose last level before failure lies half a step below F_peak), "steps
-    anywhere" (the same staircases, F_peak anywhere in its step), or "steps irregular" (their
-    heights scattered by ``IRREGULAR`` of the mean, the record's and the ones to come)."""
-    rng = np.random.default_rng(seed)
-    params = Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])
-    noise = SLIP_NOISE[(seed // len(PARAMETER_SETS)) % len(SLIP_NOISE)]
-    strength = peak(params).force
-    failure_time = float(rng.uniform(150.0, 300.0))
-    if protocol == "ramp":
-        rate = strength / failure_time
-        return ramp_record(params, rate, noise=noise, force_noise=FORCE_NOISE, seed=seed)
-    steps = int(rng.integers(10, 16))
-    # "steps": F_peak half way between two levels; "steps anywhere": anywhere in the step
-    offset = 0.5 if protocol == "steps" else float(rng.uniform(0.0, 1.0))
-    step = strength / (steps - offset)
-    duration = failure_time / steps
-    if protocol == "steps irregular":
-        heights = step * np.clip(1.0 + IRREGULAR * rng.standard_normal(4 * steps), 0.3, None)
-        return levels_record(
-            params,
-            np.cumsum(heights),
-            duration,
-            noise=noise,
-            force_noise=FORCE_NOISE,
-            seed=seed,
-        )
-    return staircase_record(params, step, duration, noise=noise, force_noise=FORCE_NOISE, seed=seed)
-
-
-def one_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
-    """The outcomes of every method at every lead on the records of one seed."""
-    out = []
-    for protocol in protocols:
-        t, slip, force, truth = _record(seed, protocol)
-        strength = peak(Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])).force
-        for lead in leads:
-            until = (1.0 - lead) * truth
-            forecasts = {
-                "model": forecast_failure(t, slip, force, until=until),
-                "inverse velocity": inverse_velocity_forecast(t, slip, until=until),
-                "voight": voight_forecast(t, slip, until=until),
-            }
-            for method, fc in forecasts.items():
-                time = math.inf if fc.time is None else fc.time
-                low, high = fc.time_interval
-                covered = bool(low <= truth <= high)  # False where NaN (no interval)
-                force_covered = None
-                if method == "model":
-                    force_low, force_high = fc.force_interval
-                    force_covered = bool(force_low <= strength <= force_high)
-                error = abs(time - truth)
-                open_above = bool(high == math.inf)
-                claimed, pit = math.nan, math.nan
-                if method == "model" and fc.steps is not None:
-                    claimed = fc.time_probability
-                    pit = step_pit(fc, truth, np.random.default_rng([seed, int(1000 * lead)]))
-                out.append(
-                    Outcome(
-                        protocol,
-                        lead,
-                        method,
-                        error,
-                        covered,
-                        force_covered,
-                        open_above,
-                        claimed,
-                        pit,
-                    )
-                )
-    return out
-
-
-def calibrate(seeds, protocols=("ramp", "steps"), leads=LEADS, executor=None):
-    """Outcomes over ``seeds`` (a process pool's ``map`` when ``executor`` is given)."""
-    mapper = map if executor is None else executor.map
-    work = functools.partial(one_seed, protocols=tuple(protocols), leads=tuple(leads))
-    return [item for chunk in mapper(work, seeds) for item in chunk]
-
-
-def summarise(outcomes):
-    """{(protocol, lead, method): (median absolute error [s], coverage of the time interval
-    [-], count, coverage of the F_peak interval [-] (NaN for the baselines), fraction of
-    time intervals open above [-])}."""
-    table = {}
-    keys = sorted({(o.protocol, o.lead, o.method) for o in outcomes}, key=str)
-    for key in keys:
-        chosen = [o for o in outcomes if (o.protocol, o.lead, o.method) == key]
-        errors = np.array([o.error for o in chosen])
-        forces = [o.force_covered for o in chosen if o.force_covered is not None]
-        table[key] = (
-            float(np.median(errors)),
-            float(np.mean([o.covered for o in chosen])),
-            len(chosen),
-            float(np.mean(forces)) if forces else math.nan,
-            float(np.mean([o.open_above for o in chosen])),
-        )
-    return table
-
-
-def step_summary(outcomes, level=0.9, protocol="steps"):
-    """{lead: (coverage of the time interval [-], mean probability its steps claim [-],
-    fraction of randomised PITs inside the central ``level`` [-], count of PITs)} of the
-    model's forecasts of the staircases ``protocol`` ("steps" or "steps anywhere"): the
-    interval of whole steps holds the failure as often as its steps claim, and the PIT's
-    central interval holds it ``level`` of the time, where the step probabilities are
-    calibrated."""
-    table = {}
-    tail = 0.5 * (1.0 - level)
-    for lead in sorted({o.lead for o in outcomes}, reverse=True):
-        chosen = [
-            o for o in outcomes if (o.protocol, o.lead, o.method) == (protocol, lead, "model")
-        ]
-        pits = np.array([o.pit for o in chosen if math.isfinite(o.pit)])
-        claimed = [o.claimed for o in chosen if math.isfinite(o.claimed)]
-        table[lead] = (
-            float(np.mean([o.covered for o in chosen])) if chosen else math.nan,
-            float(np.mean(claimed)) if claimed else math.nan,
-            float(np.mean((pits > tail) & (pits < 1.0 - tail))) if pits.size else math.nan,
-            int(pits.size),
-        )
-    return table
-
-
-#: The peak study's start-up: the demo's tube at 55 mN, sheared at 0.86 um/s, force noise
-#: 0.03 mN, four points a second from 1 s, cut at 70 % of the peak time.
-PEAK_PARAMS = (3.3e-3, 5.0e4, 11.0e-3, 0.3e-6)
-PEAK_VELOCITY = 0.86e-6  # m/s
-PEAK_LOAD = 0.055  # N
-#: Priors of the peak study: (mu_a, mu_d, alpha) standard errors of an Amontons fit, or a
-#: previous run's Fd [N] alone.
-PEAK_PRIORS = {
-    "none": None,
-    "material, alpha +- 0.2 %": (3.1e-4, 2.2e-4, 83.0),
-    "material, alpha +- 1 %": (3.1e-4, 2.2e-4, 500.0),
-    "previous run's Fd +- 10 uN": 1e-5,
-}
-
-
-def one_peak_seed(seed, fraction=0.7):
-    """{prior name: (covered, interval width [N])} of the peak forecasts of one start-up; each
-    prior's values are drawn about the truth by its standard errors (seeded)."""
+def _forecast(case, until):
+    from granflow.forecast.failure import forecast_failure
     from granflow.forecast.peak import forecast_peak
-    from granflow.forecast.prior import Prior
-    from granflow.model.friction import friction_time
 
-    params = Params(*PEAK_PARAMS)
-    truth = peak(params, velocity=PEAK_VELOCITY)
-    rng = np.random.default_rng(seed)
-    t = np.arange(1.0, fraction * truth.time, 0.25)
-    force = friction_time(t, params, PEAK_VELOCITY) + FORCE_NOISE * rng.standard_normal(t.size)
-    out = {}
-    for name, errors in PEAK_PRIORS.items():
-        if errors is None:
-            prior = None
-        elif isinstance(errors, float):
-            prior = Prior(Fd=(params.Fd + errors * rng.standard_normal(), errors))
-        else:
-            means = (params.a / PEAK_LOAD, params.Fd / PEAK_LOAD, params.alpha)
-            drawn = [(m + e * rng.standard_normal(), e) for m, e in zip(means, errors, strict=True)]
-            prior = Prior.from_material(*drawn, PEAK_LOAD)
-        low, high = forecast_peak((t, force), velocity=PEAK_VELOCITY, prior=prior).force_interval
-        out[name] = (bool(low <= truth.force <= high), high - low)
-    return out
-
-
-def peak_study(seeds, executor=None):
-    """{prior name: (coverage [-], median width [N], median width without a prior over the
-    median width with it [-])} over ``seeds``."""
-    mapper = map if executor is None else executor.map
-    rows = list(mapper(one_peak_seed, seeds))
-    alone = float(np.median([row["none"][1] for row in rows]))
-    table = {}
-    for name in PEAK_PRIORS:
-        width = float(np.median([row[name][1] for row in rows]))
-        table[name] = (float(np.mean([row[name][0] for row in rows])), width, alone / width)
-    return table
-
-
-#: The creep study: the direct effect's amplitude A over a [-] and reference velocity [m/s].
-CREEP_AMPLITUDE = 0.03
-CREEP_VELOCITY = 1e-7
-
-
-def _creep_record(seed, protocol):
-    """A creeping record of one seed (simulated with granflow.simulate and the direct effect),
-    drawn as the quasi-static study's records are."""
-    from granflow.forecast.synthetic import creep_ramp_record, creep_staircase_record
-    from granflow.simulation.options import DirectEffect
-
-    rng = np.random.default_rng(seed)
-    params = Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])
-    effect = DirectEffect(amplitude=CREEP_AMPLITUDE * params.a, velocity=CREEP_VELOCITY)
-    noise = SLIP_NOISE[(seed // len(PARAMETER_SETS)) % len(SLIP_NOISE)]
-    strength = peak(params).force
-    failure_time = float(rng.uniform(150.0, 300.0))
-    if protocol == "ramp":
-        return creep_ramp_record(
-            params, strength / failure_time, effect, noise=noise, force_noise=FORCE_NOISE, seed=seed
-        )
-    steps = int(rng.integers(10, 16))
-    return creep_staircase_record(
-        params,
-        strength / (steps - 0.5),
-        failure_time / steps,
-        effect,
-        noise=noise,
-        force_noise=FORCE_NOISE,
-        seed=seed,
+    if case.cell == "start-up":
+        return forecast_peak((case.t, case.force), velocity=case.velocity, until=until)
+    creeping = case.cell.startswith("creep")
+    return forecast_failure(
+        case.t, case.slip, case.force, until=until, direct_effect=True if creeping else None
     )
 
 
-def one_creep_seed(seed, protocols=("ramp", "steps"), leads=LEADS):
-    """The creep forecast's outcomes (``direct_effect=True``) at every lead on the creeping
-    records of one seed; the true failure is the simulator's (velocity threshold)."""
+def one_case(seed, cell, leads=LEADS):
+    """The :class:`Outcome` s of one seed's record of ``cell`` at each lead."""
+    case = draw(seed, cell)
     out = []
-    strength = peak(Params(*PARAMETER_SETS[seed % len(PARAMETER_SETS)])).force
-    for protocol in protocols:
-        t, slip, force, truth = _creep_record(seed, protocol)
-        for lead in leads:
-            fc = forecast_failure(t, slip, force, until=(1.0 - lead) * truth, direct_effect=True)
-            time = math.inf if fc.time is None else fc.time
-            low, high = fc.time_interval
-            force_low, force_high = fc.force_interval
-            out.append(
-                Outcome(
-                    protocol,
-                    lead,
-                    "model (creep)",
-                    abs(time - truth),
-                    bool(low <= truth <= high),
-                    bool(force_low <= strength <= force_high),
-                    bool(high == math.inf),
-                )
+    for lead in leads:
+        until = (1.0 - lead) * case.failure
+        started = clock.process_time()
+        forecast = _forecast(case, until)
+        cpu = clock.process_time() - started
+        low, high = forecast.time_interval
+        issued = math.isfinite(low) and forecast.time_interval != (math.nan, math.nan)
+        force_low, force_high = forecast.force_interval
+        pit = math.nan
+        if getattr(forecast, "steps", None) is not None:
+            pit = step_pit(forecast, case.failure, np.random.default_rng([seed, int(100 * lead)]))
+        within = tuple(
+            (
+                float(forecast.probability_within(h * forecast.until)),
+                bool(case.failure <= forecast.until * (1.0 + h)),
             )
+            for h in HORIZONS
+        )
+        point = forecast.time if forecast.time is not None else math.inf
+        out.append(
+            Outcome(
+                cell,
+                seed,
+                lead,
+                case.noise,
+                case.samples,
+                bool(issued),
+                bool(low <= case.failure <= high),
+                bool(force_low <= case.strength <= force_high),
+                bool(high == math.inf),
+                pit,
+                within,
+                abs(point - case.failure),
+                cpu,
+                forecast.message,
+            )
+        )
     return out
 
 
-def creep_study(seeds, executor=None):
-    """The creep forecasts' outcomes over ``seeds`` (for :func:`summarise`)."""
+def _one(arguments):
+    seed, cell, leads = arguments
+    try:
+        return one_case(seed, cell, leads)
+    except Exception as exc:  # a failed forecast is an outcome of the study, not its end
+        return [
+            Outcome(
+                cell,
+                seed,
+                lead,
+                math.nan,
+                0,
+                False,
+                False,
+                False,
+                False,
+                math.nan,
+                message=f"error: {type(exc).__name__}: {exc}",
+            )
+            for lead in leads
+        ]
+
+
+def study(seeds, cells=CELLS, leads=LEADS, executor=None):
+    """The :class:`Outcome` s of every cell's record of each seed (a process pool's ``map``
+    when ``executor`` is given)."""
     mapper = map if executor is None else executor.map
-    return [item for chunk in mapper(one_creep_seed, seeds) for item in chunk]
+    work = [(seed, cell, tuple(leads)) for cell in cells for seed in seeds]
+    return [row for rows in mapper(_one, work, **_chunks(executor, len(work))) for row in rows]
+
+
+def _chunks(executor, count):
+    if executor is None:
+        return {}
+    return {"chunksize": max(1, min(8, count // 64))}
+
+
+def coverage(outcomes, key="time_covered"):
+    """(fraction [-], binomial standard error [-], count) of the issued ``outcomes`` whose
+    ``key`` holds (staircases' ``"pit"``: the randomised PIT in its central 90 %)."""
+    chosen = [o for o in outcomes if o.issued]
+    if key == "pit":
+        values = [0.05 < o.pit < 0.95 for o in chosen if math.isfinite(o.pit)]
+    else:
+        values = [getattr(o, key) for o in chosen]
+    count = len(values)
+    if not count:
+        return math.nan, math.nan, 0
+    share = float(np.mean(values))
+    return share, math.sqrt(max(share * (1 - share), 1e-12) / count), count
+
+
+def reliability(outcomes, bins=10):
+    """[(mean predicted probability, observed frequency, count)] of ``probability_within``
+    over all outcomes and horizons, its predictions binned in tenths."""
+    pairs = np.array([pair for o in outcomes for pair in o.within], dtype=float)
+    if not pairs.size:
+        return []
+    edges = np.linspace(0.0, 1.0, bins + 1)
+    index = np.clip(np.searchsorted(edges, pairs[:, 0], side="right") - 1, 0, bins - 1)
+    rows = []
+    for k in range(bins):
+        chosen = pairs[index == k]
+        if chosen.size:
+            rows.append((float(chosen[:, 0].mean()), float(chosen[:, 1].mean()), len(chosen)))
+    return rows

@@ -227,6 +227,7 @@ def scan(
         starts=starts,
         precision=_ROOT_PRECISION,
         hints=internal_hints,
+        damped=True,
     )
     u, r = profile.signed_roots()
     low_end, high_end = parameter.internal_bounds()

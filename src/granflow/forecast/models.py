@@ -318,25 +318,29 @@ class Penalty:
 
 
 def _nuisance_parameters(values, first, m):
-    return [
-        GlobalParameter(
+    """The nuisance coordinates' parameters: standard normal, so their own scale is 1 (the
+    engine would take their value's, which may be tiny)."""
+    out = []
+    for k in range(m):
+        parameter = GlobalParameter(
             f"z{k}",
             float(values[first + k]),
             log=False,
             lower=-NUISANCE_BOUND,
             upper=NUISANCE_BOUND,
         )
-        for k in range(m)
-    ]
+        parameter.scale = 1.0
+        out.append(parameter)
+    return out
 
 
 def ratio_parameter(value):
-    """The engine's parameter of r = Fd / F_peak [-] at ``value``, in :data:`RATIO_RANGE`."""
+    """The engine's parameter of r = Fd / F_peak [-] at ``value``, in :data:`RATIO_RANGE`,
+    on its own scale (it lives in [0, 1))."""
     parameter = GlobalParameter(
         "ratio", float(value), log=False, lower=RATIO_RANGE[0], upper=RATIO_RANGE[1]
     )
-    if parameter.value == 0.0:  # a zero value would give the linear coordinate no scale
-        parameter.scale = 1.0
+    parameter.scale = 1.0
     return parameter
 
 

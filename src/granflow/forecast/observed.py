@@ -4,12 +4,14 @@ Quasi-statically the slip before failure is bounded (it reaches x_peak - x0 at m
 micrometres), and at failure the layer flows: its slip runs away at a rate far above
 anything it showed before. A sample interval is the failure when
 
-* its slip rate exceeds ``_RATE_FACTOR`` times the record's mean rate before it (the slip so
-  far over the time so far; just before a quasi-static failure the sampled rate reaches about
-  sqrt(t_f / dt) times that mean, 17 at 300 samples, 140 at 20 000),
-* its slip increment exceeds the whole slip before it and ``_NOISE_FACTOR`` times the slip's
-  noise (a single noisy sample cannot pass), and
-* the slip does not come back: every later sample stays above the midpoint of the jump.
+* its slip rate exceeds the record's mean rate before it (the slip so far over the time so
+  far) by a factor ``max(100, 3 sqrt(n))`` (just before a quasi-static failure the sampled
+  rate reaches about sqrt(t_f / dt) times that mean: 17 at 300 samples, 140 at 20 000),
+* its slip increment exceeds ``_NOISE_FACTOR`` times the slip's noise (a single noisy sample
+  cannot pass), and
+* the layer keeps running away: within the next ``_AHEAD`` samples (or to the record's end)
+  it gains more than all the slip before, and it never comes back below the interval's
+  midpoint.
 
 The first such interval ``(t_i, t_(i+1))`` is the observed failure; the forecast then uses
 the samples up to t_i only.
@@ -24,8 +26,9 @@ from granflow.forecast._inputs import rough_noise
 
 __all__ = ["ObservedFailure", "find_failure"]
 
-_RATE_FACTOR = 1000.0
+_RATE_FACTOR = 100.0
 _NOISE_FACTOR = 20.0
+_AHEAD = 50  # samples
 
 
 @dataclass(frozen=True)
@@ -56,18 +59,18 @@ def find_failure(t, slip, force):
     if t.size < 3:
         return None
     step = np.diff(slip)
-    dt = np.diff(t)
-    rate = step / dt
+    rate = step / np.diff(t)
     noise = rough_noise(slip)
     so_far = slip[:-1] - np.minimum.accumulate(slip)[:-1]
-    elapsed = np.maximum(t[:-1] - t[0], dt)
+    elapsed = np.maximum(t[:-1] - t[0], np.diff(t))
     mean_rate = np.maximum(so_far, noise) / elapsed
-    candidates = np.flatnonzero(
-        (rate > _RATE_FACTOR * mean_rate) & (step > so_far) & (step > _NOISE_FACTOR * noise)
-    )
+    factor = max(_RATE_FACTOR, 3.0 * math.sqrt(t.size))
+    candidates = np.flatnonzero((rate > factor * mean_rate) & (step > _NOISE_FACTOR * noise))
     for i in candidates:
+        ahead = slip[i + 1 : min(i + 1 + _AHEAD, slip.size)]
         middle = slip[i] + 0.5 * step[i]
-        if np.all(slip[i + 1 :] >= middle):
+        runs_away = ahead[-1] - slip[i] > max(so_far[i], _NOISE_FACTOR * noise)
+        if (runs_away or i + 1 + _AHEAD >= slip.size) and np.all(slip[i + 1 :] >= middle):
             window = (float(t[i]), float(t[i + 1]))
             time = 0.5 * (window[0] + window[1])
             level = float(np.interp(time, t, force))

@@ -366,6 +366,14 @@ class FailureForecast(_Fitted, _Codec):
             f"[[Failure forecast]] ({self.method}) from the record up to t = {self.until:.4g} s "
             f"({self.n_points} points, loading: {self.loading.kind})",
         ]
+        if self.observed_failure is not None:
+            window = (self.observed or {}).get("window", (math.nan, math.nan))
+            force = (self.observed or {}).get("force", math.nan)
+            lines.append(
+                f"    observed failure: t = {self.observed_failure:.4g} s (between "
+                f"{window[0]:.4g} and {window[1]:.4g} s, at {_fmt(force, 1e3, 'mN')}); the "
+                "forecast uses the samples before it"
+            )
         if self.time is None:
             lines.append(f"    no failure forecast: {self.message}")
             return "\n".join(lines)
