@@ -32,18 +32,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow.model.kernel import curve_start, point_value
+from granflow.model.kernel import curve_start, point, point_value
 from granflow.model.special import compiled, compiled_inline
 
 __all__ = [
     "FAILURE_VELOCITY",
+    "FALLING",
+    "FIT_FALLING",
+    "FIT_RISING",
+    "RISING",
     "CreepCurve",
     "History",
     "creep_curve",
     "creep_failure_time",
     "creep_slip",
+    "curve_grid_slopes",
     "failure_gamma",
     "ramp_history",
+    "slip_jacobian",
     "steps_history",
     "velocity_for_failure",
 ]
@@ -71,7 +77,19 @@ _RISING = np.concatenate(
 )
 _FALLING = np.geomspace(1e-6, 1.0, _FALLING_POINTS)
 _PROBE = 1.0 + np.geomspace(1e-5, 20.0, 120)
-GRID_SIZE = _RISING.size + _FALLING.size
+#: The grid of the public functions (slip to a tenth of a nanometre on 20 um)...
+RISING, FALLING = _RISING, _FALLING
+#: ... and the forecast's coarser one, 2400 nodes (2e-5 of the rise: far below the slip
+#: noise of any record granflow forecasts, 1e-3 of the rise and more).
+FIT_RISING = np.concatenate(
+    [
+        [0.0],
+        np.geomspace(_RISING_FROM, 0.5, 1500),
+        1.0 - np.geomspace(0.5, _PEAK_FROM, 600)[1:],
+        [1.0],
+    ]
+)
+FIT_FALLING = np.geomspace(1e-6, 1.0, 300)
 
 
 @compiled_inline
@@ -155,18 +173,17 @@ def history_time_of(target, starts, begin, rate, cumulative, amplitude, referenc
     return starts[index] + span
 
 
-@compiled
-def curve_grid(params, peak_force, peak_slip, amplitude, x, exponent, gamma):
-    """Gamma(x) = int_{x0}^{x} exp((F - F_peak) / A) dx' [m] on the grid of
-    :func:`creep_curve` into ``x``, ``exponent`` and ``gamma`` (each :data:`GRID_SIZE`)."""
+@compiled_inline
+def _place(params, peak_force, peak_slip, amplitude, start, rising, falling, x):
+    """The grid's nodes [m] into ``x``: rising from x0 to the peak (``rising``: fractions of
+    the rise), then past it up to where F has fallen ``_DROP`` A below the peak (or as far as
+    the probe looks; ``falling``: fractions of that)."""
     a, alpha, fd, x0 = params
-    start = curve_start(alpha, x0)
     s0 = start[0]
     rise = peak_slip - x0
-    n_rising = _RISING.shape[0]
+    n_rising = rising.shape[0]
     for i in range(n_rising):
-        x[i] = x0 + rise * _RISING[i]
-    # past the peak: a coarse look for the failure point, then a fine grid up to it
+        x[i] = x0 + rise * rising[i]
     end = peak_slip * _PROBE[_PROBE.shape[0] - 1]
     for i in range(_PROBE.shape[0]):
         z = peak_slip * _PROBE[i]
@@ -176,8 +193,20 @@ def curve_grid(params, peak_force, peak_slip, amplitude, x, exponent, gamma):
         ):
             end = z
             break
-    for i in range(_FALLING.shape[0]):
-        x[n_rising + i] = peak_slip + (end - peak_slip) * _FALLING[i]
+    for i in range(falling.shape[0]):
+        x[n_rising + i] = peak_slip + (end - peak_slip) * falling[i]
+
+
+@compiled
+def curve_grid(params, peak_force, peak_slip, amplitude, rising, falling, x, exponent, gamma):
+    """Gamma(x) = int_{x0}^{x} exp((F - F_peak) / A) dx' [m] on a grid (``rising`` and
+    ``falling`` fractions: :data:`RISING` and :data:`FALLING`, or the coarser
+    :data:`FIT_RISING` and :data:`FIT_FALLING`) into ``x``, ``exponent`` and ``gamma``
+    (each as long as the two together)."""
+    a, alpha, fd, x0 = params
+    start = curve_start(alpha, x0)
+    s0 = start[0]
+    _place(params, peak_force, peak_slip, amplitude, start, rising, falling, x)
     for i in range(x.shape[0]):
         s = alpha * x[i]
         value = point_value(s, math.exp(s0 - s), a, fd, 0.0, True, x[i] <= x0, start)
@@ -186,6 +215,94 @@ def curve_grid(params, peak_force, peak_slip, amplitude, x, exponent, gamma):
     for i in range(x.shape[0] - 1):
         width = x[i + 1] - x[i]
         gamma[i + 1] = gamma[i] + width * _exp_relative(exponent[i], exponent[i + 1] - exponent[i])
+
+
+@compiled_inline
+def _exp_moment(base, k):
+    """int_0^1 s exp(base + k s) ds without overflow (the exponent clipped)."""
+    if abs(k) < 1e-6:
+        return math.exp(min(base, _LARGEST_EXPONENT)) * (0.5 + k / 3.0)
+    if k > 0:
+        # exp(base + k) (k - 1 + exp(-k)) / k^2
+        return math.exp(min(base + k, _LARGEST_EXPONENT)) * (k - 1.0 + math.exp(-k)) / (k * k)
+    # exp(base) (exp(k) (k - 1) + 1) / k^2
+    return math.exp(min(base, _LARGEST_EXPONENT)) * (math.exp(k) * (k - 1.0) + 1.0) / (k * k)
+
+
+@compiled
+def curve_grid_slopes(params, transform, peak_force, amplitude, x, exponent, slope, cumulative):
+    """The derivatives of a unit curve's grid (x_peak = 1, as :func:`curve_grid` built it) in
+    its shape coordinates: ``slope[k, i]`` = d exponent / d theta_k at node i (at fixed x),
+    and ``cumulative[k, i]`` = int_{x0}^{x_i} exp(exponent) d exponent / d theta_k dx (each
+    cell's integrand linear in x between its nodes). theta is (F_peak, r, s0) with
+    ``transform`` (4, 3) = d(a, alpha, Fd, x0) / d(F_peak, r, s0), and A where ``slope``
+    has a fourth row. So d Gamma(x) / d theta_k at fixed x is ``cumulative[k](x) - exp(
+    exponent[0]) d x0 / d theta_k``."""
+    a, alpha, fd, x0 = params
+    start = curve_start(alpha, x0)
+    s0 = start[0]
+    rows = slope.shape[0]
+    for i in range(x.shape[0]):
+        z = x[i]
+        s = alpha * z
+        values = point(z, s, math.exp(s0 - s), a, alpha, fd, x0, 0.0, True, z <= x0, start)
+        clamped = values[0] >= peak_force
+        for k in range(3):
+            derivative = 0.0
+            if not clamped:
+                for q in range(4):
+                    derivative += values[1 + q] * transform[q, k]
+            slope[k, i] = (derivative - (1.0 if k == 0 else 0.0)) / amplitude
+        if rows == 4:
+            slope[3, i] = -exponent[i] / amplitude
+    for k in range(rows):
+        cumulative[k, 0] = 0.0
+    for i in range(x.shape[0] - 1):
+        width = x[i + 1] - x[i]
+        step = exponent[i + 1] - exponent[i]
+        total = width * _exp_relative(exponent[i], step)
+        moment = width * _exp_moment(exponent[i], step)
+        for k in range(rows):
+            change = slope[k, i + 1] - slope[k, i]
+            cumulative[k, i + 1] = cumulative[k, i] + slope[k, i] * total + change * moment
+
+
+@compiled
+def slip_jacobian(target, d_target, x, exponent, gamma, slope, cumulative, d_start, out, jac):
+    """The inverse of Gamma at ``target`` [m] into ``out`` (as :func:`slip_at`) and its
+    derivatives into ``jac`` (n, k): ``d_target`` (n, k) the targets' own, and the first
+    ``slope.shape[0]`` columns also the curve's (``d_start`` (k,): d x0 / d theta)."""
+    last = x.shape[0] - 1
+    rows = slope.shape[0]
+    k_all = d_target.shape[1]
+    lowest = math.exp(exponent[0])
+    for j in range(target.shape[0]):
+        value = target[j]
+        if value >= gamma[last]:
+            out[j] = x[last]
+            for k in range(k_all):
+                jac[j, k] = 0.0
+            continue
+        index = np.searchsorted(gamma, value, side="right") - 1
+        index = min(max(index, 0), last - 1)
+        width = x[index + 1] - x[index]
+        rate = (exponent[index + 1] - exponent[index]) / width
+        remaining = max(value - gamma[index], 0.0)
+        scaled = remaining * math.exp(-exponent[index])
+        kk = rate * scaled
+        factor = 1.0 - 0.5 * kk if abs(kk) < 1e-10 else math.log1p(max(kk, -1.0 + 1e-16)) / kk
+        step = min(scaled * factor, width)
+        out[j] = x[index] + step
+        fraction = step / width
+        # Gamma'(xi) = exp(exponent at xi), the exponent linear in the cell
+        density = math.exp(exponent[index] + rate * step)
+        for k in range(k_all):
+            change = d_target[j, k]
+            if k < rows:
+                slope_here = slope[k, index] + fraction * (slope[k, index + 1] - slope[k, index])
+                curve = cumulative[k, index] + 0.5 * (slope[k, index] + slope_here) * remaining
+                change -= curve - lowest * d_start[k]
+            jac[j, k] = change / density
 
 
 @compiled
@@ -362,9 +479,20 @@ class CreepCurve:
 def creep_curve(params, amplitude, peak_slip, peak_force):
     """The :class:`CreepCurve` of ``params`` (paper initial condition) with direct-effect
     amplitude ``amplitude`` [N], whose peak is at ``peak_slip`` [m] and ``peak_force`` [N]."""
-    x, exponent, gamma = np.empty(GRID_SIZE), np.empty(GRID_SIZE), np.empty(GRID_SIZE)
+    size = RISING.size + FALLING.size
+    x, exponent, gamma = np.empty(size), np.empty(size), np.empty(size)
     natural = (params.a, params.alpha, params.Fd, params.x0)
-    curve_grid(natural, float(peak_force), float(peak_slip), float(amplitude), x, exponent, gamma)
+    curve_grid(
+        natural,
+        float(peak_force),
+        float(peak_slip),
+        float(amplitude),
+        RISING,
+        FALLING,
+        x,
+        exponent,
+        gamma,
+    )
     return CreepCurve(x, exponent, gamma, float(peak_force), float(peak_slip), float(amplitude))
 
 

@@ -40,15 +40,18 @@ from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
 from granflow.forecast.coordinates import natural
 from granflow.forecast.creep import (
-    GRID_SIZE,
+    FIT_FALLING,
+    FIT_RISING,
     History,
     curve_grid,
+    curve_grid_slopes,
     failure_point,
     history_cumulative,
     history_integral,
     history_time_of,
     ramp_history,
     slip_at,
+    slip_jacobian,
 )
 from granflow.forecast.inference import estimate, scan
 from granflow.forecast.models import NUISANCE_BOUND, S0_RANGE, Penalty, ratio_parameter
@@ -72,6 +75,7 @@ _VELOCITY_STARTS = (-3.0, 0.0, 3.0)  # ln of v_ref over the record's last veloci
 _FIXED_POINT = 3
 _STEP = 1e-7  # forward differences: relative in log slots, absolute in linear ones
 _NO_FAILURE = 20.0  # a strength this many times the largest force held: no failure in sight
+_PRECISION = 2e-3  # of the profiles' ends' signed roots (not followed live: no need of 1e-4)
 
 
 @dataclass(frozen=True)
@@ -191,6 +195,11 @@ def history_with_error(loading, root, z, ceiling, shift=(0.0, 0.0), edges=None):
 class CreepModel:
     """The creep model of one record at slot values (see the module's docstring).
 
+    The slots are ``(F_peak, r, s0[, A], lag or gap[, e, d], z0, z1)``: the first three or
+    four move the unit curve (its derivatives analytic, :func:`curve_grid_slopes`), the
+    others only the targets ``2 w S(t)`` its inverse is read at (their derivatives by
+    forward differences, which rebuild no curve).
+
     Parameters
     ----------
     time, slip : numpy.ndarray
@@ -221,18 +230,20 @@ class CreepModel:
         self.edges = staircase_edges(loading)
         self.window = max((hi - lo for lo, hi in loading.windows), default=0.0)
         self.ceiling = float(np.max(loading.force(time)))
-        names = ["gap" if timed else "peak_force", "ratio", "s0"]
+        names = ["peak_force", "ratio", "s0"]
         if amplitude is None:
             names.append("amplitude")
-        names.append("peak_force" if timed else "lag")
+        self.shape = len(names)  # slots that move the curve
+        names.append("gap" if timed else "lag")
         if self.staircase:
             names += ["e", "d"]
         names += ["z0", "z1"]
         self.names = tuple(names)
+        self.profiled = names.index("gap") if timed else 0
         self.first_nuisance = len(names) - 2
-        self.shape = len(names) - 2 - (2 if self.staircase else 0)  # slots that move the curve
         self._curve_key, self._curve = None, None
         self._cache = {}
+        self._histories = {}
 
     def unpack(self, values):
         """The slot values by name."""
@@ -241,20 +252,32 @@ class CreepModel:
             out["amplitude"] = self.fixed
         return out
 
-    def _unit_curve(self, peak_force, ratio, s0, amplitude):
-        """(natural params of the unit curve, (x, exponent, gamma)) or None; the last one
-        kept (the forward differences of the other slots reuse it)."""
+    def unit_curve(self, peak_force, ratio, s0, amplitude):
+        """The unit curve (x_peak = 1) at a shape, or None outside the box: ``(params, grid,
+        slopes, d_start)`` with ``grid = (x, exponent, gamma)``, the shape derivatives of
+        :func:`curve_grid_slopes` and d x0 / d shape; the last one kept (the targets'
+        forward differences reuse it)."""
         key = (peak_force, ratio, s0, amplitude)
         if key != self._curve_key:
-            transform = np.empty((4, 4))
-            a, alpha, fd, x0, _ = natural(peak_force, ratio, s0, 1.0, transform)
-            if not (math.isfinite(a) and a > 0 and amplitude > 0):
-                self._curve_key, self._curve = key, None
-                return None
-            grid = (np.empty(GRID_SIZE), np.empty(GRID_SIZE), np.empty(GRID_SIZE))
-            curve_grid((a, alpha, fd, x0), peak_force, 1.0, amplitude, *grid)
-            self._curve_key, self._curve = key, ((a, alpha, fd, x0), grid)
+            self._curve_key, self._curve = key, self._build(peak_force, ratio, s0, amplitude)
         return self._curve
+
+    def _build(self, peak_force, ratio, s0, amplitude):
+        transform = np.empty((4, 4))
+        a, alpha, fd, x0, _ = natural(peak_force, ratio, s0, 1.0, transform)
+        if not (math.isfinite(a) and a > 0 and amplitude > 0):
+            return None
+        size = FIT_RISING.size + FIT_FALLING.size
+        grid = (np.empty(size), np.empty(size), np.empty(size))
+        params = (a, alpha, fd, x0)
+        curve_grid(params, peak_force, 1.0, amplitude, FIT_RISING, FIT_FALLING, *grid)
+        rows = self.shape
+        slope, cumulative = np.empty((rows, size)), np.empty((rows, size))
+        inner = np.ascontiguousarray(transform[:, :3])
+        curve_grid_slopes(params, inner, peak_force, amplitude, grid[0], grid[1], slope, cumulative)
+        d_start = np.zeros(rows)
+        d_start[:3] = transform[3, :3]
+        return params, grid, (slope, cumulative), d_start
 
     def history(self, slots, peak_force, amplitude):
         """The imposed history at the slots' nuisance and edge shift."""
@@ -265,6 +288,56 @@ class CreepModel:
             shift = (_EDGE_SCALE * slots["e"] * window, _PERIOD_SCALE * slots["d"] * window)
         ceiling = max(self.ceiling, peak_force + 40.0 * amplitude)
         return history_with_error(self.loading, self.root, z, ceiling, shift, self.edges)
+
+    def _history(self, slots):
+        """(history, pieces, S at the record's times) of the slots; the last few kept by
+        what moves them (the nuisance, the edges, A), since F_peak only scales S:
+        ``S(t; F_peak) = S(t; F_ref) exp(-(F_peak - F_ref) / A)``."""
+        peak_force, amplitude = slots["peak_force"], slots["amplitude"]
+        key = (slots["z0"], slots["z1"], slots.get("e"), slots.get("d"), amplitude)
+        found = self._histories.get(key)
+        if found is None or abs(found[0] - peak_force) > 5.0 * amplitude:
+            history = self.history(slots, peak_force, amplitude)
+            cumulative = np.empty(history.starts.size)
+            history_cumulative(
+                history.starts, history.begin, history.rate, amplitude, peak_force, cumulative
+            )
+            integral = np.empty(self.time.size)
+            pieces = (history.starts, history.begin, history.rate, cumulative)
+            history_integral(self.time, *pieces, amplitude, peak_force, integral)
+            if len(self._histories) > 16:
+                self._histories.clear()
+            found = self._histories[key] = (peak_force, history, cumulative, integral)
+        reference, history, cumulative, integral = found
+        factor = math.exp(-(peak_force - reference) / amplitude)
+        pieces = (
+            history.starts,
+            history.begin,
+            history.rate,
+            cumulative * factor,
+            amplitude,
+            peak_force,
+        )
+        return history, pieces, integral * factor
+
+    def targets(self, values, curve):
+        """``(2 w S(t) [m] at the record's times, w [1/s], history, pieces)`` at the slot
+        ``values`` on the unit curve ``curve`` (None where w is not finite)."""
+        slots = self.unpack(values)
+        amplitude = slots["amplitude"]
+        history, pieces, integral = self._history(slots)
+        if self.timed:
+            w = self._rate_for_failure(curve, history, pieces, self.until + slots["gap"])
+        else:
+            exponent_of_rate = -slots["lag"] / amplitude
+            w = (
+                self.reference_rate * math.exp(exponent_of_rate)
+                if abs(exponent_of_rate) < 700.0
+                else math.inf
+            )
+        if not (math.isfinite(w) and w > 0):
+            return None
+        return 2.0 * w * np.maximum(integral, 0.0), w, history, pieces
 
     def evaluate(self, values):
         """(slip [m] at the record's times, CreepState) at the slot ``values``; the slip is
@@ -281,29 +354,14 @@ class CreepModel:
     def _evaluate(self, values):
         slots = self.unpack(values)
         peak_force, amplitude = slots["peak_force"], slots["amplitude"]
-        unit = self._unit_curve(peak_force, slots["ratio"], slots["s0"], amplitude)
-        if unit is None:
+        curve = self.unit_curve(peak_force, slots["ratio"], slots["s0"], amplitude)
+        if curve is None:
             return None, None
-        params, (x, exponent, gamma) = unit
-        history = self.history(slots, peak_force, amplitude)
-        cumulative = np.empty(history.starts.size)
-        history_cumulative(
-            history.starts, history.begin, history.rate, amplitude, peak_force, cumulative
-        )
-        pieces = (history.starts, history.begin, history.rate, cumulative, amplitude, peak_force)
-        if self.timed:
-            failure_time = self.until + slots["gap"]
-            w = self._rate_for_failure(unit, history, pieces, failure_time)
-            if not (math.isfinite(w) and w > 0):
-                return None, None
-        else:
-            exponent_of_rate = -slots["lag"] / amplitude
-            if not abs(exponent_of_rate) < 700.0:
-                return None, None
-            w = self.reference_rate * math.exp(exponent_of_rate)
-        integral = np.empty(self.time.size)
-        history_integral(self.time, *pieces, integral)
-        target = 2.0 * w * np.maximum(integral, 0.0)
+        found = self.targets(values, curve)
+        if found is None:
+            return None, None
+        target, w, history, pieces = found
+        params, (x, exponent, gamma), _, _ = curve
         xi = np.empty(self.time.size)
         slip_at(target, x, exponent, gamma, xi)
         shape = xi - params[3]
@@ -312,8 +370,10 @@ class CreepModel:
         if not (math.isfinite(scale) and scale > 0):
             return None, None
         velocity = w * scale
-        if not self.timed:
-            failure_time = self._failure_time(unit, history, pieces, w, velocity)
+        if self.timed:
+            failure_time = self.until + slots["gap"]
+        else:
+            failure_time = self._failure_time(curve, history, pieces, w, velocity)
         a, alpha, fd, x0 = params
         state = CreepState(
             Params(a=a, alpha=alpha / scale, Fd=fd, x0=x0 * scale),
@@ -326,9 +386,9 @@ class CreepModel:
         return scale * shape, state
 
     @staticmethod
-    def _failure_time(unit, history, pieces, w, velocity):
+    def _failure_time(curve, history, pieces, w, velocity):
         """When the layer passes the failure velocity past the peak [s] (inf if never)."""
-        _, (x, exponent, gamma) = unit
+        _, (x, exponent, gamma), _, _ = curve
         amplitude, peak_force = pieces[4], pieces[5]
         rough = history_time_of(gamma[-1] / (2.0 * w), *pieces)
         if not math.isfinite(rough):
@@ -337,43 +397,91 @@ class CreepModel:
         point = failure_point(x, exponent, gamma, 1.0, peak_force, amplitude, velocity, force)
         return float(history_time_of(point / (2.0 * w), *pieces))
 
-    def _rate_for_failure(self, unit, history, pieces, failure_time):
-        """w that puts the failure at ``failure_time`` [s]: gamma at the failure point over
-        2 S(t_f), the failure point (which depends on the velocity) iterated to a fixed
-        point from the grid's end, at the reference x_peak."""
-        _, (x, exponent, gamma) = unit
+    def _failure_point(self, curve, history, pieces, failure_time):
+        """(Gamma at the failure point [m], S(t_f) [s]) for a failure at ``failure_time``
+        [s]: the failure point (which depends on the velocity) iterated to a fixed point from
+        the grid's end, at the reference x_peak."""
+        _, (x, exponent, gamma), _, _ = curve
         amplitude, peak_force = pieces[4], pieces[5]
         scaled = np.empty(1)
         history_integral(np.array([failure_time]), *pieces, scaled)
         if not scaled[0] > 0:
-            return math.inf
+            return math.nan, 0.0
         force = float(history.force(failure_time))
-        w = gamma[-1] / (2.0 * scaled[0])
+        point = gamma[-1]
         for _ in range(_FIXED_POINT):
-            velocity = w * self.reference_slip
+            velocity = point / (2.0 * scaled[0]) * self.reference_slip
             point = failure_point(x, exponent, gamma, 1.0, peak_force, amplitude, velocity, force)
-            w = point / (2.0 * scaled[0])
-        return w
+        return point, float(scaled[0])
+
+    def _rate_for_failure(self, curve, history, pieces, failure_time):
+        """w that puts the failure at ``failure_time`` [s] (inf where S(t_f) is 0)."""
+        point, scaled = self._failure_point(curve, history, pieces, failure_time)
+        return point / (2.0 * scaled) if scaled > 0 else math.inf
 
     def function_and_jacobian(self, values, log):
-        """(slip, d slip / d slots by forward differences); a flat penalty outside the box."""
-        base, _ = self.evaluate(values)
+        """(slip, d slip / d slots); a flat penalty outside the box."""
         size, n = self.time.size, values.size
+        base, state = self.evaluate(values)
         if base is None:
             return np.full(size, 1e3 * (np.max(np.abs(self.slip)) + 1e-12)), np.zeros((size, n))
-        jacobian = np.empty((size, n))
-        for k in range(n):
+        slots = self.unpack(values)
+        curve = self.unit_curve(
+            slots["peak_force"], slots["ratio"], slots["s0"], slots["amplitude"]
+        )
+        params, (x, exponent, gamma), (slope, cumulative), d_start = curve
+        target, w, history, pieces = self.targets(values, curve)
+        # the targets' own derivatives, the unit curve held
+        d_target = np.empty((size, n))
+        amplitude = slots["amplitude"]
+        for k, name in enumerate(self.names):
+            if name in ("peak_force", "lag"):
+                # S scales as exp(-F_peak / A), w as exp(-lag / A); in the time variant w
+                # goes as 1 / S(t_f), so F_peak's scale cancels there
+                d_target[:, k] = 0.0 if self.timed and name == "peak_force" else -target / amplitude
+                continue
+            if name in ("ratio", "s0"):
+                d_target[:, k] = 0.0  # the curve's shape only (added by slip_jacobian)
+                continue
             step = _STEP * abs(values[k]) if log[k] else _STEP
-            step = step if step > 0 else _STEP
             moved = values.copy()
-            moved[k] += step
-            shifted, _ = self.evaluate(moved)
-            if shifted is None:
-                moved[k] -= 2.0 * step
-                shifted, _ = self.evaluate(moved)
-                step = -step
-            jacobian[:, k] = 0.0 if shifted is None else (shifted - base) / step
-        return base, jacobian
+            moved[k] += step if step > 0 else _STEP
+            found = self.targets(moved, curve)
+            d_target[:, k] = 0.0 if found is None else (found[0] - target) / (moved[k] - values[k])
+        if self.timed:
+            # w = Gamma(xi_f) / (2 S(t_f)) moves with the curve's shape too
+            failure_time = self.until + slots["gap"]
+            point, scaled = self._failure_point(curve, history, pieces, failure_time)
+            if scaled > 0:
+                moved = np.empty(1)
+                jac_f = np.empty((1, self.shape))
+                at = np.array([point])
+                slip_jacobian(
+                    at,
+                    np.zeros((1, self.shape)),
+                    x,
+                    exponent,
+                    gamma,
+                    slope,
+                    cumulative,
+                    d_start,
+                    moved,
+                    jac_f,
+                )
+                density = math.exp(float(np.interp(moved[0], x, exponent)))
+                d_gamma = -jac_f[0] * density  # d Gamma(xi_f) / d shape at fixed xi_f
+                d_target[:, : self.shape] += np.outer(target / w, d_gamma / (2.0 * scaled))
+        xi = np.empty(size)
+        jacobian = np.empty((size, n))
+        slip_jacobian(
+            target, d_target, x, exponent, gamma, slope, cumulative, d_start, xi, jacobian
+        )
+        jacobian[:, : self.shape] -= d_start[None, :]
+        shape = xi - params[3]
+        norm = float(shape @ shape)
+        scale = state.peak_slip
+        d_scale = (self.slip @ jacobian - 2.0 * scale * (shape @ jacobian)) / norm
+        return base, scale * jacobian + np.outer(shape, d_scale)
 
 
 def creep_problem(model, sigma, values, prior=None):
@@ -508,7 +616,7 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     ):
         text = "the fitted creep shows no failure in sight: no sign of approaching failure"
         return _no_date(until, level, loading, time.size, text, prior, observed, bound=held)
-    force_profile, strength = scan(fit, 0, level)
+    force_profile, strength = scan(fit, 0, level, precision=_PRECISION)
     # the time: the same data with t_f for v_ref
     timed = CreepModel(
         time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True
@@ -517,7 +625,15 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     values["gap"] = max(state.failure_time - until, 1e-9)
     timed_values = np.array([values[name] for name in timed.names])
     time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
-    _, timing = scan(fit, 0, level, offset=until, problem=time_problem, values=timed_values)
+    _, timing = scan(
+        fit,
+        timed.profiled,
+        level,
+        offset=until,
+        problem=time_problem,
+        values=timed_values,
+        precision=_PRECISION,
+    )
     time_interval = timing.interval(level)
     force_interval = strength.interval(level)
     nodes, probabilities = timing.table()

@@ -185,14 +185,16 @@ def scan(
     hessian=None,
     starts=None,
     hints=None,
+    precision=None,
 ):
     """The profile of slot ``index`` of ``fit`` (or of ``problem`` at ``values``, the same
     likelihood in other coordinates) and its :class:`Distribution` (q = ``offset`` +
     the slot's value). ``starts(value)`` gives more starts for a conditional minimum, and
     ``hints`` (a previous scan's ends, as values of q) where each end is sought first (see
-    :func:`~granflow.fitting.profile.profile_scan`). The ends are found to 1e-4 of the
-    signed root, so that a scan warm-started from a previous one's ends reaches the same
-    ends as one from nothing."""
+    :func:`~granflow.fitting.profile.profile_scan`). The ends are found to ``precision`` of
+    the signed root (default 1e-4, so that a scan warm-started from a previous one's ends
+    reaches the same ends as one from nothing)."""
+    precision = _ROOT_PRECISION if precision is None else precision
     problem = fit.problem if problem is None else problem
     values = fit.values if values is None else values
     if hessian is None:
@@ -223,9 +225,9 @@ def scan(
         variance=1.0,
         internal_hessian=hessian,
         check=True,
-        tolerance=_ROOT_PRECISION,
+        tolerance=precision,
         starts=starts,
-        precision=_ROOT_PRECISION,
+        precision=precision,
         hints=internal_hints,
         damped=True,
     )
