@@ -27,6 +27,10 @@ def record(t, columns, until):
     """(t, columns, until) cut at ``until``: t strictly increasing and at least MIN_POINTS
     points up to the cut; ``columns`` maps name -> (values, unit)."""
     time = column(t, "t", "s")
+    if time.size < MIN_POINTS:
+        raise InvalidDataError(
+            f"too short: {time.size} points in the record, a forecast needs at least {MIN_POINTS}"
+        )
     values = {name: column(v, name, unit, time.size) for name, (v, unit) in columns.items()}
     steps = np.diff(time)
     if np.any(steps <= 0):

@@ -152,11 +152,11 @@ def estimate(
         steps += more
         if other_chisqr < chisqr:
             values, chisqr = other, other_chisqr
-    # polished to the optimum (Gauss-Newton converges quadratically there), then the
+    # polished to the optimum (Levenberg-Marquardt converges quadratically there), then the
     # problem rebuilt about it: what follows depends on the optimum, not on the path to it
     problem = build(sigma, values)
-    u, polished = problem.gauss_newton(problem.internal(values), problem.free, {}, 1e-12)
-    if polished is not None and polished <= chisqr and np.all(np.isfinite(u)):
+    u, polished, *_ = problem.lm(problem.internal(values), max_iter=50, rtol=1e-15)
+    if polished <= chisqr and np.all(np.isfinite(u)):
         values = problem.values(u)
         problem = build(sigma, values)
     chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
