@@ -18,6 +18,8 @@ fonts or scripts from a CDN.
 import os
 from pathlib import Path
 
+from sphinx.ext import autosummary
+
 import granflow
 
 DOCS = Path(__file__).resolve().parent
@@ -44,6 +46,14 @@ default_role = "code"
 nitpicky = False
 
 # -- API reference (autosummary + numpydoc) ---------------------------------------------------
+# autosummary's one-line summary is the docstring's first sentence, found by splitting at the
+# first ". " that is not a known abbreviation: a physicist's "Eq. 3" and "Fig. 2c" are
+# abbreviations too (without them `fit`'s summary read "Fit Eq.").
+# tests/docs/test_summaries.py checks every summary of the API reference is a whole sentence.
+SUMMARY_ABBREVIATIONS = ("Eq.", "Eqs.", "Fig.", "Figs.", "cf.", "approx.")
+autosummary.WELL_KNOWN_ABBREVIATIONS = tuple(
+    dict.fromkeys((*autosummary.WELL_KNOWN_ABBREVIATIONS, *SUMMARY_ABBREVIATIONS))
+)
 autosummary_generate = True
 autosummary_imported_members = True
 autodoc_typehints = "none"  # the numpydoc sections carry the types (with units)
