@@ -14,7 +14,7 @@ import granflow as gf
 from granflow import rsf
 
 sys.path.insert(0, str(Path(__file__).parent))
-from test_html import parsed  # noqa: E402
+from test_html import parsed
 
 PARAMS = gf.Params(a=3.3e-3, alpha=5.0e4, Fd=11.0e-3, x0=0.3e-6)
 RECORDS = Path(__file__).resolve().parents[2] / "shared" / "data" / "rate-state-velocity-steps"
@@ -93,7 +93,7 @@ def test_the_simulation_card_says_what_the_layer_did_in_display_units():
 def test_the_rate_and_state_fit_has_its_own_card_with_units():
     record = rsf.read_velocity_steps(RECORDS / "velstep4_BRAVA_expb819_basalt.txt")
     fit = rsf.fit(record, law="slip", correlated_noise=True)
-    page, words = _shown_well(fit._repr_html_())
+    page, _ = _shown_well(fit._repr_html_())
     cells = page.cells
     row = cells[cells.index("Dc") :][:6]
     assert row[4] == "µm"
