@@ -288,9 +288,11 @@ def test_stress_ramp_with_the_rate_controlled_peak(ramp, blue):
         atol=0.1,
     )
     (inset,) = force_ax.child_axes
-    # the creep before failure ends at the first of the predicted failure and the runaway
-    assert inset.get_xlim()[1] == pytest.approx(failure_line.get_xdata()[0], rel=1e-3)
-    assert inset.get_xlim()[1] <= failure_line.get_xdata()[0]
+    # the inset magnifies the sub-µm creep long before the failure (the paper's inset)
+    assert inset.get_ylim()[1] == pytest.approx(1.15, rel=1e-6)  # µm: up to 1 µm of slip
+    reached = ramp.t[np.argmax(ramp.slip >= 1e-6)]
+    assert inset.get_xlim()[1] == pytest.approx(reached)
+    assert inset.get_xlim()[1] < 0.5 * failure_line.get_xdata()[0]
     assert r"$F_\mathrm{peak}$ = 13.8 mN" in " ".join(_legend_texts(slip_ax))
 
 
@@ -298,7 +300,7 @@ def test_stress_ramp_without_params_finds_the_runaway_for_the_inset(ramp):
     slip_ax, force_ax = plot_stress_ramp(ramp)
     assert len(force_ax.get_lines()) == 1 and len(slip_ax.get_lines()) == 1
     (inset,) = force_ax.child_axes
-    assert 270.0 < inset.get_xlim()[1] < 290.0
+    assert inset.get_xlim()[1] == pytest.approx(ramp.t[np.argmax(ramp.slip >= 1e-6)])
     assert plot_stress_ramp(ramp, inset=False)[1].child_axes == []
 
 

@@ -137,8 +137,11 @@ from granflow.analysis.runs import (
     startup_data,
 )
 from granflow.analysis.stage import joint_stage
-from granflow.analysis.values import frozen_json
-from granflow.analysis.velocity_steps import campaign_velocity_steps, velocity_step_entries
+from granflow.analysis.velocity_steps import (
+    VelocitySteps,
+    campaign_velocity_steps,
+    velocity_step_entries,
+)
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 
@@ -348,7 +351,7 @@ def analyze(
         failed = [f"failed: {f['name']}: {f['reason']}" for f in velocity_steps.get("failed", ())]
         result = replace(
             result,
-            velocity_steps=frozen_json(json_safe(velocity_steps), tuple),
+            velocity_steps=VelocitySteps.from_dict(velocity_steps),
             warnings=result.warnings + tuple(failed),
         )
         notes = list(result.warnings)
@@ -378,11 +381,12 @@ def analyze(
     }
     result = replace(result, output=output, fitted_now=len(todo), reused=reused)
     reporter.line("report")
-    report = write_report(
-        output, _with_results(replace(result, timing=_finished(timing, clock)), content)
-    )
-    result = _with_results(replace(result, timing=_finished(timing, clock), report=report), content)
-    write_json(output / RESULTS_FILE, result.results)
+    report = write_report(output, replace(result, timing=_finished(timing, clock)))
+    result = replace(result, timing=_finished(timing, clock), report=report)
+    # the content computed once above (to_dict does not depend on the timing, the output
+    # folder or the report, which are all that changed since): encoding the joint
+    # analyses again is what makes it slow on a large campaign
+    write_json(output / RESULTS_FILE, {**content, "timing": json_safe(result.timing)})
     return result
 
 
@@ -390,16 +394,6 @@ def _velocity_steps(task):
     """:func:`campaign_velocity_steps` of ``(manifest, output)``, as one executor task."""
     manifest, output = task
     return campaign_velocity_steps(manifest, output, FIGURES_DIR)
-
-
-def _with_results(result, content):
-    """``result`` with its ``results`` (``results.json``'s content) filled in from
-    ``content``, its ``to_dict()`` computed once: ``to_dict`` does not depend on the timing,
-    the output folder or the report, which are all that differ between the result the report
-    shows and the one returned, and encoding the joint analyses' results again and again is
-    what makes it slow on a large campaign."""
-    vars(result)["results"] = {**content, "timing": json_safe(result.timing)}
-    return result
 
 
 def _require_emcee():

@@ -116,7 +116,7 @@ def plot_switch(
     ax: Axes | None = None,
     *,
     switch_time: float | None = None,
-    clip: bool = True,
+    clip: bool = False,
 ) -> NDArray[Any]:
     """Switch from rate to force control (Fig. 3c): slip and force against time.
 
@@ -141,8 +141,9 @@ def plot_switch(
         Without a velocity column, the slip rate over 2 % of the run's duration stands in.
 
     clip : bool
-        When the slip runs away after the switch, scale the slip axis to the slip before it
-        (three times its largest value), the runaway leaving through the top.
+        Scale the slip axis to the slip before the switch (three times its largest value),
+        the runaway leaving through the top. Off by default: the runaway after the switch is
+        what the figure shows (Fig. 3c).
 
     Returns
     -------
