@@ -52,6 +52,7 @@ def test_analyze_prints_the_summary(reference, campaign, capsys):
     for name in ("mu_a", "mu_d", "alpha"):
         assert f"  {name}" in out and "95%: [" in out
     assert f"output: {output.resolve()}" in out
+    assert f"report: {(output / 'report.html').resolve()}" in out  # where to look next
     assert len(out.splitlines()) <= 24  # one screen
 
 

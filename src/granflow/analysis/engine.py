@@ -310,6 +310,7 @@ def analyze(
     # recycled between stages, so that no worker holds two stages' stacks
     executor = Executor(jobs, scheduler, isolate=True)
     try:
+        reporter.stage("reading")
         items, manifest, inputs = load_campaign(source, geometry, executor)
         executor.recycle()
         stages["read_s"] = time.perf_counter() - clock
@@ -328,14 +329,14 @@ def analyze(
         _run_all(todo, executor, output, reporter)
         executor.recycle()
         stages["runs_s"] = time.perf_counter() - clock_stage
-        reporter.line("joint analyses and predictions")
+        reporter.stage("joint analyses, predictions and forecasts")
         clock_stage = time.perf_counter()
         entries = tuple(run_entry(item, index, strict) for index, item in enumerate(items))
         with silenced():  # one bar per campaign: none from the stability map or MCMC
             joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         executor.recycle()
         stages["joint_s"] = time.perf_counter() - clock_stage
-        reporter.line("velocity steps")
+        reporter.stage("velocity steps")
         clock_stage = time.perf_counter()
         steps = velocity_step_entries(manifest)
         velocity_steps = {}
@@ -355,11 +356,15 @@ def analyze(
             warnings=result.warnings + tuple(failed),
         )
         notes = list(result.warnings)
-        content = result.to_dict()  # once: its parts are the slow ones (see _with_results)
+        content = result.to_dict()  # once: encoding the joint analyses is the slow part
+        reporter.stage("tables")
         tables = write_tables(output, content, notes, executor)
         executor.recycle()
-        reporter.line("figures")
+        reporter.stage("figures")
         figures = make_figures(output, result, joint, notes, figure_formats, executor)
+    except BaseException:
+        reporter.close()
+        raise
     finally:
         executor.close()
     result = replace(
@@ -380,13 +385,14 @@ def analyze(
         "stages_s": stages,
     }
     result = replace(result, output=output, fitted_now=len(todo), reused=reused)
-    reporter.line("report")
+    reporter.stage("report")
     report = write_report(output, replace(result, timing=_finished(timing, clock)))
     result = replace(result, timing=_finished(timing, clock), report=report)
     # the content computed once above (to_dict does not depend on the timing, the output
     # folder or the report, which are all that changed since): encoding the joint
     # analyses again is what makes it slow on a large campaign
     write_json(output / RESULTS_FILE, {**content, "timing": json_safe(result.timing)})
+    reporter.finish(report)
     return result
 
 
@@ -451,7 +457,7 @@ def _run_all(todo, executor, output, reporter):
         for item, options in todo
     ]
     try:
-        for position, outcome in executor.run(_analyse_and_record, tasks):
+        for position, outcome in _first_alone(executor, tasks, [item.kind for item, _ in todo]):
             item = todo[position][0]
             if isinstance(outcome, Exception):  # the worker died: not saved, retried on resume
                 reason = f"the worker failed: {type(outcome).__name__}: {outcome}"
@@ -464,8 +470,25 @@ def _run_all(todo, executor, output, reporter):
                 )
                 item.result = result
             reporter.step(item.name)
-    finally:
-        reporter.finish()
+    except BaseException:
+        reporter.close()
+        raise
+
+
+def _first_alone(executor, tasks, kinds):
+    """``executor.run(_analyse_and_record, tasks)`` with the first start-up run alone, before
+    the others: on a first run the compiled kernels are not cached yet, and every worker
+    would compile the same ones side by side (twice the work on two workers); after it the
+    others load them from the cache. Yields ``(position, outcome)`` as ``run`` does."""
+    first = next((i for i, kind in enumerate(kinds) if kind == "startup"), None)
+    if first is None or len(tasks) < 2 or executor.jobs == 1:
+        yield from executor.run(_analyse_and_record, tasks)
+        return
+    for _, outcome in executor.run(_analyse_and_record, [tasks[first]]):
+        yield first, outcome
+    rest = [i for i in range(len(tasks)) if i != first]
+    for position, outcome in executor.run(_analyse_and_record, [tasks[i] for i in rest]):
+        yield rest[position], outcome
 
 
 def _analyse_and_record(task):
