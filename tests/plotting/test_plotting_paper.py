@@ -4,6 +4,7 @@ simulated stress runs, fits of noisy synthetic curves, failed fits, NaN, missing
 import dataclasses
 import math
 import os
+import re
 import struct
 
 import matplotlib
@@ -127,6 +128,20 @@ def test_startup_draws_data_fits_and_residuals_with_units(startup):
         late = run.t > 5.0
         assert np.max(np.abs(model[late] - run.force[late] * 1e3)) < 5 * NOISE * 1e3
     assert all("αv =" in text for text in _legend_texts(ax))
+    # every a with the same three digits: "3.30" beside "3.31", never "3.3"
+    amplitudes = [re.search(r"a = ([\d.]+) mN", text).group(1) for text in _legend_texts(ax)]
+    assert all(len(value.replace(".", "").lstrip("0")) == 3 for value in amplitudes)
+
+
+def test_a_fit_label_keeps_its_trailing_zero():
+    from granflow.plotting.paper import _fit_label
+
+    from types import SimpleNamespace
+
+    fit = SimpleNamespace(
+        velocity=V, domain="slip", params={"a": 3.3e-3, "alpha": 0.05 / V, "x0": 0.4 * V}
+    )
+    assert _fit_label(None, fit) == "a = 3.30 mN, αv = 0.050 1/s, t₀ = 0.40 s"
 
 
 def test_startup_time_domain_fit_is_drawn_against_time(startup):

@@ -82,14 +82,20 @@ def _fit_in_time(run, fit):
 
 def _fit_label(run, fit):
     """a, alpha v and t0 of a fit (the paper's Fig. 2a caption), or a and alpha."""
+    from granflow._format import format_number
+
     velocity = fit.velocity if fit.velocity is not None else run.nominal_velocity
     p = fit.params
-    a = f"a = {p['a'] * FORCE_SCALE:.3g} {FORCE_UNIT}"
+    # the same digits on every line (3.30 beside 3.29, not 3.3), as the paper's caption
+    a = f"a = {format_number(p['a'], FORCE_SCALE, 3)} {FORCE_UNIT}"
     if fit.domain == "time":
-        return f"{a}, αv = {p['k']:.2g} 1/s, t₀ = {p['t0']:.2g} s"
-    if velocity:
-        return f"{a}, αv = {p['alpha'] * velocity:.2g} 1/s, t₀ = {p['x0'] / velocity:.2g} s"
-    return f"{a}, α = {p['alpha']:.3g} 1/m"
+        k, t0 = p["k"], p["t0"]
+    elif velocity:
+        k, t0 = p["alpha"] * velocity, p["x0"] / velocity
+    else:
+        return f"{a}, α = {format_number(p['alpha'], significant=3)} 1/m"
+    k, t0 = format_number(k, significant=2), format_number(t0, significant=2)
+    return f"{a}, αv = {k} 1/s, t₀ = {t0} s"
 
 
 def plot_startup(runs, fits, ax=None, *, residual_ax=None):
