@@ -134,9 +134,9 @@ def test_startup_draws_data_fits_and_residuals_with_units(startup):
 
 
 def test_a_fit_label_keeps_its_trailing_zero():
-    from granflow.plotting.paper import _fit_label
-
     from types import SimpleNamespace
+
+    from granflow.plotting.paper import _fit_label
 
     fit = SimpleNamespace(
         velocity=V, domain="slip", params={"a": 3.3e-3, "alpha": 0.05 / V, "x0": 0.4 * V}
