@@ -470,3 +470,78 @@ def test_figure_captions_give_the_load_in_mN(example):
     captions = " ".join(figure["caption"] for figure in result.figures)
     loads = re.findall(r"F_N = ([\d.]+) (\w+)", captions)
     assert loads and all(unit == "mN" and 1 <= float(v) <= 1000 for v, unit in loads), loads
+
+
+def _visible_text(html):
+    """The page's text: no tags, no style sheet, no data URIs, entities decoded."""
+    import html as entities
+
+    html = re.sub(r"<style>.*?</style>", " ", _text(html), flags=re.S)
+    return entities.unescape(re.sub(r"<[^>]+>", " ", html))
+
+
+#: The display units the report may write after a number (SI inside, these outside).
+DISPLAY_UNITS = {"mN", "µm", "µm/s", "s", "1/m", "1/µm", "1/s", "%", "d.o.f.", "mN/s"}
+
+
+def test_every_displayed_quantity_is_in_a_display_unit(page):
+    text = _visible_text(page)
+    number = r"[−-]?\d+(?:\.\d+)?(?:×10[⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+)?"
+    pairs = re.findall(
+        rf"(?<![\w.]){number}\s(N|m|m/s|mN|µm|µm/s|s|1/m|1/µm|1/s|kg|%)(?![\w/])", text
+    )
+    assert pairs, "no quantity found"
+    assert set(pairs) <= DISPLAY_UNITS, set(pairs) - DISPLAY_UNITS  # never a bare N, m or m/s
+    # a load in mN is tens of mN (the campaign's 30-90 mN), never 0.06 (N) nor 60000 (µN)
+    loads = [float(v) for v in re.findall(r"F_N = ([\d.]+) mN", text)]
+    assert loads and all(10 <= load <= 200 for load in loads)
+    # every column of every table that holds numbers names its unit or is a pure number
+    pure = (
+        "repeats",
+        "χ²",
+        "p",
+        "relation",
+        "constant",
+        "run",
+        "/ F",
+        "free parameters",
+        "AIC",
+        "BIC",
+        "ΔAIC",
+        "ΔBIC",
+        "corr",
+        "F peak /F N",
+        "holds",
+        "note",
+        "quantity",
+        "observed",
+        "predicted",
+        "parameter",
+        "value",
+        "interval",
+        "degrees of freedom",
+        "unit",
+        "meaning",
+        "status",
+        "model",
+        "formula",
+        "test",
+        "problems",
+        "file",
+        "SHA-256",
+        "geometry",
+        "preparation",
+        "reason",
+        "held in common",
+        "std, separate fits",
+    )
+    heads = " ".join(re.findall(r"<thead>(.*?)</thead>", page, flags=re.S))
+    for header in re.findall(r"<th>(.*?)</th>", heads):
+        label = re.sub(r"<[^>]+>", " ", header).strip()
+        assert "[" in label or any(word in label for word in pure), label
+
+
+def test_the_options_show_no_fraction_as_a_force(page):
+    options = _Page(page).section("options")
+    assert "mN" not in options  # the forecast level was "900.0 mN"
+    assert "90 %" in options

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from granflow._format import display_text
 from granflow.analysis.formatting import (
     DASH,
     display_scale,
@@ -82,7 +83,7 @@ def ramp_view(result) -> list[dict[str, Any]]:
                     ),
                 ],
                 "slip": observed.get("failure_slip"),
-                "criterion": row.criterion,
+                "criterion": None if row.criterion is None else display_text(row.criterion),
                 "width": width,
                 "predicted": row.predicted_force,
                 "z": row.z,
