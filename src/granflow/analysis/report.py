@@ -87,8 +87,9 @@ def _typed(result: Any) -> AnalysisResult:
         ) from exc
 
 
-def _context(result: AnalysisResult, output_dir: Path | None, report_dir: Path) -> dict:
+def _context(result: AnalysisResult, output_dir: Path | None, report_dir: Path) -> dict[str, Any]:
     problems: list[str] = []
+    views: dict[str, Any]
     figures = figures_view(result.figures, output_dir, report_dir, problems)
     step_figures = figures_view(velocity_step_figures(result), output_dir, report_dir, problems)
     runs = runs_view(result)
@@ -187,7 +188,7 @@ def _environment():
     return environment
 
 
-def _tokens(name: object):
+def _tokens(name: object) -> Any:
     """A run or file name with a break opportunity after each "_", ".", "#" and "/" (the
     name is escaped first): at 800 px it wraps between its tokens, never inside one."""
     from markupsafe import Markup, escape
@@ -276,7 +277,7 @@ def render_report(
         output_dir = result.output
     if output_dir is None and path is None:
         raise InvalidParameterError("give output_dir or path: the result has no output folder")
-    path = Path(path) if path is not None else Path(output_dir) / "report.html"
+    path = Path(path) if path is not None else Path(output_dir or ".") / "report.html"
     html = render_html(result, output_dir, report_dir=path.parent)
     path.parent.mkdir(parents=True, exist_ok=True)
     write_text_atomic(path, html)

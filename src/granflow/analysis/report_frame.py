@@ -44,14 +44,14 @@ def _png_size(data: bytes) -> tuple[int, int]:
 
 
 def figures_view(
-    figures, output_dir: Path | None, report_dir: Path, problems: list[str]
+    figures: Any, output_dir: Path | None, report_dir: Path, problems: list[str]
 ) -> dict[str, list[dict[str, Any]]]:
     """The figures by section: each with its PNG embedded as a data URI and a link to its
     SVG; a figure whose file cannot be read is named in ``problems``."""
     by_section: dict[str, list[dict[str, Any]]] = {}
     for index, figure in enumerate(figures):
         name = str(figure.get("name") or f"figure {index + 1}")
-        entry = {
+        entry: dict[str, Any] = {
             "name": name,
             "anchor": "fig-" + re.sub(r"[^A-Za-z0-9_-]", "-", name),
             "title": str(figure.get("title") or name),
@@ -86,7 +86,7 @@ def figures_view(
 # --------------------------------------------------------------------------- the rest
 
 
-def warnings_view(result, runs, problems) -> dict[str, Any]:
+def warnings_view(result: Any, runs: Any, problems: Any) -> dict[str, Any]:
     """Failed runs, fits at a bound or not converged, the analysis' warnings and the
     report's own problems."""
     failed = [
@@ -159,7 +159,7 @@ def _option_text(value, quantity):
     return str(value)
 
 
-def options_view(provenance) -> list[tuple[str, str]]:
+def options_view(provenance: Any) -> list[tuple[str, str]]:
     """The analysis options by name and with their units (a fraction as a percentage: the
     forecast level 0.9 is "90 %"); an option this table does not know is shown as given."""
     rows = []
@@ -177,7 +177,7 @@ def options_view(provenance) -> list[tuple[str, str]]:
     return rows
 
 
-def timing_view(timing) -> list[tuple[str, str]]:
+def timing_view(timing: Any) -> list[tuple[str, str]]:
     """When the analysis ran, how long each stage took and how it ran."""
     rows = []
     for key in ("started", "finished"):

@@ -59,7 +59,7 @@ def _row(quantity, observed, predicted, name):
     }
 
 
-def ramp_view(result) -> list[dict[str, Any]]:
+def ramp_view(result: Any) -> list[dict[str, Any]]:
     """Each stress ramp's observed failure against the predicted static yield at its load."""
     entries = []
     for row in result.analyses.stress_ramp:
@@ -93,7 +93,7 @@ def ramp_view(result) -> list[dict[str, Any]]:
     return entries
 
 
-def switch_view(result) -> list[dict[str, Any]]:
+def switch_view(result: Any) -> list[dict[str, Any]]:
     """Each switch's observed outcome against the simulated one."""
     return [
         {
@@ -112,7 +112,7 @@ def switch_view(result) -> list[dict[str, Any]]:
     ]
 
 
-def prediction_view(result) -> dict[str, Any]:
+def prediction_view(result: Any) -> dict[str, Any]:
     """The static yield per load and the stability map."""
     predictions = result.predictions
     stability = predictions.stability_map
@@ -149,7 +149,7 @@ def _interval_text(pair, scale):
     return text.replace("—", "∞") if any(math.isinf(v) for v in (low, high)) else text
 
 
-def forecast_view(result, figures) -> list[dict[str, Any]]:
+def forecast_view(result: Any, figures: Any) -> list[dict[str, Any]]:
     """The running forecast of each run: at each cut the failure time and force with their
     intervals (digits enough that the two ends differ), beside the observed failure time
     and the observed failure force (the largest force the layer held)."""
@@ -212,7 +212,7 @@ def _step_value(value, unit, significant=4):
     return format_number(value, scale, significant), shown
 
 
-def velocity_steps_view(result, figures) -> list[dict[str, Any]]:
+def velocity_steps_view(result: Any, figures: Any) -> list[dict[str, Any]]:
     """Each velocity-step record: its figure, its parameters in display units (Dc in µm)
     with the digits their errors justify, and its model comparison."""
     records = []
@@ -250,7 +250,7 @@ def velocity_steps_view(result, figures) -> list[dict[str, Any]]:
     return records
 
 
-def velocity_step_figures(result) -> list[dict[str, Any]]:
+def velocity_step_figures(result: Any) -> list[dict[str, Any]]:
     """The figure entries of the velocity-step records (``velocity-step-<k>``)."""
     return [
         {

@@ -39,7 +39,7 @@ def _um(value, significant=3):
 # --------------------------------------------------------------------------- the headline
 
 
-def _static_dynamic(result) -> str | None:
+def _static_dynamic(result: Any) -> str | None:
     rows = result.predictions.static_yield
     mu_d = result.material.mu_d.value
     if not rows or mu_d is None:
@@ -60,7 +60,7 @@ def _static_dynamic(result) -> str | None:
     )
 
 
-def _rejuvenation(material) -> str | None:
+def _rejuvenation(material: Any) -> str | None:
     length = material.get("length") if material else None
     if not length:
         return None
@@ -71,7 +71,7 @@ def _rejuvenation(material) -> str | None:
     )
 
 
-def _preparations(spread) -> str | None:
+def _preparations(spread: Any) -> str | None:
     if not spread or spread.get("reason"):
         return None
     held = [g for g in spread["groups"] if g["held"] is not None]
@@ -85,7 +85,7 @@ def _preparations(spread) -> str | None:
     )
 
 
-def _creep(result, creep) -> str | None:
+def _creep(result: Any, creep: Any) -> str | None:
     below = [c for c in creep if c["over_Fd"] is not None and c["over_Fd"] < 1]
     above = [c for c in creep if c["over_Fd"] is not None and c["over_Fd"] >= 1]
     if not creep:
@@ -113,7 +113,7 @@ def _creep(result, creep) -> str | None:
     return None
 
 
-def _failure(result) -> str | None:
+def _failure(result: Any) -> str | None:
     parts = []
     for row in result.analyses.stress_ramp:
         observed = row.observed or {}
@@ -139,7 +139,7 @@ def _failure(result) -> str | None:
     return text[0].upper() + text[1:] + " (Fig. 3a, 3c)."
 
 
-def headline(result, views: dict[str, Any]) -> list[str]:
+def headline(result: Any, views: dict[str, Any]) -> list[str]:
     """What the campaign shows about aging and rejuvenation, sentence by sentence, in the
     paper's terms (empty when it shows none of it)."""
     sentences = [
@@ -374,7 +374,7 @@ def _velocity_steps_line(records, failed):
     )
 
 
-def verdicts(result, views: dict[str, Any]) -> list[dict[str, str]]:
+def verdicts(result: Any, views: dict[str, Any]) -> list[dict[str, str]]:
     """The verdicts at the top of the report, in the order of the sections: (status, text,
     link) per line."""
     lines = [

@@ -63,7 +63,9 @@ SECTIONS = (
 # --------------------------------------------------------------------------- helpers
 
 
-def pair(value: float | None, error: float | None, factor: float = 1.0):
+def pair(
+    value: float | None, error: float | None, factor: float = 1.0
+) -> tuple[float | None, float | None]:
     """(value, error) times ``factor``, None where missing."""
     value, error = real_number(value), real_number(error)
     return (
@@ -106,7 +108,7 @@ def _start_up_fit(fit, velocity, judged):
     }
 
 
-def runs_view(result) -> list[dict[str, Any]]:
+def runs_view(result: Any) -> list[dict[str, Any]]:
     """The run table: each run with its Eq. 3 fit in the paper's terms (start-ups and the
     rate-controlled part of switches), the force noise of its plateau and its normalised χ²
     (the one quantity of that column)."""
@@ -134,7 +136,7 @@ def runs_view(result) -> list[dict[str, Any]]:
     return rows
 
 
-def creep_view(result) -> list[dict[str, Any]]:
+def creep_view(result: Any) -> list[dict[str, Any]]:
     """The creep runs: the imposed force against F_d and F_peak, and the fit of
     δ = B ln(1 + t/τ_c) (τ_c flagged where it is below the record's sampling)."""
     compared = {row.run: row for row in result.analyses.creep}
@@ -167,7 +169,7 @@ def creep_view(result) -> list[dict[str, Any]]:
     return rows
 
 
-def campaign_view(result, runs) -> dict[str, Any]:
+def campaign_view(result: Any, runs: Any) -> dict[str, Any]:
     """The campaign section: counts per test, loads, velocities, the preparations (named
     when few, counted when many), geometry and problems."""
     tests: dict[str, int] = {}
@@ -189,7 +191,7 @@ def campaign_view(result, runs) -> dict[str, Any]:
     }
 
 
-def quality_view(runs) -> dict[str, Any]:
+def quality_view(runs: Any) -> dict[str, Any]:
     """Each run with problems, and each run's geometry where the runs' geometries differ."""
     flagged = [{"name": r["name"], "problems": r["problems"]} for r in runs if r["problems"]]
     geometries = {r["geometry"] for r in runs if r["geometry"] is not None}
@@ -211,7 +213,7 @@ _MATERIAL = (
 )
 
 
-def material_view(result) -> dict[str, Any] | None:
+def material_view(result: Any) -> dict[str, Any] | None:
     """The material constants, α also as the rejuvenation length 1/α in µm and in grain
     diameters; None when the campaign determined none and says nothing why."""
     material = result.material
@@ -249,7 +251,7 @@ def material_view(result) -> dict[str, Any] | None:
 # --------------------------------------------------------------------------- joint analyses
 
 
-def collapse_view(result) -> dict[str, Any] | None:
+def collapse_view(result: Any) -> dict[str, Any] | None:
     """The velocity collapse: per-velocity a and α, the shared fit and its test."""
     analysis = result.analyses.velocity_collapse
     if analysis is None:
@@ -277,7 +279,7 @@ def collapse_view(result) -> dict[str, Any] | None:
     }
 
 
-def amontons_view(result) -> dict[str, Any] | None:
+def amontons_view(result: Any) -> dict[str, Any] | None:
     """Amontons' law: per-load means, the lines through the origin, the joint fit and the
     test of the law (a field of :class:`granflow.AmontonsResult`)."""
     analysis = result.analyses.amontons
@@ -313,7 +315,7 @@ def amontons_view(result) -> dict[str, Any] | None:
     }
 
 
-def spread_view(result) -> dict[str, Any] | None:
+def spread_view(result: Any) -> dict[str, Any] | None:
     """The preparation spread of each group of repeats (x0 with a, α and F_d held)."""
     spreads = result.analyses.preparation_spread
     if not spreads:
@@ -350,7 +352,7 @@ def spread_view(result) -> dict[str, Any] | None:
     return {"reason": None, "groups": groups}
 
 
-def comparison_view(comparison, label=None) -> dict[str, Any]:
+def comparison_view(comparison: Any, label: Any = None) -> dict[str, Any]:
     """One model comparison (:class:`granflow.ModelComparison`): AIC and BIC per model."""
     rows = [
         {
@@ -374,7 +376,7 @@ def comparison_view(comparison, label=None) -> dict[str, Any]:
     }
 
 
-def model_comparison_view(result) -> dict[str, Any] | None:
+def model_comparison_view(result: Any) -> dict[str, Any] | None:
     """Eq. 3 against simpler models on the representative start-up."""
     analysis = result.analyses.model_comparison
     if analysis is None:

@@ -145,7 +145,9 @@ def _normal_deviate(t_value: float, df: int | None) -> float:
     return float(norm.isf(t.sf(t_value, df)))
 
 
-def _relation(name: str, key: str, per_load_of: bool, rows: Sequence[Mapping[str, Any]]):
+def _relation(
+    name: str, key: str, per_load_of: bool, rows: Sequence[Mapping[str, Any]]
+) -> RelationTest | None:
     values, errors, repeats = [], [], []
     for row in rows:
         pair, load = row.get(key), row.get("normal_load")

@@ -91,7 +91,7 @@ def plot_forecast(result: Any, ax: Axes | None = None) -> Axes:
 
 def _deviation_inset(ax: Axes, cuts: Any, model: Any, observed: float, level: str) -> None:
     """The model's forecast minus the observed failure [s], with its band (lower right)."""
-    inset = ax.inset_axes([0.52, 0.1, 0.44, 0.36])
+    inset = ax.inset_axes((0.52, 0.1, 0.44, 0.36))
     low = np.asarray(model["low"], float) - observed
     high = np.asarray(model["high"], float) - observed
     inset.fill_between(cuts, low, high, color="C0", alpha=0.3, linewidth=0)
