@@ -117,3 +117,11 @@ def test_creep_points_are_not_hidden_under_their_fits():
     ax = plot_creep([run], [gf.fit_creep(t, slip)], log_time=True)
     points, fit = ax.get_lines()
     assert points.get_markersize() >= 3.5 and fit.get_linewidth() <= 1.0
+
+
+def test_fig3c_before_the_peak_keeps_the_whole_overshoot_on_its_axis():
+    protocol = gf.Protocol([gf.Velocity(V, 10.0), gf.SwitchToForce(60.0, factor=1.01)])
+    run = gf.simulate(P, protocol).to_run()
+    _, force_ax = plot_switch(run, P)
+    (grey,) = [line for line in force_ax.get_lines() if line.get_label() == "rate control (model)"]
+    assert np.max(grey.get_ydata()) <= force_ax.get_ylim()[1]  # the peak is not clipped

@@ -202,7 +202,8 @@ def plot_switch(
         slip_ax.axhline(
             outcome[1] * SLIP_SCALE, color=MODEL_COLOR, ls=":", lw=1.2, label="stop slip (model)"
         )
-    align_zeros(slip_ax, force_ax, slip, force, None)
+    # the force axis holds the model's whole overshoot too, not only the measured force
+    align_zeros(slip_ax, force_ax, slip, force, None if params is None else peak_or_none(params))
     if clip and switch is not None and slip.size:
         # a failure's runaway would squash the slip before the switch: scale to it
         scale_to_creep(slip_ax, t_slip, slip, switch)
