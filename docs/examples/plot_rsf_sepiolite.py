@@ -61,5 +61,4 @@ fig, axes = plt.subplots(
 )
 fits["slip"].plot(axes)
 axes[0].axvline(step, color="0.5", ls=":", lw=1)
-axes[0].set_title("sepiolite, slip law over the step (Dc in µm in the report)", fontsize=9)
 plt.show()
