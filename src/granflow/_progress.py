@@ -103,7 +103,13 @@ def silenced() -> Iterator[None]:
 
 
 def progress_bar(
-    total: int, *, progress: bool | None = None, desc: str = "", unit: str = "it"
+    total: int,
+    *,
+    progress: bool | None = None,
+    desc: str = "",
+    unit: str = "it",
+    leave: bool = True,
+    bar_format: str | None = None,
 ) -> Bar:
     """A bar of ``total`` steps on stderr (tqdm's auto mode), or one that shows nothing.
 
@@ -115,6 +121,11 @@ def progress_bar(
         True: show it; False: do not; None: show it when :func:`interactive`.
     desc, unit : str
         The label before the bar and the name of a step.
+    leave : bool
+        Keep the bar on screen when it closes (False: it vanishes, leaving the line to
+        what follows).
+    bar_format : str, optional
+        tqdm's layout of the bar (default tqdm's own).
     """
     if not wanted(progress):
         return _NoBar()
@@ -126,7 +137,15 @@ def progress_bar(
         warnings.simplefilter("ignore")
         from tqdm.auto import tqdm
 
-    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True)
+    return tqdm(
+        total=total,
+        desc=desc,
+        unit=unit,
+        file=sys.stderr,
+        dynamic_ncols=True,
+        leave=leave,
+        bar_format=bar_format,
+    )
 
 
 #: The stages of a campaign analysis and the share of its bar each takes [%], from the demo
@@ -175,8 +194,8 @@ class RunProgress:
 
     def _advance(self, percent: float) -> None:
         percent = min(100.0, max(self.percent, percent))
-        if self._bar is not None:
-            self._bar.update(round(percent - self.percent, 3))
+        if self._bar is not None and round(percent) != round(self.percent):
+            self._bar.update(round(percent) - round(self.percent))  # whole percents: n <= 100
         self.percent = percent
 
     def stage(self, name: str) -> None:
@@ -185,14 +204,22 @@ class RunProgress:
         if self.quiet:
             return
         if self._bar is None and self._stage is None and interactive(self.stream):
-            self._bar = progress_bar(100, progress=True, desc=name, unit="%")
+            # it vanishes when it closes: "[100%] report: PATH", or an error, takes its line
+            self._bar = progress_bar(
+                100,
+                progress=True,
+                desc=name,
+                unit="%",
+                leave=False,
+                bar_format="{desc}: {percentage:3.0f}%|{bar}| {elapsed}{postfix}",
+            )
         self._stage = name
         self._advance(self._before(name))
         if self._bar is not None:
             set_description = getattr(self._bar, "set_description_str", None)
             if set_description is not None:
                 set_description(name, refresh=True)
-        else:
+        elif name != self._order[0]:  # in a log, a bad manifest stays a one-line error
             print(f"[{self.percent:3.0f}%] {name}", file=self.stream, flush=True)
 
     def line(self, text: str) -> None:

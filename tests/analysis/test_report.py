@@ -545,3 +545,33 @@ def test_the_options_show_no_fraction_as_a_force(page):
     options = _Page(page).section("options")
     assert "mN" not in options  # the forecast level was "900.0 mN"
     assert "90 %" in options
+
+
+def test_many_preparation_labels_are_counted_not_listed():
+    from types import SimpleNamespace
+
+    from granflow.analysis.report_views import campaign_view
+
+    runs = [
+        {
+            "test": "startup",
+            "normal_load": 0.02,
+            "velocity": 8.6e-7,
+            "preparation": f"load-{i}",
+            "failed": False,
+        }
+        for i in range(48)
+    ]
+    view = campaign_view(SimpleNamespace(campaign={}), runs)
+    assert view["preparations"] is None and view["preparation_count"] == 48
+    few = campaign_view(SimpleNamespace(campaign={}), runs[:3])
+    assert few["preparations"] == ["load-0", "load-1", "load-2"]
+
+
+def test_run_names_break_only_between_their_tokens(page):
+    assert "overflow-wrap: anywhere" not in page  # no break inside a token
+    assert "loads_<wbr>" in page or "startup_<wbr>" in page or "_<wbr>" in page
+    names = re.findall(r"<code>([^<]*(?:<wbr>[^<]*)+)</code>", page)
+    assert names and all(
+        piece[-1] in "_#/." for name in names for piece in name.split("<wbr>")[:-1]
+    )

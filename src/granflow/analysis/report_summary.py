@@ -16,6 +16,7 @@ from typing import Any
 
 from granflow.analysis.formatting import (
     display_scale,
+    format_interval,
     format_number,
     format_p_value,
     format_value_error,
@@ -162,10 +163,11 @@ def _material_line(result, material):
     for row in material["rows"]:
         value = format_value_error(row["value"], row["stderr"], row["scale"])
         unit = f" {row['unit']}" if row["unit"] else ""
-        parts.append(f"{row['symbol']} = {value}{unit}")
+        interval = format_interval(row["ci95"], row["scale"])
+        parts.append(f"{row['symbol']} = {value}{unit} (95 %: {interval})")
     text = "Material constants: " + "; ".join(parts)
     if material["source"]:
-        text += f" ({material['source']}, 95 % intervals in the table)"
+        text += f" ({material['source']})"
     truth = result.campaign.get("truth")
     if truth:
         outside = [k for k, ok in truth["contained"].items() if not ok]

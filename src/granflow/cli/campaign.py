@@ -165,13 +165,15 @@ def _analyze_and_report(args, campaign):
             file=sys.stderr,
         )
         return 130
-    print(wrapped(result.summary()))
+    summary = result.summary()
+    print(wrapped(summary) if sys.stdout.isatty() else summary)
     return result.exit_code
 
 
 def wrapped(text, width=None):
     """``text`` with each line wrapped at the terminal's width between words, never inside
-    a number or a path (a continued line indented under its start)."""
+    a number or a path (a continued line indented under its start): for a terminal, which
+    would otherwise break a line wherever it reaches the edge; a log keeps whole lines."""
     import shutil
     import textwrap
 
