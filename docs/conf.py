@@ -10,17 +10,23 @@ those find their way at once); numpydoc renders granflow's numpydoc docstrings, 
 brackets included; sphinx-gallery turns the runnable ``.py`` files of ``docs/examples`` into
 the gallery: each is executed when the site is built (a figure that no longer matches the
 code breaks the build), shown with its output and a thumbnail, and offered as a download
-(script and notebook) that runs as it is. Nothing is fetched from the network while building
-or reading the site: no intersphinx, no MathJax (equations are written in plain text), no
-fonts or scripts from a CDN.
+(script and notebook) that runs as it is. matplotlib's plot directive draws the figures of
+the user guide at build time, and ``_ext/mathtext_svg.py`` draws every formula with
+matplotlib's mathtext into an SVG embedded in the page. Nothing is fetched from the network
+while building or reading the site: no intersphinx, no MathJax, no fonts or scripts from a
+CDN, no LaTeX installation needed.
 """
 
 import os
+import sys
 from pathlib import Path
+
+from sphinx.ext import autosummary
 
 import granflow
 
 DOCS = Path(__file__).resolve().parent
+sys.path.insert(0, str(DOCS / "_ext"))
 
 project = "granflow"
 author = "granflow developers"
@@ -32,10 +38,20 @@ extensions = [
     "sphinx.ext.autosummary",
     "numpydoc",
     "sphinx_gallery.gen_gallery",
+    "matplotlib.sphinxext.plot_directive",
+    "mathtext_svg",
 ]
 
-# Plain-text equations everywhere; never load MathJax from a CDN.
-html_math_renderer = None
+# Formulas drawn offline by matplotlib's mathtext (docs/_ext/mathtext_svg.py): no MathJax.
+html_math_renderer = "mathtext_svg"
+
+# -- Figures of the user guide (matplotlib's plot directive) ---------------------------------
+plot_include_source = False
+plot_html_show_source_link = False
+plot_html_show_formats = False
+plot_formats = [("png", 110)]
+plot_rcparams = {"figure.figsize": (6.4, 3.6), "figure.autolayout": True}
+plot_pre_code = "import numpy as np\nimport matplotlib.pyplot as plt\nimport granflow as gf"
 
 exclude_patterns = ["_build", "**.ipynb_checkpoints", "examples/README.rst"]
 templates_path = ["_templates"]
@@ -44,6 +60,14 @@ default_role = "code"
 nitpicky = False
 
 # -- API reference (autosummary + numpydoc) ---------------------------------------------------
+# autosummary's one-line summary is the docstring's first sentence, found by splitting at the
+# first ". " that is not a known abbreviation: a physicist's "Eq. 3" and "Fig. 2c" are
+# abbreviations too (without them `fit`'s summary read "Fit Eq.").
+# tests/docs/test_summaries.py checks every summary of the API reference is a whole sentence.
+SUMMARY_ABBREVIATIONS = ("Eq.", "Eqs.", "Fig.", "Figs.", "cf.", "approx.")
+autosummary.WELL_KNOWN_ABBREVIATIONS = tuple(
+    dict.fromkeys((*autosummary.WELL_KNOWN_ABBREVIATIONS, *SUMMARY_ABBREVIATIONS))
+)
 autosummary_generate = True
 autosummary_imported_members = True
 autodoc_typehints = "none"  # the numpydoc sections carry the types (with units)

@@ -291,3 +291,32 @@ def test_the_layer_rule_finds_upward_imports():
 @pytest.mark.parametrize("layer", sorted(FORBIDDEN))
 def test_each_layer_has_a_rule(layer):
     assert layer in {_layer(module) for module in MODULES}
+
+
+def _all_imports(module):
+    """Every granflow module ``module`` imports anywhere: at module level and inside its
+    functions (a lazy import is still an edge of the design's graph)."""
+    tree = ast.parse(MODULES[module].read_text(encoding="utf-8"))
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            source = _resolve(module, node)
+            names.add(source)
+            names.update(
+                f"{source}.{alias.name}"
+                for alias in node.names
+                if f"{source}.{alias.name}" in MODULES
+            )
+    return {name for name in names if name in MODULES}
+
+
+def test_the_report_modules_import_no_circle_even_inside_functions():
+    report = {m for m in MODULES if m.startswith("granflow.analysis.report")}
+    assert len(report) >= 4
+    graph = {module: _all_imports(module) & report for module in report}
+    assert find_cycles(graph) == []
+    # the report reads the typed result; it does not reach back into the engine
+    for module in report:
+        assert "granflow.analysis.engine" not in _all_imports(module), module

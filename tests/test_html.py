@@ -109,14 +109,16 @@ def test_fit_result_html_is_the_report_as_tables():
         "&gt;", ">"
     )
     cells = page.cells
+    shown = {"N": (1e3, "mN"), "m": (1e6, "µm"), "1/m": (1.0, "1/m")}  # display units
     for name in result.names:
         row = cells[cells.index(name) : cells.index(name) + 6]
         value, error, place = _read_value_error(row[1])
+        scale, unit = shown[result.units[name]]
         # the value is rounded at the error's last digit, the error to two digits
-        assert abs(value - result.params[name]) <= 0.5 * place * (1 + 1e-9)
-        assert abs(error - result.stderr[name]) <= 0.5 * place * (1 + 1e-9)
+        assert abs(value - scale * result.params[name]) <= 0.5 * place * (1 + 1e-9)
+        assert abs(error - scale * result.stderr[name]) <= 0.5 * place * (1 + 1e-9)
         assert error >= 10 * place * (1 - 1e-9)  # two significant digits
-        assert row[4] == result.units[name]
+        assert row[4] == unit
         assert row[5] == result.ci_method[name]
     assert "C(a, x0)" in cells  # the correlation the report lists first
     assert cells[cells.index("data points") + 1] == str(result.ndata)

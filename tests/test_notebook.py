@@ -78,11 +78,15 @@ def test_analyze_shows_one_progress_bar(executed):
     ]
     err = _stream(outputs, "stderr")
     # tqdm draws a bar on one line, rewriting it with carriage returns; a new bar (or a line
-    # per run) starts a new line
-    bars = [line for line in err.split("\n") if "analysing" in line]
+    # per run) starts a new line. The one bar covers every stage, by its share, to 100 %.
+    bars = [line for line in err.split("\n") if "%|" in line]
     assert len(widgets) + len(bars) == 1, err
     if bars:
-        assert bars[0].rstrip().split("\r")[-1].count("14/14") == 1, bars[0]
+        states = bars[0].split("\r")
+        assert any("14/14 runs" in state for state in states), bars[0]
+        assert any(state.strip().startswith("figures:") for state in states), bars[0]
+        assert any("100%" in state for state in states), bars[0]
+    assert "[100%] report: " in err  # where the report is
     assert "fitted 1/" not in err
     for inner in ("stability map", "sampling", "fitting:"):
         assert inner not in err

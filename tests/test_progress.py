@@ -105,24 +105,44 @@ def test_run_progress_one_bar_on_a_terminal_lines_in_a_log():
     terminal = _Terminal()
     progress = _progress.RunProgress(False, lambda *a: seen.append(a), stream=terminal)
     # tqdm writes to sys.stderr; the terminal only decides that a bar is wanted
-    progress.start(3)
+    progress.stage("reading")
     assert progress._bar is not None
+    progress.start(3)
     for name in ("a", "b", "c"):
         progress.step(name)
     progress.finish()
     assert progress._bar is None
     assert seen == [(1, 3, "a"), (2, 3, "b"), (3, 3, "c")]
     assert "fitted" not in terminal.getvalue()
+    silent = io.StringIO()
+    progress = _progress.RunProgress(True, None, stream=silent)
+    progress.stage("reading")
+    progress.start(1)
+    progress.line("a note")
+    progress.step("a")
+    progress.finish("report.html")
+    assert silent.getvalue() == ""
+
+
+def test_the_progress_covers_every_stage_by_its_weight_and_ends_with_the_report():
     log = io.StringIO()
     progress = _progress.RunProgress(False, None, stream=log)
+    shares = dict(_progress.STAGES)
+    assert sum(shares.values()) == pytest.approx(100.0)
+    progress.stage("reading")
     progress.start(2)
     progress.step("a")
     progress.step("b")
-    progress.finish()
-    assert log.getvalue() == "fitted 1/2: a\nfitted 2/2: b\n"
-    silent = io.StringIO()
-    progress = _progress.RunProgress(True, None, stream=silent)
-    progress.start(1)
-    progress.line("figures")
-    progress.step("a")
-    assert silent.getvalue() == ""
+    after_runs = progress.percent
+    assert after_runs == pytest.approx(shares["reading"] + shares["runs"])
+    for name in ("joint analyses, predictions and forecasts", "tables", "figures", "report"):
+        progress.stage(name)
+    assert progress.percent < 100.0  # the report is still being written
+    progress.finish("out/report.html")
+    lines = log.getvalue().splitlines()
+    # reading has no line of its own in a log: a bad manifest is then a one-line error
+    assert lines[0] == f"[{shares['reading']:3.0f}%] runs"
+    assert lines[1] == f"[{shares['reading'] + shares['runs'] / 2:3.0f}%] fitted 1/2: a"
+    assert lines[-2].endswith("] report") and lines[-1] == "[100%] report: out/report.html"
+    percents = [float(line[1:4]) for line in lines]
+    assert percents == sorted(percents)  # it never goes back

@@ -9,9 +9,11 @@ the report on top. Pure Python: importing it loads nothing heavy.
 
 import math
 import numbers
+import re
 
 __all__ = [
     "DASH",
+    "display_text",
     "format_interval",
     "format_number",
     "format_value_error",
@@ -21,6 +23,8 @@ __all__ = [
 _SUPERSCRIPT = str.maketrans("-0123456789", "⁻⁰¹²³⁴⁵⁶⁷⁸⁹")
 #: What a missing value shows.
 DASH = "—"
+#: The most significant digits a value is shown with, however small its error.
+MAX_DIGITS = 8
 
 # --------------------------------------------------------------------------- numbers
 
@@ -104,6 +108,8 @@ def format_value_error(value: object, error: object, scale: float = 1.0, digits:
     Returns
     -------
     str
+        The value is given to at most :data:`MAX_DIGITS` significant digits (an error below
+        that, as of a fit to exact data, shows as "< 1e-N" of the value).
 
     Examples
     --------
@@ -115,12 +121,20 @@ def format_value_error(value: object, error: object, scale: float = 1.0, digits:
     '0.1961 ± 0.0033'
     >>> format_value_error(2.1e-9, 3.0e-11)
     '(2.100 ± 0.030)×10⁻⁹'
+    >>> format_value_error(3.31e-3, 3.4e-19, 1e3)
+    '3.3100000 (± < 10⁻⁷ relative)'
     """
     value, error = real_number(value), real_number(error)
     if value is None:
         return DASH
     if error is None or error <= 0:
         return format_number(value, scale)
+    if value != 0 and abs(error / value) < 10.0 ** (1 - MAX_DIGITS):
+        return (
+            f"{format_number(value, scale, MAX_DIGITS)} (± < 10"
+            + str(1 - MAX_DIGITS).translate(_SUPERSCRIPT)
+            + " relative)"
+        )
     value, error = value * scale, abs(error * scale)
     place = _exponent(error, digits) - digits + 1
     exponent = _exponent(value, digits) if value != 0 else place
@@ -147,3 +161,27 @@ def format_interval(bounds: object, scale: float = 1.0, significant: int = 4) ->
         if top > 0:
             significant = max(significant, _exponent(top, 2) - _exponent(width, 2) + 2)
     return f"[{format_number(low, scale, significant)}, {format_number(high, scale, significant)}]"
+
+
+_SI_QUANTITY = re.compile(
+    r"(?P<value>[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?) (?P<unit>m/s|m|N|s)(?![\w/])"
+)
+#: The display factor and unit of each SI unit a message may hold.
+_MESSAGE_UNITS = {"m": (1e6, "µm"), "N": (1e3, "mN"), "s": (1.0, "s"), "m/s": (1e6, "µm/s")}
+
+
+def display_text(text: str, significant: int = 4) -> str:
+    """A message with SI quantities (``slip = 6.88e-05 m, force = 0.01267863 N``) put into
+    display units with ``significant`` digits (``slip = 68.8 µm, force = 12.68 mN``).
+
+    Examples
+    --------
+    >>> display_text("at t = 275.6589 s, slip = 2.090228e-05 m, force = 0.01378295 N")
+    'at t = 275.7 s, slip = 20.90 µm, force = 13.78 mN'
+    """
+
+    def replace(match: re.Match[str]) -> str:
+        scale, unit = _MESSAGE_UNITS[match["unit"]]
+        return f"{format_number(float(match['value']), scale, significant)} {unit}"
+
+    return _SI_QUANTITY.sub(replace, text)

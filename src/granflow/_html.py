@@ -127,16 +127,19 @@ def _relative(value: float, error: float) -> str:
 
 def _variables(result: Any) -> Html:
     """The table of variables of a fit: value ± stderr, relative error, 95 % interval, unit
-    and how the interval was found (or that the parameter was held, or ended on a bound)."""
+    (the display unit of the parameter's SI unit: mN, µm) and how the interval was found
+    (or that the parameter was held, or ended on a bound)."""
     method = getattr(result, "ci_method", None)
     at_bound = getattr(result, "at_bound", None)
     fixed = getattr(result, "fixed", ())
+    from granflow.model.units import display_of_si
+
     rows = []
     for name in result.names:
         value, error = result.params[name], result.stderr[name]
-        unit = result.units[name]
+        scale, unit = display_of_si(result.units[name])
         if name in fixed:
-            rows.append((name, format_number(value, significant=6), DASH, DASH, unit, "fixed"))
+            rows.append((name, format_number(value, scale, 6), DASH, DASH, unit, "fixed"))
             continue
         note = [] if method is None else [str(method[name])]
         if at_bound is not None and at_bound[name]:
@@ -144,9 +147,9 @@ def _variables(result: Any) -> Html:
         rows.append(
             (
                 name,
-                format_value_error(value, error),
+                format_value_error(value, error, scale),
                 _relative(value, error),
-                format_interval(result.ci95[name]),
+                format_interval(result.ci95[name], scale),
                 unit,
                 ", ".join(note),
             )

@@ -5,6 +5,7 @@ report."""
 
 import json
 import math
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -18,10 +19,12 @@ from granflow.analysis.forecasts import (
     RunForecast,
     retrospective_forecasts,
 )
-from granflow.analysis.joint_results import Estimate, Material
+from granflow.analysis.joint_results import Analyses, Estimate, Material
+from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.report import render_html
-from granflow.analysis.result import RunEntry
+from granflow.analysis.result import AnalysisResult, RunEntry
 from granflow.analysis.runs import analyse_run
+from granflow.fitting.results import FrozenMap
 
 
 def entry_of(run, index=0, name="ramp"):
@@ -149,8 +152,17 @@ def test_the_report_shows_the_forecast_table_and_the_failed_ones(demo_ramp):
         prior_from="none: the run has no normal load",
         cuts=(ForecastCut(cut=10.0, time=None, message="the layer has not slipped"),),
     )
-    results = {"runs": [], "forecasts": [forecast.to_dict(), failed.to_dict()]}
-    html = render_html(results)
+    result = AnalysisResult(
+        granflow_version="0",
+        synthetic=False,
+        campaign=FrozenMap(),
+        runs=(),
+        material=Material(reason="no loads"),
+        analyses=Analyses(),
+        predictions=Predictions(),
+        forecasts=(forecast, failed),
+    )
+    html = render_html(result).replace("<wbr>", "")
     section = html[html.index('<section id="forecasting">') :]
     section = section[: section.index("</section>")]
     assert "Forecasting the failure" in section
@@ -160,3 +172,7 @@ def test_the_report_shows_the_forecast_table_and_the_failed_ones(demo_ramp):
     last = forecast.cuts[-1]
     assert f"{last.force * 1e3:.4g}" in section  # F_peak in mN
     assert "converged</dt><dd>yes" in section
+    # the intervals are written with digits enough that their two ends differ
+    for low, high in re.findall(r"\[([-\d.]+), ([-\d.]+)\]", section):
+        assert low != high
+    assert "observed failure force F_f (the largest force held)" in section

@@ -1,36 +1,53 @@
-"""The HTML report: number filters, every section, escaping, missing sections, self-containment."""
+"""The HTML report, rendered from the typed AnalysisResult: number filters, every section in
+the contents' order with its figure, units, escaping, missing sections, self-containment."""
 
 import base64
-import copy
+import dataclasses
 import importlib.resources
+import json
 import re
 from html.parser import HTMLParser
 
+import numpy as np
 import pytest
-from report_example import CORRUPT, example_results
+from report_example import CORRUPT, example_result
 
-from granflow.analysis.report import (
-    display_unit,
+import granflow as gf
+from granflow.analysis.formatting import (
+    display_scale,
     format_interval,
     format_number,
     format_p_value,
     format_value_error,
-    render_html,
-    render_report,
 )
+from granflow.analysis.report import render_html, render_report
+from granflow.analysis.report_views import SECTIONS
 from granflow.errors import InvalidParameterError
 
 
 @pytest.fixture(scope="module")
 def example(tmp_path_factory):
     directory = tmp_path_factory.mktemp("analysis")
-    return directory, example_results(directory)
+    return directory, example_result(directory)
 
 
 @pytest.fixture(scope="module")
 def page(example):
-    directory, results = example
-    return render_html(results, directory)
+    directory, result = example
+    return render_html(result, directory)
+
+
+@pytest.fixture(scope="module")
+def single(tmp_path_factory):
+    """A campaign of one start-up, analysed (no joint analysis, no prediction)."""
+    directory = tmp_path_factory.mktemp("single")
+    params = gf.Params(3.0e-3, 4.2e4, 1.0e-2, 2.0e-7)
+    run = gf.simulate(params, [gf.Velocity(0.86e-6, 300.0)]).to_run()
+    rng = np.random.default_rng(0)
+    run = dataclasses.replace(run, force=run.force + rng.normal(0, 2e-5, run.force.size))
+    meta = {**run.meta, "name": "only-run", "normal_load": 0.05, "preparation": "p1"}
+    run = dataclasses.replace(run, meta=meta)
+    return directory, gf.analyze(gf.Campaign([run]), directory, quiet=True)
 
 
 class _Page(HTMLParser):
@@ -45,7 +62,7 @@ class _Page(HTMLParser):
     def handle_starttag(self, tag, attrs):
         attrs = dict(attrs)
         self.tags.append((tag, attrs))
-        if tag not in ("img", "meta", "link", "br", "input"):
+        if tag not in ("img", "meta", "link", "br", "input", "wbr"):
             self.stack.append((tag, attrs.get("id"), len(self.text)))
 
     def handle_endtag(self, tag):
@@ -64,27 +81,9 @@ class _Page(HTMLParser):
         return self.by_id[element_id]
 
 
-def _minimal(**extra):
-    """A results dict of a one-run campaign, with ``extra`` entries."""
-    run = {
-        "name": "only-run",
-        "source": "a.csv",
-        "test": "startup",
-        "normal_load": 0.05,
-        "velocity": 0.86e-6,
-        "preparation": "p1",
-        "status": "ok",
-        "fit": {
-            "params": {"a": 3.0e-3, "alpha": 4.2e4, "Fd": 1.0e-2, "x0": 2.0e-7},
-            "stderr": {"a": 2.0e-5, "alpha": 300.0, "Fd": 1.0e-5, "x0": 4.0e-9},
-            "at_bound": {"a": False, "alpha": False, "Fd": False, "x0": False},
-            "success": True,
-            "message": "converged",
-            "redchi": 1.1,
-            "sigma_known": True,
-        },
-    }
-    return {"granflow_version": "0.1.0", "synthetic": False, "runs": [run], **extra}
+def _text(html):
+    """The page's text without the break opportunities of run names."""
+    return html.replace("<wbr>", "")
 
 
 # --------------------------------------------------------------------------- filters
@@ -162,138 +161,164 @@ def test_format_interval():
         ("outcome", (1.0, "")),
     ],
 )
-def test_display_units_by_name(name, expected):
-    assert display_unit(name) == expected
+def test_display_scale_by_name(name, expected):
+    assert display_scale(name) == expected
 
 
 # --------------------------------------------------------------------------- sections
 
 
-def test_every_section_is_rendered(example, page):
-    _, results = example
-    parsed = _Page(page)
+def test_every_section_is_rendered_in_the_contents_order(example, page):
+    _, result = example
+    parsed = _Page(_text(page))
     for section in (
         "synthetic-banner",
         "failed-summary",
-        "campaign",
+        "headline",
+        "verdicts",
         "material",
         "runs",
-        "creep",
-        "joint",
         "collapse",
         "amontons",
         "preparation",
         "model-comparison",
-        "predictions",
         "static-yield",
-        "stability-map",
         "ramp",
+        "creep",
         "switch",
-        "figures",
+        "stability-map",
+        "forecasting",
+        "publication",
+        "campaign",
         "warnings",
         "failed-runs",
-        "analysis-warnings",
         "provenance",
     ):
         assert section in parsed.by_id, section
+    # the contents list and the page agree on the order
+    listed = re.findall(r'<li><a href="#([\w-]+)">', page.split("</nav>")[0])
+    on_page = [m for m in re.findall(r'<section id="([\w-]+)"', page) if m in listed]
+    assert listed == on_page
+    assert listed == [anchor for anchor, _ in SECTIONS if anchor in listed]
     campaign = parsed.section("campaign")
-    # 11 start-ups, one each of creep, ramp and switch; the corrupt file has no test
-    assert "creep: 1; ramp: 1; startup: 11; switch: 1; unspecified: 1" in campaign
+    assert "creep: 1; ramp: 1; startup: 11; switch: 1" in campaign
     assert "30.00, 60.00, 90.00" in campaign  # loads [mN]
     assert "0.8600, 2.000, 4.000" in campaign  # velocities [µm/s]
     runs = parsed.section("runs")
-    for run in results["runs"]:
-        assert run["name"] in runs
-    collapse = parsed.section("collapse")
-    verdict = (
-        "not rejected" if results["analyses"]["velocity_collapse"]["collapses"] else "rejected"
-    )
-    assert verdict in collapse
-    assert format_p_value(results["analyses"]["velocity_collapse"]["p_value"]) in collapse
+    for entry in result.runs:
+        assert entry.name in runs
+    collapse = result.analyses.velocity_collapse.result
+    assert format_p_value(collapse.p_value) in parsed.section("collapse")
     amontons = parsed.section("amontons")
     for load in ("30.00", "60.00", "90.00"):
         assert load in amontons
-    assert "·F N" in amontons  # F<sub>N</sub>
     comparison = parsed.section("model-comparison")
     assert "log_aging" in comparison and "Best by AIC: eq3" in comparison
-    outcomes = results["predictions"]["stability_map"]["outcome"]
-    counts = {o: sum(row.count(o) for row in outcomes) for o in ("failure", "stop")}
+    outcomes = list(result.predictions.stability_map.map.outcome.ravel())
+    counts = {o: outcomes.count(o) for o in ("failure", "stop")}
     assert f"{counts['failure']} failure, {counts['stop']} stop" in parsed.section("stability-map")
     ramp = parsed.section("ramp")
-    [row] = results["analyses"]["stress_ramp"]
-    observed = row["observed"]["failure_force"]
-    predicted = row["predicted"]["failure_force"]
+    [row] = result.analyses.stress_ramp
+    observed, predicted = row.observed["failure_force"], row.predicted_force
     assert 0.01 < observed < 0.1 and 0.01 < predicted < 0.1  # so 4 digits are 2 decimals in mN
     assert f"{observed * 1e3:.2f}" in ramp and f"{predicted * 1e3:.2f}" in ramp
-    # signed, observed − predicted, relative to the prediction (U+2212 for the minus)
     relative = f"({100 * (observed - predicted) / predicted:+.2g} %)".replace("-", "−")
     assert relative in ramp
     provenance = parsed.section("provenance")
-    for entry in results["provenance"]["inputs"]:
+    for entry in result.provenance["inputs"]:
         assert entry["file"] in provenance and entry["sha256"] in provenance
-    assert results["timing"]["finished"] in provenance
-    for figure in results["figures"]:
-        assert figure["title"] in parsed.section("figures")
-        assert figure["caption"] in parsed.section("figures")
+    assert result.timing["finished"] in provenance
 
 
-def test_material_constants_in_display_units(tmp_path):
-    material = {
-        "mu_a": {"value": 0.06012, "stderr": 3.1e-4, "ci95": [0.0595, 0.0607]},
-        "mu_d": {"value": 0.2003, "stderr": 2.2e-4, "ci95": [0.1999, 0.2007]},
-        "alpha": {"value": 4.9895e4, "stderr": 83.0, "ci95": [4.9733e4, 5.0057e4]},
-        "source": "amontons joint fit",
+def test_each_figure_sits_in_its_section(example, page):
+    _, result = example
+    parsed = _Page(_text(page))
+    homes = {
+        "startup": "runs",
+        "fits": "runs",
+        "collapse": "collapse",
+        "amontons": "amontons",
+        "stress_ramp": "ramp",
+        "creep": "creep",
+        "switch": "switch",
+        "stability_map": "stability-map",
+        "forecast_1": "forecasting",
+        "fig2": "publication",
+        "fig3": "publication",
     }
-    text = _Page(render_html(_minimal(material=material), tmp_path)).section("material")
-    assert "0.06012 ± 0.00031" in text
-    assert "0.20030 ± 0.00022" in text
-    assert "49895 ± 83" in text and "1/m" in text
-    assert "0.049895 ± 0.000083" in text and "1/µm" in text  # alpha in 1/µm
-    assert "[0.04973, 0.05006]" in text
-    assert "amontons joint fit" in text
+    for figure in result.figures:
+        home = parsed.section(homes[figure["name"]])
+        assert figure["title"] in home and figure["caption"] in home, figure["name"]
 
 
-def test_material_without_value_shows_its_reason(tmp_path):
-    material = {
-        "mu_a": {"value": None, "stderr": None, "ci95": None},
-        "mu_d": {"value": None, "stderr": None, "ci95": None},
-        "alpha": {"value": 4.2e4, "stderr": 300.0, "ci95": [4.14e4, 4.26e4]},
-        "reason": "the campaign has a single normal load",
-    }
-    text = _Page(render_html(_minimal(material=material), tmp_path)).section("material")
-    assert text.count("not determined: the campaign has a single normal load") == 2
-    assert "42000 ± 300" in text
+def test_the_headline_tells_the_papers_story(example, page):
+    _, result = example
+    headline = _Page(_text(page)).section("headline")
+    mu_d = result.material.mu_d.value
+    assert f"μ_d = {format_number(mu_d)}" in headline  # static against dynamic friction
+    peaks = [row.mu_peak for row in result.predictions.static_yield]
+    assert format_number(min(peaks), significant=3) in headline
+    length = 1e6 / result.material.alpha.value  # 1/α [µm]
+    assert f"1/α = {format_number(length, significant=3)} µm" in headline
+    assert f"{format_number(length / 40, significant=2)} diameters" in headline
+    assert "creeps logarithmically and holds" in headline
+    assert "fails at" in headline and "F_peak" in headline
 
 
-def test_run_table_converts_units_and_flags_bounds(tmp_path):
-    results = _minimal()
-    results["runs"][0]["fit"]["at_bound"]["x0"] = True
-    parsed = _Page(render_html(results, tmp_path))
-    runs = parsed.section("run-table")
-    assert "3.000 ± 0.020" in runs  # a [mN]
-    assert "42000 ± 300" in runs  # alpha [1/m]
-    assert "10.000 ± 0.010" in runs  # Fd [mN]
-    assert "0.2000 ± 0.0040" in runs  # x0 [µm]
+def test_material_constants_in_display_units(single, example):
+    _, result = example
+    text = _Page(_text(render_html(result))).section("material")
+    alpha = result.material.alpha
+    assert format_value_error(alpha.value, alpha.stderr) in text and "1/m" in text
+    assert "1/α" in text and "µm" in text  # the rejuvenation length
+    mu_a = result.material.mu_a
+    assert format_value_error(mu_a.value, mu_a.stderr) in text
+
+
+def test_material_without_value_shows_its_reason(single):
+    from granflow.analysis.joint_results import Material
+
+    directory, result = single
+    material = Material(reason="the runs have no normal load")
+    text = _Page(render_html(dataclasses.replace(result, material=material), directory))
+    assert text.section("material").count("not determined: the runs have no normal load") == 3
+
+
+def test_run_table_in_display_units_with_t0_and_alpha_v(single):
+    directory, result = single
+    runs = _Page(_text(render_html(result, directory))).section("run-table")
+    fit = result.runs[0].result.fit
+    v = result.runs[0].velocity
+    assert format_value_error(fit.params["a"], fit.stderr["a"], 1e3) in runs  # a [mN]
+    assert format_value_error(fit.params["x0"], fit.stderr["x0"], 1e6) in runs  # x0 [µm]
+    assert format_value_error(fit.params["x0"] / v, fit.stderr["x0"] / v) in runs  # t0 [s]
+    assert format_value_error(fit.params["alpha"] * v, fit.stderr["alpha"] * v) in runs  # αv
     assert "50.00" in runs and "0.8600" in runs  # load [mN], velocity [µm/s]
-    assert "1.10" in runs  # reduced chi-square with a known noise
+    judged = result.analyses.goodness_of_fit.runs["only-run"]
+    assert format_number(judged.chi2, significant=3) in runs  # the normalised χ²
+
+
+def test_a_fit_at_a_bound_and_one_not_converged_are_warned_about(single):
+    directory, result = single
+    entry = result.runs[0]
+    fit = dataclasses.replace(
+        entry.result.fit,
+        at_bound=gf.fitting.results.FrozenMap({**entry.result.fit.at_bound, "x0": True}),
+        success=False,
+        message="maximum number of evaluations reached",
+    )
+    startup = dataclasses.replace(entry.result, fit=fit)
+    changed = dataclasses.replace(result, runs=(dataclasses.replace(entry, result=startup),))
+    parsed = _Page(_text(render_html(changed, directory)))
     assert "x0" in parsed.section("at-bound") and "only-run" in parsed.section("at-bound")
-
-
-def test_time_domain_fit_is_shown_in_slip(tmp_path):
-    results = _minimal()
-    results["runs"][0]["fit"]["params"] = {"a": 3.0e-3, "k": 0.036, "Fd": 1.0e-2, "t0": 0.25}
-    results["runs"][0]["fit"]["stderr"] = {"a": 2e-5, "k": 0.0004, "Fd": 1e-5, "t0": 0.01}
-    results["runs"][0]["velocity"] = 1.0e-6
-    runs = _Page(render_html(results, tmp_path)).section("run-table")
-    assert "36000 ± 400" in runs  # alpha = k / v
-    assert "0.250 ± 0.010" in runs  # x0 = t0 v [µm]
+    assert "maximum number of evaluations reached" in parsed.section("convergence")
 
 
 def test_failed_runs_are_named_with_their_reason(example, page):
-    _, results = example
-    [failure] = results["failed_runs"]
+    _, result = example
+    [failure] = result.failed_runs
     assert failure["source"] == CORRUPT
-    parsed = _Page(page)
+    parsed = _Page(_text(page))
     assert failure["name"] in parsed.section("failed-summary")
     failed = parsed.section("failed-runs")
     assert failure["name"] in failed and failure["source"] in failed
@@ -301,101 +326,68 @@ def test_failed_runs_are_named_with_their_reason(example, page):
     assert failure["reason"] in parsed.section("run-table")
 
 
-def test_failed_run_only_in_the_runs_list_is_still_warned_about(tmp_path):
-    results = _minimal()
-    results["runs"].append(
-        {"name": "broken", "source": "b.csv", "status": "failed", "reason": "no torque column"}
-    )
-    parsed = _Page(render_html(results, tmp_path))
-    assert "startup: 1; unspecified: 1" in parsed.section("campaign")
-    assert "no torque column" in parsed.section("failed-runs")
-    assert "broken" in parsed.section("failed-summary")
+def test_no_warnings_says_so(single):
+    directory, result = single
+    assert "No warnings" in _Page(render_html(result, directory)).section("warnings")
 
 
-def test_poor_convergence_is_warned_about(tmp_path):
-    results = _minimal()
-    results["runs"][0]["fit"]["success"] = False
-    results["runs"][0]["fit"]["message"] = "maximum number of evaluations reached"
-    text = _Page(render_html(results, tmp_path)).section("convergence")
-    assert "only-run" in text and "maximum number of evaluations reached" in text
-
-
-def test_no_warnings_says_so(tmp_path):
-    text = _Page(render_html(_minimal(), tmp_path)).section("warnings")
-    assert "No warnings" in text
-
-
-def test_synthetic_banner_present_only_for_synthetic_data(tmp_path):
-    synthetic = render_html({**_minimal(), "synthetic": True}, tmp_path)
-    measured = render_html(_minimal(), tmp_path)
+def test_synthetic_banner_present_only_for_synthetic_data(single):
+    directory, result = single
+    synthetic = render_html(dataclasses.replace(result, synthetic=True), directory)
+    measured = render_html(result, directory)
     assert "SYNTHETIC DATA" in _Page(synthetic).section("synthetic-banner")
     assert "<title>[SYNTHETIC DATA]" in synthetic
     assert "SYNTHETIC" not in measured.upper()
-    assert "synthetic-banner" not in measured
 
 
 def test_user_data_is_escaped(example):
-    directory, results = example
-    results = copy.deepcopy(results)
+    directory, result = example
     evil = '<script>alert("run")</script>'
-    results["runs"][0]["name"] = evil
-    results["failed_runs"][0]["reason"] = "<img src=x onerror=alert(1)> & more"
-    results["warnings"].append("</li><b>bold</b>")
-    results["figures"][0]["title"] = '"><script>alert("figure")</script>'
-    results["campaign"]["name"] = "<i>campaign</i>"
-    html = render_html(results, directory)
+    runs = (dataclasses.replace(result.runs[0], name=evil), *result.runs[1:])
+    figures = ({**result.figures[0], "title": '"><script>alert("figure")</script>'},)
+    changed = dataclasses.replace(
+        result,
+        runs=runs,
+        warnings=(*result.warnings, "</li><b>bold</b>"),
+        figures=figures + tuple(result.figures[1:]),
+    )
+    html = render_html(changed, directory)
     assert "<script" not in html
-    assert "<img src=x" not in html and "<b>bold</b>" not in html and "<i>campaign" not in html
-    assert "&lt;script&gt;alert(&#34;run&#34;)&lt;/script&gt;" in html
-    assert "&lt;img src=x onerror=alert(1)&gt; &amp; more" in html
-    parsed = _Page(html)
-    assert evil in parsed.section("run-table")  # shown as text, not run
+    assert "<b>bold</b>" not in html
+    assert "&lt;script&gt;alert(&#34;run&#34;)&lt;/script&gt;" in _text(html)
+    assert evil in _Page(_text(html)).section("run-table")  # shown as text, not run
 
 
-def test_missing_sections_render_gracefully(tmp_path):
-    html = render_html(_minimal(), tmp_path)
+def test_missing_sections_are_left_out_of_the_page_and_the_contents(single):
+    directory, result = single
+    html = render_html(result, directory)
     parsed = _Page(html)
-    for absent in ("material", "joint", "amontons", "predictions", "figures", "creep"):
+    for absent in ("collapse", "amontons", "ramp", "creep", "switch", "forecasting"):
         assert absent not in parsed.by_id, absent
-    assert "only-run" in parsed.section("run-table")
-    assert render_html({}, tmp_path).count("No runs.") == 1
+        assert f'href="#{absent}"' not in html
+    assert "only-run" in _text(parsed.section("run-table"))
 
 
-def test_single_load_campaign_has_no_amontons_section(tmp_path):
-    analyses = {
-        "velocity_collapse": None,
-        "amontons": None,
-        "preparation_spread": {"reason": "no repeats"},
-        "model_comparison": None,
-    }
-    parsed = _Page(render_html(_minimal(analyses=analyses), tmp_path))
-    assert "amontons" not in parsed.by_id and "collapse" not in parsed.by_id
-    assert "Not available: no repeats" in parsed.section("preparation")
-
-
-def test_labelled_results_are_listed_per_label(tmp_path):
-    spread = {
-        "domain": "slip",
-        "repeats": 3,
-        "start": {"mean": 3e-7, "std": 1e-7, "min": 2e-7, "max": 4e-7, "relative": 1 / 3},
-        "Fd": {"mean": 0.012, "std": 1e-5, "min": 0.01199, "max": 0.01201, "relative": 8e-4},
-        "peak_force": [0.0150, 0.0149],
-        "correlation": -0.9,
-        "p_value": 0.28,
-    }
-    analyses = {"preparation_spread": {"sieved": spread, "poured": {"reason": "one repeat"}}}
-    text = _Page(render_html(_minimal(analyses=analyses), tmp_path)).section("preparation")
-    assert "sieved" in text and "poured" in text and "one repeat" in text
-    assert "0.300" in text and "33.3 %" in text  # x0 mean [µm], relative spread
+def test_options_and_timing_are_shown_with_their_units(example, page):
+    _, result = example
+    options = _Page(page).section("options")
+    assert "forecast intervals 90 %" in options  # the level, not "900.0 mN"
+    reference = result.provenance["options"]["reference_velocity"]
+    assert f"reference velocity {format_number(reference, 1e6)} µm/s" in options
+    provenance = _Page(page).section("provenance")
+    assert "elapsed_s" not in provenance and "[s] " not in provenance
+    assert re.search(r"elapsed \d+(\.\d+)? s", provenance)
 
 
 def test_figures_are_embedded_as_data_uris(example, page):
-    directory, results = example
+    directory, result = example
     images = [attrs for tag, attrs in _Page(page).tags if tag == "img"]
-    assert len(images) == len(results["figures"]) == 10
-    assert {"fits", "fig2", "fig3"} <= {figure["name"] for figure in results["figures"]}
-    for attrs, figure in zip(images, results["figures"], strict=True):
-        prefix = "data:image/png;base64,"
+    assert len(images) == len(result.figures)
+    assert {"fits", "fig2", "fig3"} <= {figure["name"] for figure in result.figures}
+    by_name = {f["title"]: f for f in result.figures}
+    prefix = "data:image/png;base64,"
+    for attrs in images:
+        figure = by_name[attrs["alt"]]
         assert attrs["src"].startswith(prefix)
         assert (
             base64.b64decode(attrs["src"][len(prefix) :])
@@ -421,32 +413,41 @@ def test_page_is_self_contained(page):
 
 
 def test_missing_figure_file_is_reported_without_a_broken_image(example):
-    directory, results = example
-    results = copy.deepcopy(results)
-    results["figures"].append({"name": "ghost", "title": "Ghost", "png": "figures/ghost.png"})
+    directory, result = example
     (directory / "figures" / "fake.png").write_text("not a png", encoding="utf-8")
-    results["figures"].append({"name": "fake", "title": "Fake", "png": "figures/fake.png"})
-    parsed = _Page(render_html(results, directory))
-    assert sum(tag == "img" for tag, _ in parsed.tags) == len(results["figures"]) - 2
+    figures = (
+        *result.figures,
+        {"name": "ghost", "title": "Ghost", "png": "figures/ghost.png"},
+        {"name": "fake", "title": "Fake", "png": "figures/fake.png"},
+    )
+    parsed = _Page(render_html(dataclasses.replace(result, figures=figures), directory))
+    assert sum(tag == "img" for tag, _ in parsed.tags) == len(figures) - 2
     warnings = parsed.section("report-warnings")
     assert "figures/ghost.png" in warnings and "figures/fake.png is not a PNG file" in warnings
 
 
 def test_render_report_writes_the_file(example, tmp_path):
-    directory, results = example
-    path = render_report(results, directory)
+    directory, result = example
+    path = render_report(result)
     assert path == directory / "report.html"
-    assert path.read_text(encoding="utf-8") == render_html(results, directory)
-    elsewhere = render_report(results, directory, path=tmp_path / "sub" / "r.html")
+    assert path.read_text(encoding="utf-8") == render_html(result, directory)
+    elsewhere = render_report(result, directory, path=tmp_path / "sub" / "r.html")
     assert elsewhere == tmp_path / "sub" / "r.html" and elsewhere.is_file()
     assert not list(tmp_path.glob("sub/.*.tmp"))
-    # the SVG link is relative to where the report is
-    assert 'href="../../' in elsewhere.read_text(encoding="utf-8")
+    assert 'href="../../' in elsewhere.read_text(encoding="utf-8")  # the SVG, relative
 
 
-def test_results_must_be_a_mapping(tmp_path):
-    with pytest.raises(InvalidParameterError, match="results must be a mapping"):
+def test_results_json_read_back_renders_the_same_page(example):
+    directory, result = example
+    saved = json.loads((directory / "results.json").read_text(encoding="utf-8"))
+    assert render_html(saved, directory) == render_html(result, directory)
+
+
+def test_the_report_takes_a_result_or_its_json(tmp_path):
+    with pytest.raises(InvalidParameterError, match="must be an AnalysisResult"):
         render_report([1, 2], tmp_path)
+    with pytest.raises(InvalidParameterError, match=r"not the content of a results\.json"):
+        render_report({"runs": []}, tmp_path)
 
 
 def test_template_is_package_data():
@@ -454,3 +455,123 @@ def test_template_is_package_data():
     assert template.is_file()
     text = template.read_text(encoding="utf-8")
     assert "|safe" not in text.replace(" ", "") and "autoescape" not in text  # escaping stays on
+
+
+def test_the_stability_map_is_fine_enough_to_follow_its_boundary(example):
+    from granflow.analysis.predictions import MAP_POINTS, MAP_RATIOS
+
+    _, result = example
+    grid = result.predictions.stability_map.map.outcome.shape
+    assert grid == (MAP_POINTS, MAP_RATIOS) and MAP_POINTS >= 40 and MAP_RATIOS >= 25
+
+
+def test_figure_captions_give_the_load_in_mN(example):
+    _, result = example
+    captions = " ".join(figure["caption"] for figure in result.figures)
+    loads = re.findall(r"F_N = ([\d.]+) (\w+)", captions)
+    assert loads and all(unit == "mN" and 1 <= float(v) <= 1000 for v, unit in loads), loads
+
+
+def _visible_text(html):
+    """The page's text: no tags, no style sheet, no data URIs, entities decoded."""
+    import html as entities
+
+    html = re.sub(r"<style>.*?</style>", " ", _text(html), flags=re.S)
+    return entities.unescape(re.sub(r"<[^>]+>", " ", html))
+
+
+#: The display units the report may write after a number (SI inside, these outside).
+DISPLAY_UNITS = {"mN", "µm", "µm/s", "s", "1/m", "1/µm", "1/s", "%", "d.o.f.", "mN/s"}
+
+
+def test_every_displayed_quantity_is_in_a_display_unit(page):
+    text = _visible_text(page)
+    number = r"[−-]?\d+(?:\.\d+)?(?:×10[⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+)?"
+    pairs = re.findall(
+        rf"(?<![\w.]){number}\s(N|m|m/s|mN|µm|µm/s|s|1/m|1/µm|1/s|kg|%)(?![\w/])", text
+    )
+    assert pairs, "no quantity found"
+    assert set(pairs) <= DISPLAY_UNITS, set(pairs) - DISPLAY_UNITS  # never a bare N, m or m/s
+    # a load in mN is tens of mN (the campaign's 30-90 mN), never 0.06 (N) nor 60000 (µN)
+    loads = [float(v) for v in re.findall(r"F_N = ([\d.]+) mN", text)]
+    assert loads and all(10 <= load <= 200 for load in loads)
+    # every column of every table that holds numbers names its unit or is a pure number
+    pure = (
+        "repeats",
+        "χ²",
+        "p",
+        "relation",
+        "constant",
+        "run",
+        "/ F",
+        "free parameters",
+        "AIC",
+        "BIC",
+        "ΔAIC",
+        "ΔBIC",
+        "corr",
+        "F peak /F N",
+        "holds",
+        "note",
+        "quantity",
+        "observed",
+        "predicted",
+        "parameter",
+        "value",
+        "interval",
+        "degrees of freedom",
+        "unit",
+        "meaning",
+        "status",
+        "model",
+        "formula",
+        "test",
+        "problems",
+        "file",
+        "SHA-256",
+        "geometry",
+        "preparation",
+        "reason",
+        "held in common",
+        "std, separate fits",
+    )
+    heads = " ".join(re.findall(r"<thead>(.*?)</thead>", page, flags=re.S))
+    for header in re.findall(r"<th>(.*?)</th>", heads):
+        label = re.sub(r"<[^>]+>", " ", header).strip()
+        assert "[" in label or any(word in label for word in pure), label
+
+
+def test_the_options_show_no_fraction_as_a_force(page):
+    options = _Page(page).section("options")
+    assert "mN" not in options  # the forecast level was "900.0 mN"
+    assert "90 %" in options
+
+
+def test_many_preparation_labels_are_counted_not_listed():
+    from types import SimpleNamespace
+
+    from granflow.analysis.report_views import campaign_view
+
+    runs = [
+        {
+            "test": "startup",
+            "normal_load": 0.02,
+            "velocity": 8.6e-7,
+            "preparation": f"load-{i}",
+            "failed": False,
+        }
+        for i in range(48)
+    ]
+    view = campaign_view(SimpleNamespace(campaign={}), runs)
+    assert view["preparations"] is None and view["preparation_count"] == 48
+    few = campaign_view(SimpleNamespace(campaign={}), runs[:3])
+    assert few["preparations"] == ["load-0", "load-1", "load-2"]
+
+
+def test_run_names_break_only_between_their_tokens(page):
+    assert "overflow-wrap: anywhere" not in page  # no break inside a token
+    assert "loads_<wbr>" in page or "startup_<wbr>" in page or "_<wbr>" in page
+    names = re.findall(r"<code>([^<]*(?:<wbr>[^<]*)+)</code>", page)
+    assert names and all(
+        piece[-1] in "_#/." for name in names for piece in name.split("<wbr>")[:-1]
+    )

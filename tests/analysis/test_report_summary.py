@@ -2,6 +2,7 @@
 against the plateau noise, the preparation spread with a, α and F_d held, Fig. 2a's choice,
 the display of predictions, and the stability map's analytic boundary."""
 
+import json
 import math
 from types import SimpleNamespace
 
@@ -9,6 +10,7 @@ import numpy as np
 import pytest
 
 import granflow as gf
+from granflow._format import display_text
 from granflow.analysis.joint import (
     Startup,
     figure_preparations,
@@ -17,8 +19,10 @@ from granflow.analysis.joint import (
     preparation_of,
     preparation_spreads,
 )
-from granflow.analysis.report_summary import amontons_test, experiment_view, physical_text
+from granflow.analysis.prediction_results import RampComparison
+from granflow.analysis.report_stress import ramp_view
 from granflow.analysis.runs import StartupData
+from granflow.fitting.amontons_test import amontons_test
 
 A, ALPHA, FD, V = 3.3e-3, 5.0e4, 11e-3, 0.86e-6
 
@@ -61,14 +65,18 @@ def test_amontons_test_by_hand():
         for load, ratio in ((0.02, 1.0), (0.05, 2.0), (0.1, 3.0))
     ]
     test = amontons_test(rows)
-    (name, mean, statistic, df, p), fd, alpha = test["tests"]
-    assert name == "a ∝ F_N" and mean == pytest.approx(2.0) and df == 2
-    assert statistic == pytest.approx(2.0) and p == pytest.approx(math.exp(-1.0))
-    assert fd[2] == pytest.approx(0.0, abs=1e-20) and fd[4] == pytest.approx(1.0)
-    assert alpha[4] == pytest.approx(1.0)
-    assert test["holds"]  # p = 0.37, 1 and 1
+    a, fd, alpha = test.relations
+    assert a.name == "a ∝ F_N" and a.mean == pytest.approx(2.0) and a.df == 2
+    assert a.statistic == pytest.approx(2.0) and a.p_value == pytest.approx(math.exp(-1.0))
+    assert fd.statistic == pytest.approx(0.0, abs=1e-20) and fd.p_value == pytest.approx(1.0)
+    assert alpha.p_value == pytest.approx(1.0)
+    # one verdict: the smallest p times three relations (Bonferroni), its χ² the statistic
+    assert test.statistic == a.statistic and test.df == 2
+    assert test.p_value == pytest.approx(min(1.0, 3 * math.exp(-1.0)))
+    assert test.holds and test.loads == 3
+    assert type(test).from_dict(json.loads(json.dumps(test.to_dict()))) == test
     rows[2]["Fd"] = [0.3 * 0.1, 1e-3 * 0.1]  # F_d/F_N 0.3 at the largest load: 100 errors off
-    assert not amontons_test(rows)["holds"]
+    assert not amontons_test(rows).holds
     assert amontons_test(rows[:2]) is None  # two loads: nothing to test
 
 
@@ -83,10 +91,10 @@ def test_student_t_makes_few_repeats_less_damning():
         }
         for load, d in ((0.02, 0.0), (0.05, 0.03), (0.1, -0.03))
     ]
-    with_t = amontons_test(rows)["tests"][0][2]
+    with_t = amontons_test(rows).relations[0].statistic
     for row in rows:
         row["repeats"] = None
-    without = amontons_test(rows)["tests"][0][2]
+    without = amontons_test(rows).relations[0].statistic
     assert with_t < without  # a 3-sigma t deviate with 2 d.o.f. is a smaller normal deviate
 
 
@@ -106,10 +114,10 @@ def test_goodness_of_fit_tells_noise_from_a_missed_curve():
     bad = _startup(_run(3e-7, 7, bump=4e-4), "bump")
     result = goodness_of_fit([*good, bad])
     for name in ("good0", "good1"):
-        assert 0.75 < result["runs"][name]["chi2"] < 1.3
-        assert result["runs"][name]["noise"] == pytest.approx(3e-5, rel=0.2)
-    assert result["runs"]["bump"]["chi2"] > 2.0
-    assert list(result["poor"]) == ["bump"]
+        assert 0.75 < result.runs[name].chi2 < 1.3
+        assert result.runs[name].noise == pytest.approx(3e-5, rel=0.2)
+    assert result.runs["bump"].chi2 > 2.0
+    assert list(result.poor) == ["bump"]
     assert goodness_of_fit([]) is None
 
 
@@ -159,30 +167,31 @@ def test_fig2a_shows_the_three_most_different_x0():
 
 def test_si_messages_in_display_units():
     text = "failure at t = 80 s, slip = 6.88e-05 m, force = 0.01267863 N: exceeds 0.01243683 N"
-    assert physical_text(text) == (
+    assert display_text(text) == (
         "failure at t = 80.00 s, slip = 68.80 µm, force = 12.68 mN: exceeds 12.44 mN"
     )
 
 
 def test_ramp_comparison_reads_as_physics():
-    entry = {
-        "run": "ramp#1",
-        "observed": {"failure_force": 0.01328, "failure_time": 204.0},
-        "predicted": {"failure_force": 0.01362, "failure_time": 209.7},
-        "z": -0.8549,
-        "consistent": True,
-        "params_from": "the material constants",
-    }
-    (view,) = experiment_view([entry])["entries"]
+    row = RampComparison(
+        run="ramp#1",
+        normal_load=0.055,
+        observed={"failure_force": 0.01328, "failure_time": 204.0, "failure_slip": 2e-5},
+        criterion="velocity above 10 x the reference",
+        predicted_force=0.01362,
+        predicted_time=209.7,
+        F_peak_stderr=3e-4,
+        F_peak_spread=2e-4,
+        z=-0.8549,
+        consistent=True,
+    )
+    (view,) = ramp_view(SimpleNamespace(analyses=SimpleNamespace(stress_ramp=(row,))))
     rows = {row["quantity"]: row for row in view["rows"]}
     force = rows["failure force F_f [mN]"]
     assert (force["observed"], force["predicted"]) == ("13.28", "13.62")
     assert force["difference"] == "−0.340 mN (−2.5 %)"  # observed − predicted, signed
     assert rows["failure time t_f [s]"]["difference"] == "−5.70 s (−2.7 %)"
-    details = dict(view["details"])
-    assert details["(observed − predicted) / combined error"] == "−0.85"
-    assert details["model parameters from"] == "the material constants"
-    assert not any(key in str(view) for key in ("F_peak_spread", "params_from", "'z'"))
+    assert view["width"] == pytest.approx(math.hypot(3e-4, 2e-4)) and view["consistent"]
 
 
 # --------------------------------------------------------------------------- stability map

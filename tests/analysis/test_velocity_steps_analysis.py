@@ -124,7 +124,8 @@ def test_results_round_trip(analysed):
     _, _, result = analysed
     again = AnalysisResult.from_dict(result.to_dict())
     assert again.to_dict() == result.to_dict()
-    assert again.velocity_steps["records"][0]["name"] == "steps.txt"
+    assert again.velocity_steps.records[0].name == "steps.txt"
+    assert again.velocity_steps == result.velocity_steps
     assert "velocity steps steps.txt: a - b = " in result.summary()
 
 
@@ -132,13 +133,14 @@ def test_report_has_the_section_and_the_summary_line(analysed):
     _, output, _ = analysed
     html = (output / "report.html").read_text(encoding="utf-8")
     section = html[html.index('<section id="velocity-steps">') :]
-    section = section[: section.index('<section id="warnings">')]
+    section = section[: section.index('<section id="campaign">')]
     assert 'href="#velocity-steps"' in html
     assert "data:image/png;base64," in section
     assert 'class="velocity-step-parameters"' in section
     assert 'class="velocity-step-comparison"' in section
     assert "Best by AIC: <strong>rsf_aging</strong>" in section
-    summary = html[html.index('<section id="summary">') : html.index('<section id="campaign">')]
+    start = html.index('<section id="summary">')
+    summary = html[start : html.index("</section>", start)]
     line = re.search(r"Velocity steps \(2 records\):[^<]*", summary)
     assert line is not None
     assert "a − b = " in line.group(0) and "best by AIC rsf_aging" in line.group(0)

@@ -52,6 +52,7 @@ def test_analyze_prints_the_summary(reference, campaign, capsys):
     for name in ("mu_a", "mu_d", "alpha"):
         assert f"  {name}" in out and "95%: [" in out
     assert f"output: {output.resolve()}" in out
+    assert f"report: {(output / 'report.html').resolve()}" in out  # where to look next
     assert len(out.splitlines()) <= 24  # one screen
 
 
@@ -326,17 +327,22 @@ def test_demo_report_opens_with_its_verdicts(demo):
     page = (output / "report.html").read_text(encoding="utf-8")
     results = json.loads((output / "results.json").read_text(encoding="utf-8"))
     truth = json.loads((output / "synthetic_truth.json").read_text(encoding="utf-8"))
-    summary = page[page.index('<section id="summary">') : page.index('<section id="campaign">')]
-    assert page.index('id="summary"') < page.index('id="campaign"')  # the summary first
+    summary = page[page.index('<section id="summary">') : page.index('<section id="material">')]
+    assert page.index('id="summary"') < page.index('id="material"')  # the summary first
     text = html.unescape(re.sub(r"<[^>]+>", " ", summary))
     for phrase in (
         "Material constants: μ_a = ",
         "95 %: [",
-        "Eq. 3 fits all 48 start-ups to the noise: normalised χ²",
+        # the paper's story first
+        "What the campaign shows.",
+        "The layer is stronger at rest than sliding: it yields at F_peak/F_N = ",
+        "Sliding rejuvenates the packing over 1/α = ",
+        "straddle F_d",
+        "Eq. 3 fits all 49 rate-controlled curves (1 before a switch) to the noise",
         "force noise σ from the plateaus",
         "The curves collapse in slip: one preparation at 5 velocities",
-        "Amontons' law holds (χ² test",
-        "The preparations differ by their initial state x0 alone",
+        "Amontons' law holds over 6 loads (p = ",
+        "The preparations differ by x0 alone",
         "Static yield F_peak per load",
         "Stress ramp fig3a_stress_ramp_trios.txt#1: failed at",
         "(predicted 2",  # the predicted failure time, on the record's clock

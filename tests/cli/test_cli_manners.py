@@ -141,3 +141,18 @@ def test_a_closed_pipe_ends_quietly(tmp_path):
     process.stderr.close()
     assert process.wait(timeout=300) == PIPE_CLOSED
     assert err == ""
+
+
+def test_the_summary_wraps_between_words_never_inside_a_number():
+    from granflow.cli.campaign import wrapped
+
+    line = (
+        "forecast fig3a_stress_ramp_trios.txt#1: t_f at 81.6 s: 204.22 s [204.00, 204.44] (90%) "
+        "-> at 193.8 s: 204.32 s [204.308, 204.324] (90%); observed 204 s (converged)"
+    )
+    text = wrapped("  " + line, width=60)
+    assert len(text.splitlines()) > 1
+    words = line.split()
+    assert text.split() == words  # nothing split, nothing lost
+    assert all(row.startswith("  ") for row in text.splitlines())
+    assert all(row.startswith("      ") for row in text.splitlines()[1:])  # continued, indented

@@ -71,7 +71,7 @@ def test_simulate_command_dynamic_options(files, capsys):
     )
     assert code == 0
     printed = capsys.readouterr().out
-    assert "mass       = 0.05 kg" in printed and "v_fail     = 1000 um/s" in printed
+    assert "mass       = 0.05 kg" in printed and "v_fail     = 1000 µm/s" in printed
 
 
 def test_simulate_command_reports_bad_input(files, capsys):

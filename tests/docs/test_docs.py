@@ -17,6 +17,7 @@ Chromium are missing; under CI (environment variable ``CI`` set) they fail inste
 import doctest
 import html.parser
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -54,9 +55,28 @@ PAPER_GALLERY = (
     "plot_posterior_corner",
     "plot_rsf_velocity_step",
     "plot_forecast_running",
+    "plot_rsf_sepiolite",
+    "plot_rsf_basalt",
 )
+#: The real velocity-step records the gallery reads, beside the repository (never copied in).
+RECORDS = DOCS.parents[1] / "shared" / "data" / "rate-state-velocity-steps"
 #: The pages the browser opens: the index, a user-guide page, a gallery page.
-OPENED = ("index.html", "user_guide/physics.html", "auto_examples/plot_fig3c_switch.html")
+OPENED = (
+    "index.html",
+    "getting_started.html",
+    "user_guide/physics.html",
+    "auto_examples/plot_fig3c_switch.html",
+    "auto_examples/plot_rsf_sepiolite.html",
+)
+#: Where each figure of the user guide and the index must be: every page teaches with one.
+FIGURED = (
+    "index.html",
+    *(
+        f"user_guide/{p.stem}.html"
+        for p in (DOCS / "user_guide").glob("*.rst")
+        if p.name != "index.rst"
+    ),
+)
 
 
 def _require(modules):
@@ -145,8 +165,25 @@ def _broken_links(html_dir):
     return broken
 
 
+def _require_records():
+    if not RECORDS.is_dir():
+        reason = f"the real velocity-step records are not beside the repository ({RECORDS})"
+        if os.environ.get("CI"):
+            pytest.fail(f"{reason}; CI must build the gallery on them")
+        pytest.skip(reason)
+
+
+#: Every pre block's width against its box: long lines wrap, none is cut or scrolls.
+_PRE_LAYOUT = """
+return Array.from(document.querySelectorAll('pre')).map(function (pre) {
+  return {scroll: pre.scrollWidth, box: pre.clientWidth, text: pre.textContent.slice(0, 60)};
+});
+"""
+
+
 def test_site_builds_runs_every_example_and_opens_cleanly(tmp_path, browser):  # noqa: F811
     _require(EXTENSIONS)
+    _require_records()
     html_dir, output = _build(tmp_path)
     assert "WARNING" not in output and "ERROR" not in output, output[-6000:]
 
@@ -170,11 +207,28 @@ def test_site_builds_runs_every_example_and_opens_cleanly(tmp_path, browser):  #
 
     assert _broken_links(html_dir) == []
 
+    # every page of the user guide, and the index, teaches with a figure drawn at build time
+    for relative in FIGURED:
+        text = (html_dir / relative).read_text(encoding="utf-8")
+        assert re.search(r'<img[^>]+src="[^"]*\.png"', text), f"{relative} has no figure"
+    # formulas are drawn (SVG in the page), none left as plain text, no MathJax
+    physics = (html_dir / "user_guide" / "physics.html").read_text(encoding="utf-8")
+    assert physics.count('class="math"') >= 6 and "data:image/svg+xml;base64," in physics
+    assert "mathjax" not in physics.lower()
+
     for relative in OPENED:
         problems, images = page_problems(browser, html_dir / relative)
         assert problems == [], (relative, problems)
         if relative.startswith("auto_examples"):
             assert any(image["alt"] for image in images), "the gallery page shows no figure"
+    browser.set_window_size(800, 900)
+    try:
+        for relative in ("getting_started.html", "user_guide/forecasting.html"):
+            page_problems(browser, html_dir / relative)
+            cut = [p for p in browser.execute_script(_PRE_LAYOUT) if p["scroll"] > p["box"] + 1]
+            assert cut == [], (relative, cut)
+    finally:
+        browser.set_window_size(1400, 900)
 
 
 def test_link_checker_sees_a_missing_page_a_missing_anchor_and_a_cdn(tmp_path):

@@ -113,7 +113,45 @@ def test_amontons_recovers_material_constants():
     assert "F_N" in result.report()
     low, high = result.lines_ci95["Fd"]
     assert low < 0.2 < high and high - low > 2 * 1.96 * result.lines["Fd"][1]
+    # the result carries its test of the law (the contract of issue 28), in the JSON too
+    test = result.test
+    assert test is not None and test.loads == 3
+    assert [r.name for r in test.relations] == ["a ∝ F_N", "F_d ∝ F_N", "α independent of F_N"]
+    worst = min(test.relations, key=lambda r: r.p_value)
+    assert test.statistic == worst.statistic and test.df == worst.df
+    assert test.p_value == pytest.approx(min(1.0, 3 * worst.p_value))
+    assert test.holds == (test.p_value >= 0.05)
+    assert result.to_dict()["test"]["p_value"] == test.p_value
+    assert "[[Test of the law: " in result.report()
     assert granflow.AmontonsResult.from_dict(json.loads(json.dumps(result.to_dict()))) == result
+
+
+def test_the_amontons_test_rejects_the_law_about_as_often_as_its_level_when_it_holds():
+    """20 campaigns made by Amontons' law (3 loads, 4 repeats, x0 drawn per repeat): the
+    test (Bonferroni over its three relations, at 5 %) rejects at most a few."""
+    constants = MaterialConstants(mu_a=0.06, mu_d=0.2, alpha=5e4)
+    rng = np.random.default_rng(7)
+    rejected = 0
+    for seed in range(20):
+        runs, loads = [], []
+        for i, load in enumerate((0.03, 0.06, 0.09)):
+            for repeat in range(4):
+                params = constants.params_at(load, x0=rng.uniform(1.5e-7, 4.5e-7))
+                runs.append(slip_run(params, seed=700 + 40 * seed + 10 * i + repeat, points=300))
+                loads.append(load)
+        rejected += not granflow.fit_amontons(runs, loads).test.holds
+    assert rejected <= 3
+    # and a law that fails is seen: F_d/F_N rising by half from the least to the largest load
+    runs, loads = [], []
+    for i, load in enumerate((0.03, 0.06, 0.09)):
+        for repeat in range(4):
+            params = MaterialConstants(0.06, 0.2 * (1 + 0.25 * i), 5e4).params_at(
+                load, x0=rng.uniform(1.5e-7, 4.5e-7)
+            )
+            runs.append(slip_run(params, seed=900 + 10 * i + repeat, points=300))
+            loads.append(load)
+    test = granflow.fit_amontons(runs, loads).test
+    assert not test.holds and min(test.relations, key=lambda r: r.p_value).name == "F_d ∝ F_N"
 
 
 def test_amontons_lines_by_hand():

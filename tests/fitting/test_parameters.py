@@ -234,10 +234,21 @@ def test_creep_with_b_held_matches_curve_fit_and_bounds_hold():
 # --------------------------------------------------------------------------- the one report
 
 
+#: The display unit of each SI unit in a report (granflow.model.units.display_of_si).
+_SHOWN = {
+    "N": (1e3, "mN"),
+    "m": (1e6, "µm"),
+    "1/m": (1.0, "1/m"),
+    "1/s": (1.0, "1/s"),
+    "s": (1.0, "s"),
+    "": (1.0, ""),
+}
+
+
 def _variable(text, name):
-    """(value, stderr, unit, low, high) of the [[Variables]] line of ``name``."""
+    """(value, stderr, unit, low, high) of the [[Variables]] line of ``name``, as shown."""
     pattern = (
-        rf"^    {re.escape(name)} +=  ?(\S+) \+/- (\S+) \(\S+%\)(?: (.+?))?  "
+        rf"^    {re.escape(name)} += (\S+) \+/- (\S+)(?: (\S+))? \(\S+ %\)  "
         r"95%: \[(\S+), (\S+)\]"
     )
     match = re.search(pattern, text, flags=re.MULTILINE)
@@ -247,17 +258,21 @@ def _variable(text, name):
 
 
 def _check_variables(result, units):
+    """Each variable in its display unit, the value rounded at the last digit of its error
+    (two digits), the interval with digits enough that its ends differ."""
     text = result.report()
     assert text.index("[[Variables]]") < text.index("[[Correlations]]")
     for name in result.names:
+        scale, shown = _SHOWN[units[name]]
         if name in getattr(result, "fixed", ()):
-            assert re.search(rf"^    {re.escape(name)} += \S+ {units[name]} \(fixed\)", text, re.M)
+            assert re.search(rf"^    {re.escape(name)} += \S+ {shown} \(fixed\)", text, re.M)
             continue
         value, err, unit, low, high = _variable(text, name)
-        assert unit == units[name]
-        assert value == pytest.approx(result.params[name], rel=1e-7)
-        assert err == pytest.approx(result.stderr[name], rel=1e-3)
-        assert (low, high) == pytest.approx(result.ci95[name], rel=1e-5)
+        assert unit == shown
+        place = 10.0 ** (math.floor(math.log10(err)) - 1)  # the error's second digit
+        assert value == pytest.approx(scale * result.params[name], abs=0.51 * place)
+        assert err == pytest.approx(scale * result.stderr[name], abs=0.51 * place)
+        assert (low, high) == pytest.approx(tuple(scale * v for v in result.ci95[name]), rel=1e-3)
     return text
 
 

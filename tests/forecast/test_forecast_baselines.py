@@ -75,7 +75,10 @@ def test_plot_forecast_draws_each_method_and_the_failure(running):
 
     ax = plot_forecast(running)
     labels = [line.get_label() for line in ax.get_lines()]
-    assert {"model", "inverse velocity", "voight", "observed failure"} <= set(labels)
+    methods = {label.split(",")[0] for label in labels}
+    names = {"model (Eq. 2)", "inverse velocity (Fukuzono)", "Voight's law", "observed failure"}
+    assert names <= methods  # each method by its name, with its band's level
+    assert all("90% band" in label for label in labels if label != "observed failure")
 
 
 def test_the_forecast_command_forecasts_a_csv_ramp(tmp_path, capsys):

@@ -4,6 +4,7 @@ simulated stress runs, fits of noisy synthetic curves, failed fits, NaN, missing
 import dataclasses
 import math
 import os
+import re
 import struct
 
 import matplotlib
@@ -127,6 +128,20 @@ def test_startup_draws_data_fits_and_residuals_with_units(startup):
         late = run.t > 5.0
         assert np.max(np.abs(model[late] - run.force[late] * 1e3)) < 5 * NOISE * 1e3
     assert all("αv =" in text for text in _legend_texts(ax))
+    # every a with the same three digits: "3.30" beside "3.31", never "3.3"
+    amplitudes = [re.search(r"a = ([\d.]+) mN", text).group(1) for text in _legend_texts(ax)]
+    assert all(len(value.replace(".", "").lstrip("0")) == 3 for value in amplitudes)
+
+
+def test_a_fit_label_keeps_its_trailing_zero():
+    from types import SimpleNamespace
+
+    from granflow.plotting.paper import _fit_label
+
+    fit = SimpleNamespace(
+        velocity=V, domain="slip", params={"a": 3.3e-3, "alpha": 0.05 / V, "x0": 0.4 * V}
+    )
+    assert _fit_label(None, fit) == "a = 3.30 mN, αv = 0.050 1/s, t₀ = 0.40 s"
 
 
 def test_startup_time_domain_fit_is_drawn_against_time(startup):
@@ -288,9 +303,11 @@ def test_stress_ramp_with_the_rate_controlled_peak(ramp, blue):
         atol=0.1,
     )
     (inset,) = force_ax.child_axes
-    # the creep before failure ends at the first of the predicted failure and the runaway
-    assert inset.get_xlim()[1] == pytest.approx(failure_line.get_xdata()[0], rel=1e-3)
-    assert inset.get_xlim()[1] <= failure_line.get_xdata()[0]
+    # the inset magnifies the sub-µm creep long before the failure (the paper's inset)
+    assert inset.get_ylim()[1] == pytest.approx(1.15, rel=1e-6)  # µm: up to 1 µm of slip
+    reached = ramp.t[np.argmax(ramp.slip >= 1e-6)]
+    assert inset.get_xlim()[1] == pytest.approx(reached)
+    assert inset.get_xlim()[1] < 0.5 * failure_line.get_xdata()[0]
     assert r"$F_\mathrm{peak}$ = 13.8 mN" in " ".join(_legend_texts(slip_ax))
 
 
@@ -298,7 +315,7 @@ def test_stress_ramp_without_params_finds_the_runaway_for_the_inset(ramp):
     slip_ax, force_ax = plot_stress_ramp(ramp)
     assert len(force_ax.get_lines()) == 1 and len(slip_ax.get_lines()) == 1
     (inset,) = force_ax.child_axes
-    assert 270.0 < inset.get_xlim()[1] < 290.0
+    assert inset.get_xlim()[1] == pytest.approx(ramp.t[np.argmax(ramp.slip >= 1e-6)])
     assert plot_stress_ramp(ramp, inset=False)[1].child_axes == []
 
 

@@ -239,11 +239,20 @@ def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
     assert wavelength["value"] == pytest.approx(WAVELENGTH, rel=0.01) and wavelength["unit"] == "m"
     assert without["fit"]["harmonics"] == 0 and "consider periodic: true" in without["caption"]
     # the report's verdict line says which fit carries the ripple
-    from granflow.analysis.report_velocity_steps import velocity_steps_line, velocity_steps_view
+    from types import SimpleNamespace
 
-    view = velocity_steps_view({"velocity_steps": section}, lambda d: d["figures"])
-    _, text, _ = velocity_steps_line(view)
-    assert text.count("with the apparatus ripple") == 1
+    from granflow.analysis.report_stress import velocity_steps_view
+    from granflow.analysis.report_summary import verdicts
+    from granflow.analysis.velocity_steps import VelocitySteps
+
+    typed = SimpleNamespace(velocity_steps=VelocitySteps.from_dict(section))
+    records = velocity_steps_view(typed, [])
+    assert sum(record["ripple"] for record in records) == 1
+    [line] = [
+        line["text"]
+        for line in verdicts(_no_other_analysis(), {**_no_views(), "velocity_steps": records})
+    ]
+    assert line.count("with the apparatus ripple") == 1
 
 
 def test_a_window_and_the_protocol_agree_on_the_load_point():
@@ -262,3 +271,30 @@ def test_a_window_and_the_protocol_agree_on_the_load_point():
         window.displacement, _displacement(t[inside]) - _displacement(30.0), atol=1e-15
     )
     np.testing.assert_allclose(window.velocity, np.where(t[inside] <= 60.0, V1, V2))
+
+
+def _no_other_analysis():
+    """A campaign result with nothing but velocity steps, for the verdicts."""
+    from types import SimpleNamespace
+
+    from granflow.analysis.joint_results import Analyses, Material
+    from granflow.analysis.prediction_results import Predictions
+
+    return SimpleNamespace(
+        material=Material(), analyses=Analyses(), predictions=Predictions(), campaign={}
+    )
+
+
+def _no_views():
+    return {
+        "material": None,
+        "runs": [],
+        "collapse": None,
+        "amontons": None,
+        "spread": None,
+        "ramp": [],
+        "creep": [],
+        "switch": [],
+        "forecasts": [],
+        "velocity_steps_failed": [],
+    }

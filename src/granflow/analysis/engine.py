@@ -137,8 +137,11 @@ from granflow.analysis.runs import (
     startup_data,
 )
 from granflow.analysis.stage import joint_stage
-from granflow.analysis.values import frozen_json
-from granflow.analysis.velocity_steps import campaign_velocity_steps, velocity_step_entries
+from granflow.analysis.velocity_steps import (
+    VelocitySteps,
+    campaign_velocity_steps,
+    velocity_step_entries,
+)
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 
@@ -307,6 +310,7 @@ def analyze(
     # recycled between stages, so that no worker holds two stages' stacks
     executor = Executor(jobs, scheduler, isolate=True)
     try:
+        reporter.stage("reading")
         items, manifest, inputs = load_campaign(source, geometry, executor)
         executor.recycle()
         stages["read_s"] = time.perf_counter() - clock
@@ -325,14 +329,14 @@ def analyze(
         _run_all(todo, executor, output, reporter)
         executor.recycle()
         stages["runs_s"] = time.perf_counter() - clock_stage
-        reporter.line("joint analyses and predictions")
+        reporter.stage("joint analyses, predictions and forecasts")
         clock_stage = time.perf_counter()
         entries = tuple(run_entry(item, index, strict) for index, item in enumerate(items))
         with silenced():  # one bar per campaign: none from the stability map or MCMC
             joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
         executor.recycle()
         stages["joint_s"] = time.perf_counter() - clock_stage
-        reporter.line("velocity steps")
+        reporter.stage("velocity steps")
         clock_stage = time.perf_counter()
         steps = velocity_step_entries(manifest)
         velocity_steps = {}
@@ -348,15 +352,19 @@ def analyze(
         failed = [f"failed: {f['name']}: {f['reason']}" for f in velocity_steps.get("failed", ())]
         result = replace(
             result,
-            velocity_steps=frozen_json(json_safe(velocity_steps), tuple),
+            velocity_steps=VelocitySteps.from_dict(velocity_steps),
             warnings=result.warnings + tuple(failed),
         )
         notes = list(result.warnings)
-        content = result.to_dict()  # once: its parts are the slow ones (see _with_results)
+        content = result.to_dict()  # once: encoding the joint analyses is the slow part
+        reporter.stage("tables")
         tables = write_tables(output, content, notes, executor)
         executor.recycle()
-        reporter.line("figures")
+        reporter.stage("figures")
         figures = make_figures(output, result, joint, notes, figure_formats, executor)
+    except BaseException:
+        reporter.close()
+        raise
     finally:
         executor.close()
     result = replace(
@@ -377,12 +385,14 @@ def analyze(
         "stages_s": stages,
     }
     result = replace(result, output=output, fitted_now=len(todo), reused=reused)
-    reporter.line("report")
-    report = write_report(
-        output, _with_results(replace(result, timing=_finished(timing, clock)), content)
-    )
-    result = _with_results(replace(result, timing=_finished(timing, clock), report=report), content)
-    write_json(output / RESULTS_FILE, result.results)
+    reporter.stage("report")
+    report = write_report(output, replace(result, timing=_finished(timing, clock)))
+    result = replace(result, timing=_finished(timing, clock), report=report)
+    # the content computed once above (to_dict does not depend on the timing, the output
+    # folder or the report, which are all that changed since): encoding the joint
+    # analyses again is what makes it slow on a large campaign
+    write_json(output / RESULTS_FILE, {**content, "timing": json_safe(result.timing)})
+    reporter.finish(report)
     return result
 
 
@@ -390,16 +400,6 @@ def _velocity_steps(task):
     """:func:`campaign_velocity_steps` of ``(manifest, output)``, as one executor task."""
     manifest, output = task
     return campaign_velocity_steps(manifest, output, FIGURES_DIR)
-
-
-def _with_results(result, content):
-    """``result`` with its ``results`` (``results.json``'s content) filled in from
-    ``content``, its ``to_dict()`` computed once: ``to_dict`` does not depend on the timing,
-    the output folder or the report, which are all that differ between the result the report
-    shows and the one returned, and encoding the joint analyses' results again and again is
-    what makes it slow on a large campaign."""
-    vars(result)["results"] = {**content, "timing": json_safe(result.timing)}
-    return result
 
 
 def _require_emcee():
@@ -457,7 +457,7 @@ def _run_all(todo, executor, output, reporter):
         for item, options in todo
     ]
     try:
-        for position, outcome in executor.run(_analyse_and_record, tasks):
+        for position, outcome in _first_alone(executor, tasks, [item.kind for item, _ in todo]):
             item = todo[position][0]
             if isinstance(outcome, Exception):  # the worker died: not saved, retried on resume
                 reason = f"the worker failed: {type(outcome).__name__}: {outcome}"
@@ -470,8 +470,25 @@ def _run_all(todo, executor, output, reporter):
                 )
                 item.result = result
             reporter.step(item.name)
-    finally:
-        reporter.finish()
+    except BaseException:
+        reporter.close()
+        raise
+
+
+def _first_alone(executor, tasks, kinds):
+    """``executor.run(_analyse_and_record, tasks)`` with the first start-up run alone, before
+    the others: on a first run the compiled kernels are not cached yet, and every worker
+    would compile the same ones side by side (twice the work on two workers); after it the
+    others load them from the cache. Yields ``(position, outcome)`` as ``run`` does."""
+    first = next((i for i, kind in enumerate(kinds) if kind == "startup"), None)
+    if first is None or len(tasks) < 2 or executor.jobs == 1:
+        yield from executor.run(_analyse_and_record, tasks)
+        return
+    for _, outcome in executor.run(_analyse_and_record, [tasks[first]]):
+        yield first, outcome
+    rest = [i for i in range(len(tasks)) if i != first]
+    for position, outcome in executor.run(_analyse_and_record, [tasks[i] for i in rest]):
+        yield rest[position], outcome
 
 
 def _analyse_and_record(task):

@@ -98,11 +98,11 @@ def draw_fit_grid(fits, names):
     return plot_fit_grid(fits, names)
 
 
-def draw_stress_ramp(run, params):
-    """Fig. 3a."""
+def draw_stress_ramp(run, params, velocity=None):
+    """Fig. 3a, with the rate-controlled F(t) at ``velocity`` [m/s] in grey."""
     from granflow.plotting import plot_stress_ramp
 
-    return plot_stress_ramp(run, params)
+    return plot_stress_ramp(run, params, velocity=velocity)
 
 
 def draw_creep(runs, fits, params):
@@ -228,11 +228,11 @@ def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
             continue
         name, value = panels[index]
         if name == "ramp":  # the slip axis is scaled to the creep: no inset needed
-            plot_stress_ramp(value[0], value[1], ax=ax, inset=False)
+            plot_stress_ramp(value[0], value[1], ax=ax, inset=False, velocity=value[2])
             places[ax] = "upper left"
         elif name == "creep":
             plot_creep(value[0], value[1], ax=ax, params=value[2], log_time=True)
-            places[ax] = "center left"
+            places[ax] = "upper right"  # the inset is upper left
         elif name == "switch":
             plot_switch(value[0], value[1], ax=ax, switch_time=value[2])
             places[ax] = "center"
@@ -250,7 +250,21 @@ def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
 def _load_text(load):
     if load is None:
         return "an unknown load"
-    return f"F_N = {to_display('normal_load', load):.4g} {display_unit('normal_load')[1]}"
+    return f"F_N = {to_display('normal_load', load):.4g} {display_unit('normal_load')}"
+
+
+#: What the switch's observed outcome means, for the caption of Fig. 3c.
+_SWITCH_OUTCOMES = {
+    "failure": "The layer runs away: switched after the peak, the friction falls as it slips. ",
+    "stop": "The layer slides a little and stops: before the peak the friction rises as it slips. ",
+    "creep": "The layer creeps under the constant force. ",
+}
+
+
+def _velocity_text(velocity):
+    if velocity is None:
+        return "the campaign's velocity"
+    return f"{to_display('velocity', velocity):.3g} {display_unit('velocity')}"
 
 
 def _ok_entries(result, kind):
@@ -444,12 +458,17 @@ def _stress_jobs(result, fig3):
     if ramps:
         entry = ramps[0]
         params = params_at_load(result, rounded(entry.run.normal_load))
+        velocity = result.material.velocity
         caption = (
-            f"{entry.name}: slip (left) and imposed force (right) against time under a stress "
-            "ramp; the predicted static yield F_peak at its load (red dashed), the predicted "
-            "failure where the force reaches it (red dotted), the quasi-static slip of the "
-            "model up the rising branch (grey dashed); inset: the creep before the failure. "
-            "The slip axis is scaled to the creep; the runaway leaves through the top (Fig. 3a)."
+            f"{entry.name}: slip (left, blue) and imposed force (right, black) against time "
+            "under a stress ramp, with the model at its load: the rate-controlled F(t) at "
+            f"{_velocity_text(velocity)} (grey), its peak, the static yield F_peak (red "
+            "dashed), and the predicted failure where the imposed force reaches it (red "
+            "dotted). The layer creeps up the rising branch and fails at the peak. The "
+            "quasi-static slip of the model (grey dashed) uses the load's mean x0 and has no "
+            "creep: this run's preparation and its creep put the measured slip above it. "
+            "Inset: the sub-µm creep long before the failure. The slip axis is scaled to the "
+            "creep; the runaway leaves through the top (Fig. 3a)."
         )
         jobs.append(
             FigureJob(
@@ -457,10 +476,10 @@ def _stress_jobs(result, fig3):
                 "Stress ramp",
                 caption,
                 draw_stress_ramp,
-                {"run": entry.run, "params": params},
+                {"run": entry.run, "params": params, "velocity": velocity},
             )
         )
-        fig3["ramp"] = (entry.run, params)
+        fig3["ramp"] = (entry.run, params, velocity)
     creeps = _ok_entries(result, "creep")
     if creeps:
         load = rounded(creeps[0].run.normal_load)
@@ -485,9 +504,10 @@ def _stress_jobs(result, fig3):
             params = params_at_load(result, rounded(entry.run.normal_load))
         switch_time = entry.result.switch.switch_time
         caption = (
-            f"{entry.name}: slip and force against time, the switch at "
-            f"{switch_time:.4g} s marked, with the rate-controlled curve of the model "
-            "(grey) (Fig. 3c)."
+            f"{entry.name}: slip (left, blue) and force (right, black) against time: rate "
+            f"control up to the switch at {switch_time:.4g} s (orange dotted), then a constant "
+            "force slightly above the friction there, with the rate-controlled curve of the "
+            f"model (grey). {_SWITCH_OUTCOMES.get(entry.result.switch.outcome, '')}(Fig. 3c)."
         )
         inputs = {"run": entry.run, "params": params, "switch_time": switch_time}
         jobs.append(

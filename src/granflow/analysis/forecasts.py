@@ -186,9 +186,11 @@ class RunForecast(Value):
         observed = (
             "no failure observed" if self.observed is None else f"observed {self.observed:.4g} s"
         )
+        from granflow._format import format_interval, format_number
+
         text = " -> ".join(
-            f"at {cut.cut:.4g} s: {cut.time:.4g} s "
-            f"[{cut.time_interval[0]:.4g}, {cut.time_interval[1]:.4g}]"
+            f"at {format_number(cut.cut)} s: {format_number(cut.time, significant=5)} s "
+            f"{format_interval(list(cut.time_interval))} ({self.level:.0%})"
             for cut in ((dated[0], dated[-1]) if len(dated) > 1 else dated)
         )
         verdict = {True: " (converged)", False: " (NOT converged)", None: ""}[self.converged]

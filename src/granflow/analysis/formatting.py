@@ -3,6 +3,9 @@
 Every quantity granflow computes is in SI units; these functions show it in display units,
 looked up in :data:`granflow.model.units.QUANTITIES` by the quantity's name (through
 :data:`QUANTITY_OF` for the names of ``results.json`` that are not quantities themselves).
+:func:`display_scale` gives ``(factor, unit)``; it is not
+:func:`granflow.model.units.display_unit`, which gives the unit alone (two functions of one
+name with two return types once put "F_N = 55 N" into a caption).
 """
 
 import numbers
@@ -19,7 +22,7 @@ from granflow._format import (
 __all__ = [
     "DASH",
     "QUANTITY_OF",
-    "display_unit",
+    "display_scale",
     "format_interval",
     "format_number",
     "format_p_value",
@@ -71,13 +74,12 @@ QUANTITY_OF = {
     "runaway_time": "time",
     "hold_time": "time",
     "rest_time": "time",
-    "elapsed_s": "time",
     "alpha_v": "k",
     "reference_velocity": "velocity",
 }
 
 
-def display_unit(name):
+def display_scale(name):
     """The display scale and unit of a quantity named ``name`` (SI -> display).
 
     Looked up in :data:`granflow.model.units.QUANTITIES`, through :data:`QUANTITY_OF` for
@@ -90,9 +92,9 @@ def display_unit(name):
 
     Examples
     --------
-    >>> display_unit("failure_force")
+    >>> display_scale("failure_force")
     (1000.0, 'mN')
-    >>> display_unit("x_peak")
+    >>> display_scale("x_peak")
     (1000000.0, 'µm')
     """
     from granflow.model.units import QUANTITIES
@@ -106,7 +108,7 @@ def quantity_text(name, value, *, unit=True):
     unit follows the number unless ``unit`` is false (when a header carries it)."""
     if isinstance(value, bool):
         return "yes" if value else "no"
-    scale, symbol = display_unit(name)
+    scale, symbol = display_scale(name)
     if isinstance(value, numbers.Integral) and scale == 1.0:
         text = str(int(value))
     elif real_number(value) is not None:
@@ -124,5 +126,5 @@ def quantity_text(name, value, *, unit=True):
 
 def header_label(name):
     """``name [unit]`` for a column or row header."""
-    unit = display_unit(name)[1]
+    unit = display_scale(name)[1]
     return f"{name} [{unit}]" if unit else str(name)

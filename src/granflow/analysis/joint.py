@@ -19,6 +19,8 @@ import numpy as np
 from granflow.analysis.joint_results import (
     MATERIAL_CONSTANTS,
     Estimate,
+    FitJudgement,
+    GoodnessOfFit,
     JointAnalysis,
     Material,
 )
@@ -43,6 +45,7 @@ __all__ = [
     "representative",
     "rounded",
     "startups_of",
+    "switch_startups",
     "velocity_collapse",
 ]
 
@@ -150,6 +153,18 @@ def startups_of(entries):
         for entry in entries
         if entry.test == "startup" and entry.ok
     )
+
+
+def switch_startups(entries):
+    """The rate-controlled part of each switch whose start-up was fitted, as a
+    :class:`Startup` (its data the points before the switch), in manifest order."""
+    found = []
+    for entry in entries:
+        if entry.test != "switch" or not entry.ok or entry.result.startup is None:
+            continue
+        before = entry.run.select(np.arange(len(entry.run)) < entry.result.switch.index)
+        found.append(Startup(entry=entry, data=startup_data(before)))
+    return tuple(found)
 
 
 def representative(startups):
@@ -439,11 +454,15 @@ def goodness_of_fit(startups):
     per degree of freedom: about 1 when the model leaves only noise, above
     :data:`CHI2_LIMIT` when it misses the curve. A fit with a known sigma keeps its own χ²ᵣ.
 
+    Parameters
+    ----------
+    startups : sequence of Startup
+        The start-ups, and the rate-controlled parts of the switches (:func:`judged_fits`).
+
     Returns
     -------
-    FrozenMap or None
-        ``runs`` (name -> ``noise`` [N], ``chi2`` [-]), ``median``, ``min``, ``max``,
-        ``limit``, ``poor`` (names above the limit), ``method``; None without start-ups.
+    GoodnessOfFit or None
+        None without a fit to judge.
     """
     rows = {}
     for startup in startups:
@@ -454,21 +473,19 @@ def goodness_of_fit(startups):
         else:
             noise = plateau_noise(startup.data.force)
             chi2 = fit.chisqr / (noise**2 * dof) if noise > 0 and dof > 0 else math.nan
-        rows[startup.name] = {"noise": noise, "chi2": chi2}
-    values = [row["chi2"] for row in rows.values() if math.isfinite(row["chi2"])]
+        rows[startup.name] = FitJudgement(noise=noise, chi2=chi2)
+    values = [row.chi2 for row in rows.values() if math.isfinite(row.chi2)]
     if not values:
         return None
-    return FrozenMap(
-        {
-            "runs": rows,
-            "median": float(np.median(values)),
-            "min": float(min(values)),
-            "max": float(max(values)),
-            "limit": CHI2_LIMIT,
-            "poor": [name for name, row in rows.items() if row["chi2"] > CHI2_LIMIT],
-            "method": f"noise from the plateau (last {PLATEAU_FRACTION:.0%} of each fit window, "
-            "successive differences); χ² per degree of freedom over that noise",
-        }
+    return GoodnessOfFit(
+        runs=FrozenMap(rows),
+        median=float(np.median(values)),
+        min=float(min(values)),
+        max=float(max(values)),
+        limit=CHI2_LIMIT,
+        poor=tuple(name for name, row in rows.items() if row.chi2 > CHI2_LIMIT),
+        method=f"noise from the plateau (last {PLATEAU_FRACTION:.0%} of each fit window, "
+        "successive differences); χ² per degree of freedom over that noise",
     )
 
 

@@ -40,6 +40,8 @@ __all__ = [
     "RESULT_TYPES",
     "Analyses",
     "Estimate",
+    "FitJudgement",
+    "GoodnessOfFit",
     "JointAnalysis",
     "Material",
 ]
@@ -229,6 +231,93 @@ class JointAnalysis(Value):
         return cls(conditions=FrozenMap(conditions), result=result)
 
 
+# --------------------------------------------------------------------------- goodness of fit
+
+
+@dataclass(frozen=True, eq=False)
+class FitJudgement(Value):
+    """One Eq. 3 fit against the noise of its own plateau.
+
+    Attributes
+    ----------
+    noise : float
+        The force noise σ of the plateau [N] (NaN where the fit's sigma was known).
+    chi2 : float
+        The normalised χ²: the fit's χ² per degree of freedom over σ² [-].
+    """
+
+    noise: float
+    chi2: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"noise", "chi2"}``."""
+        return json_safe({"noise": self.noise, "chi2": self.chi2})
+
+    @classmethod
+    def from_dict(cls, saved: Mapping[str, Any]) -> FitJudgement:
+        """The judgement of :meth:`to_dict`."""
+        return cls(noise=_float(saved.get("noise")), chi2=_float(saved.get("chi2")))
+
+
+def _float(value):
+    return float("nan") if value is None else float(value)
+
+
+@dataclass(frozen=True, eq=False)
+class GoodnessOfFit(Value):
+    """Every Eq. 3 fit of the campaign (start-ups and the rate-controlled part of switches)
+    against the noise of its own plateau (:func:`granflow.analysis.joint.goodness_of_fit`).
+
+    Attributes
+    ----------
+    runs : mapping of str to FitJudgement
+        By run name.
+    median, min, max : float
+        Of the normalised χ² [-].
+    limit : float
+        Above it a fit misses its curve [-].
+    poor : tuple of str
+        The runs above the limit.
+    method : str
+        How the noise and the χ² were found.
+    """
+
+    runs: FrozenMap
+    median: float
+    min: float
+    max: float
+    limit: float
+    poor: tuple = ()
+    method: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``goodness_of_fit`` entry of ``results.json``."""
+        return json_safe(
+            {
+                "runs": {name: row.to_dict() for name, row in self.runs.items()},
+                "median": self.median,
+                "min": self.min,
+                "max": self.max,
+                "limit": self.limit,
+                "poor": list(self.poor),
+                "method": self.method,
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, saved: Mapping[str, Any]) -> GoodnessOfFit:
+        """The judgement of :meth:`to_dict`."""
+        return cls(
+            runs=FrozenMap({k: FitJudgement.from_dict(v) for k, v in saved["runs"].items()}),
+            median=_float(saved["median"]),
+            min=_float(saved["min"]),
+            max=_float(saved["max"]),
+            limit=_float(saved["limit"]),
+            poor=tuple(saved.get("poor", ())),
+            method=str(saved.get("method", "")),
+        )
+
+
 # --------------------------------------------------------------------------- the analyses
 
 
@@ -271,8 +360,8 @@ class Analyses(Value):
     stress_ramp : tuple of RampComparison
     creep : tuple of CreepComparison
     switch : tuple of SwitchComparison
-    goodness_of_fit : mapping or None
-        Each start-up fit against the noise of its plateau
+    goodness_of_fit : GoodnessOfFit or None
+        Each Eq. 3 fit against the noise of its plateau
         (:func:`granflow.analysis.joint.goodness_of_fit`).
     errors : mapping of str to str
         Analyses that failed, and why.
@@ -287,7 +376,7 @@ class Analyses(Value):
     stress_ramp: tuple = ()
     creep: tuple = ()
     switch: tuple = ()
-    goodness_of_fit: FrozenMap | None = None
+    goodness_of_fit: GoodnessOfFit | None = None
     errors: FrozenMap = field(default_factory=FrozenMap)
 
     def to_dict(self):
@@ -298,8 +387,6 @@ class Analyses(Value):
             value = getattr(self, name, None)
             if isinstance(value, tuple) and value:
                 out[name] = [row.to_dict() for row in value]
-            elif isinstance(value, Mapping):
-                out[name] = json_safe(dict(value))
             elif value is not None and not isinstance(value, tuple):
                 out[name] = value.to_dict()
             elif name in self.errors:
@@ -314,7 +401,7 @@ class Analyses(Value):
             if isinstance(entry, Mapping) and set(entry) == {"error"}:
                 errors[name] = entry["error"]
             elif name == "goodness_of_fit":
-                values[name] = frozen_json(entry)
+                values[name] = GoodnessOfFit.from_dict(entry)
             elif name == "preparation_spread":
                 values[name] = tuple(
                     JointAnalysis.from_dict(row, PreparationSpread) for row in entry

@@ -127,14 +127,14 @@ _ASCII_UNITS = str.maketrans({"µ": "u", "/": "_per_", " ": "_"})
 def column_unit(column):
     """(display scale, column name with its display unit) of a table column:
     ``normal_load`` -> (1000.0, "normal_load_mN"); (1.0, column) without a unit."""
-    from granflow.analysis.formatting import display_unit
+    from granflow.analysis.formatting import display_scale
 
     base = column
     for suffix in _SUFFIXES:
         if column.endswith(suffix):
             base = column[: -len(suffix)]
             break
-    scale, unit = display_unit(_COLUMN_QUANTITY.get(base, base))
+    scale, unit = display_scale(_COLUMN_QUANTITY.get(base, base))
     if not unit:
         return 1.0, column
     return scale, f"{column}_{unit.replace('1/', 'per_').translate(_ASCII_UNITS)}"
@@ -243,10 +243,21 @@ def table_files(results):
 
 
 def draw_forecast(forecast):
-    """The running forecast of one run (a :class:`~granflow.analysis.forecasts.RunForecast`)."""
+    """The running forecast of one run (a :class:`~granflow.analysis.forecasts.RunForecast`),
+    with the stretch of the record where the failure lies (between the last point held and
+    the first runaway point) shaded."""
     from granflow.plotting import plot_forecast
 
-    return plot_forecast(forecast.running())
+    ax = plot_forecast(forecast.running())
+    window = forecast.observed_window
+    if window is not None:
+        low, high = ax.get_ylim()
+        ax.axhspan(*window, color="0.85", zorder=0, label="the failure lies here (sampling)")
+        ax.set_ylim(
+            min(low, window[0] - 0.05 * (high - low)), max(high, window[1] + 0.05 * (high - low))
+        )
+        ax.legend(fontsize="small", loc="upper right")
+    return ax
 
 
 def _forecast_jobs(forecasts):

@@ -36,7 +36,7 @@ __all__ = [
 ]
 
 #: Switch points and force ratios of the stability map's grid.
-MAP_POINTS, MAP_RATIOS = 8, 7
+MAP_POINTS, MAP_RATIOS = 48, 31
 #: Time under force control in each cell of the map [s].
 MAP_HOLD = 60.0
 

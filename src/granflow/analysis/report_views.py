@@ -1,205 +1,198 @@
-"""The views of the HTML report: from the content of ``results.json`` to what the template
-shows (runs, campaign, material constants and the joint analyses; the rest is in
-:mod:`granflow.analysis.report`). Numbers stay in SI units; the template's filters put them
-into display units.
+"""The views of the HTML report's tables of runs and joint analyses, read from the typed
+:class:`~granflow.analysis.AnalysisResult`: the run table (start-up fits in the paper's
+terms), creep, campaign, data quality, material constants, velocity collapse, Amontons' law,
+preparations and model comparison. :mod:`granflow.analysis.report_stress` has the
+stress-controlled runs, forecasts and velocity steps, :mod:`granflow.analysis.report_frame`
+the figures, warnings and provenance.
+
+Nothing here computes a statistic: every estimate, test and interval is a field of a result;
+the views pick them, convert units for display (t0 = x0/v and αv = α·v from a run's
+velocity, SI to mN, µm, s). Numbers stay in SI units where the template's filters convert
+them (``si``, ``pm_si``); the text the views write themselves is in display units already.
 """
 
-from collections.abc import Mapping
+from __future__ import annotations
 
-from granflow.analysis.formatting import (
-    DASH,
-    display_unit,
-    format_number,
-    header_label,
-    quantity_text,
-    real_number,
-)
+from typing import Any
+
+from granflow.analysis.formatting import DASH, display_scale, real_number
 
 __all__ = [
+    "GRAIN_DIAMETER",
+    "SECTIONS",
     "amontons_view",
-    "as_list",
-    "as_mapping",
     "campaign_view",
     "collapse_view",
     "comparison_view",
-    "forecast_view",
-    "labelled",
+    "creep_view",
     "material_view",
+    "model_comparison_view",
+    "pair",
     "quality_view",
-    "reason_of",
     "runs_view",
-    "scalars",
     "spread_view",
 ]
 
-# --------------------------------------------------------------------------- the view
+#: The grain diameter the rejuvenation length is compared with [m]: the paper's PMMA beads.
+GRAIN_DIAMETER = 40e-6
+
+#: The report's sections in page order: (anchor, title). The contents list is made from it.
+SECTIONS = (
+    ("summary", "Summary"),
+    ("material", "Material constants"),
+    ("runs", "Start-ups: per-run fits"),
+    ("collapse", "Velocity collapse"),
+    ("amontons", "Amontons' law"),
+    ("preparation", "Preparations"),
+    ("model-comparison", "Model comparison"),
+    ("static-yield", "Static yield"),
+    ("ramp", "Stress ramp"),
+    ("creep", "Creep"),
+    ("switch", "Switch to stress control"),
+    ("stability-map", "Stability map"),
+    ("forecasting", "Forecasting the failure"),
+    ("velocity-steps", "Velocity steps"),
+    ("publication", "Publication figures"),
+    ("campaign", "Campaign"),
+    ("data-quality", "Data quality"),
+    ("warnings", "Warnings"),
+    ("provenance", "Provenance"),
+)
 
 
-def as_mapping(value):
-    """``value`` when it is a mapping, else an empty one."""
-    return value if isinstance(value, Mapping) else {}
+# --------------------------------------------------------------------------- helpers
 
 
-def as_list(value):
-    """``value`` as a list when it is a list or tuple, else an empty one."""
-    return list(value) if isinstance(value, list | tuple) else []
-
-
-def reason_of(value):
-    """The reason an analysis is missing: a mapping holding only reason-like entries."""
-    if isinstance(value, Mapping):
-        for key in ("reason", "error", "skipped"):
-            if isinstance(value.get(key), str):
-                return value[key]
-    return None
-
-
-def scalars(mapping, skip=()):
-    """(name, display text) of the scalar (or list-of-scalar) entries of a mapping."""
-    rows = []
-    for key, value in as_mapping(mapping).items():
-        if key in skip or isinstance(value, Mapping):
-            continue
-        if isinstance(value, list | tuple) and any(
-            isinstance(item, Mapping | list | tuple) for item in value
-        ):
-            continue
-        rows.append((header_label(key), quantity_text(key, value, unit=False)))
-    return rows
-
-
-def _estimate(params, stderr, name, factor=1.0):
-    value, error = real_number(params.get(name)), real_number(stderr.get(name))
+def pair(
+    value: float | None, error: float | None, factor: float = 1.0
+) -> tuple[float | None, float | None]:
+    """(value, error) times ``factor``, None where missing."""
+    value, error = real_number(value), real_number(error)
     return (
         None if value is None else value * factor,
         None if error is None else abs(error * factor),
     )
 
 
-def _fit_view(fit, velocity):
-    """Eq. 3 fit of one run in slip-domain terms (a time-domain fit is converted with v)."""
-    params, stderr = as_mapping(fit.get("params")), as_mapping(fit.get("stderr"))
-    at_bound = sorted(str(n) for n, flag in as_mapping(fit.get("at_bound")).items() if flag)
-    if "alpha" in params or "x0" in params:
-        alpha, x0 = _estimate(params, stderr, "alpha"), _estimate(params, stderr, "x0")
+# --------------------------------------------------------------------------- runs
+
+
+def _start_up_fit(fit, velocity, judged):
+    """An Eq. 3 fit in the paper's terms: a, α, F_d, x0 (slip) and t0, αv (Fig. 2a's units,
+    from the run's velocity)."""
+    params, stderr = fit.params, fit.stderr
+    if "alpha" in params:
+        alpha, x0 = pair(params["alpha"], stderr["alpha"]), pair(params["x0"], stderr["x0"])
     elif velocity:
-        alpha = _estimate(params, stderr, "k", 1.0 / velocity)
-        x0 = _estimate(params, stderr, "t0", velocity)
+        alpha = pair(params["k"], stderr["k"], 1.0 / velocity)
+        x0 = pair(params["t0"], stderr["t0"], velocity)
     else:
         alpha = x0 = (None, None)
+    if velocity:
+        k, t0 = pair(*alpha, velocity), pair(*x0, 1.0 / velocity)
+    else:
+        k = t0 = (None, None)
+    at_bound = sorted(name for name, flag in fit.at_bound.items() if flag)
     return {
-        "a": _estimate(params, stderr, "a"),
+        "a": pair(params["a"], stderr["a"]),
         "alpha": alpha,
-        "Fd": _estimate(params, stderr, "Fd"),
+        "Fd": pair(params["Fd"], stderr["Fd"]),
         "x0": x0,
-        "redchi": real_number(fit.get("redchi")),
-        "sigma_known": bool(fit.get("sigma_known")),
-        "success": fit.get("success") is not False,
-        "message": str(fit.get("message") or ""),
+        "t0": t0,
+        "k": k,
+        "noise": None if judged is None else real_number(judged.noise),
+        "chi2": None if judged is None else real_number(judged.chi2),
+        "success": bool(fit.success),
+        "message": str(fit.message or ""),
         "at_bound": at_bound,
     }
 
 
-def _is_creep_fit(fit):
-    params = as_mapping(fit.get("params"))
-    return fit.get("model") == "creep" or ("B" in params and "tau_c" in params)
+def runs_view(result: Any) -> list[dict[str, Any]]:
+    """The run table: each run with its Eq. 3 fit in the paper's terms (start-ups and the
+    rate-controlled part of switches), the force noise of its plateau and its normalised χ²
+    (the one quantity of that column)."""
+    goodness = result.analyses.goodness_of_fit
+    judged = {} if goodness is None else goodness.runs
+    rows = []
+    for entry in result.runs:
+        fit = getattr(entry.result, "fit", None) if entry.ok else None
+        eq3 = fit is not None and entry.test in ("startup", "switch")
+        rows.append(
+            {
+                "name": entry.name,
+                "source": entry.source or "",
+                "test": entry.test or DASH,
+                "normal_load": entry.normal_load,
+                "velocity": entry.velocity,
+                "preparation": str(entry.preparation or DASH),
+                "failed": not entry.ok,
+                "reason": entry.reason or "",
+                "problems": list(entry.problems),
+                "geometry": entry.geometry,
+                "fit": _start_up_fit(fit, entry.velocity, judged.get(entry.name)) if eq3 else None,
+            }
+        )
+    return rows
 
 
-def _creep_view(name, fit, force):
-    params, stderr = as_mapping(fit.get("params")), as_mapping(fit.get("stderr"))
-    return {
-        "name": name,
-        "force": real_number(force),
-        "B": _estimate(params, stderr, "B"),
-        "tau_c": _estimate(params, stderr, "tau_c"),
-        "redchi": real_number(fit.get("redchi")),
-        "sigma_known": bool(fit.get("sigma_known")),
-        "success": fit.get("success") is not False,
-        "message": str(fit.get("message") or ""),
-    }
+def creep_view(result: Any) -> list[dict[str, Any]]:
+    """The creep runs: the imposed force against F_d and F_peak, and the fit of
+    δ = B ln(1 + t/τ_c) (τ_c flagged where it is below the record's sampling)."""
+    compared = {row.run: row for row in result.analyses.creep}
+    rows = []
+    for entry in result.runs:
+        if entry.test != "creep" or not entry.ok:
+            continue
+        creep, row = entry.result, compared.get(entry.name)
+        fit = creep.fit
+        sampling = creep.duration / (fit.ndata - 1) if fit.ndata > 1 else None
+        tau = pair(fit.params["tau_c"], fit.stderr["tau_c"])
+        rows.append(
+            {
+                "name": entry.name,
+                "force": creep.stress,
+                "over_Fd": None if row is None else row.stress_over_Fd,
+                "over_peak": None if row is None else row.stress_over_peak,
+                "B": pair(fit.params["B"], fit.stderr["B"]),
+                "tau_c": tau,
+                "sampling": sampling,
+                "resolved": sampling is None or tau[0] is None or tau[0] >= sampling,
+                "slip": creep.creep_slip,
+                "duration": creep.duration,
+                "residual": None if fit.sigma_known else real_number(fit.residual_std),
+                "chi2": real_number(fit.redchi) if fit.sigma_known else None,
+                "success": bool(fit.success),
+                "message": str(fit.message or ""),
+            }
+        )
+    return rows
 
 
-def _imposed_force(entry):
-    for key in ("force", "imposed_force", "stress", "creep_force"):
-        if real_number(entry.get(key)) is not None:
-            return entry[key]
-    return None
-
-
-def runs_view(results):
-    """The run table's rows (an Eq. 3 fit in slip terms per run, with its plateau noise and
-    normalised χ² where the analysis has them) and the creep fits."""
-    runs, creep, names = [], [], set()
-    goodness = as_mapping(
-        as_mapping(as_mapping(results.get("analyses")).get("goodness_of_fit")).get("runs")
-    )
-    for index, run in enumerate(as_list(results.get("runs"))):
-        run = as_mapping(run)
-        name = str(run.get("name") or run.get("source") or f"run {index + 1}")
-        velocity = real_number(run.get("velocity"))
-        fit = as_mapping(run.get("fit"))
-        failed = run.get("status") == "failed"
-        row = {
-            "name": name,
-            "source": str(run.get("source") or ""),
-            "interval": run.get("interval"),
-            "test": str(run.get("test") or DASH),
-            "normal_load": real_number(run.get("normal_load")),
-            "velocity": velocity,
-            "preparation": str(run.get("preparation") or DASH),
-            "failed": failed,
-            "reason": str(run.get("reason") or run.get("error") or ""),
-            "problems": [str(p) for p in as_list(run.get("problems"))],
-            "geometry": run.get("geometry"),
-            "fit": None,
-        }
-        if fit and _is_creep_fit(fit):
-            creep.append(_creep_view(name, fit, _imposed_force(run)))
-            names.add(name)
-        elif fit and not failed:
-            row["fit"] = _fit_view(fit, velocity)
-            judged = as_mapping(goodness.get(name))
-            row["fit"]["noise"] = real_number(judged.get("noise"))
-            row["fit"]["chi2"] = real_number(judged.get("chi2"))
-        runs.append(row)
-    analysis = as_mapping(results.get("analyses")).get("creep")
-    for index, entry in enumerate(as_list(analysis)):
-        entry = as_mapping(entry)
-        name = str(entry.get("name") or entry.get("run") or f"creep {index + 1}")
-        fit = as_mapping(entry.get("fit"))
-        if name not in names and fit:
-            creep.append(_creep_view(name, fit, _imposed_force(entry)))
-    return runs, creep
-
-
-def campaign_view(results, runs):
-    """The campaign section: counts per test, loads, velocities, preparations, problems."""
-
-    def distinct(key):
-        values = sorted({r[key] for r in runs if r[key] is not None})
-        return values
-
-    tests = {}
+def campaign_view(result: Any, runs: Any) -> dict[str, Any]:
+    """The campaign section: counts per test, loads, velocities, the preparations (named
+    when few, counted when many), geometry and problems."""
+    tests: dict[str, int] = {}
     for run in runs:
-        test = run["test"] if run["test"] != DASH else "unspecified"
-        tests[test] = tests.get(test, 0) + 1
-    campaign = as_mapping(results.get("campaign"))
+        tests[run["test"]] = tests.get(run["test"], 0) + 1
+    preparations = sorted({r["preparation"] for r in runs if r["preparation"] != DASH})
+    campaign = result.campaign
     return {
         "runs": len(runs),
         "failed": sum(r["failed"] for r in runs),
         "tests": sorted(tests.items()),
-        "loads": distinct("normal_load"),
-        "velocities": distinct("velocity"),
-        "preparations": sorted({r["preparation"] for r in runs if r["preparation"] != DASH}),
-        "details": scalars(campaign, skip=("problems", "geometry")),
+        "loads": sorted({r["normal_load"] for r in runs if r["normal_load"] is not None}),
+        "velocities": sorted({r["velocity"] for r in runs if r["velocity"] is not None}),
+        "preparations": preparations if len(preparations) <= 8 else None,
+        "preparation_count": len(preparations),
+        "manifest": campaign.get("manifest"),
         "geometry": str(campaign.get("geometry") or "not recorded (runs given as data)"),
-        "problems": [str(p) for p in as_list(campaign.get("problems"))],
+        "problems": [str(p) for p in campaign.get("problems", ())],
     }
 
 
-def quality_view(runs):
-    """The data-quality section: each run with problems and its problems, and each run's
-    geometry where the runs' geometries differ."""
+def quality_view(runs: Any) -> dict[str, Any]:
+    """Each run with problems, and each run's geometry where the runs' geometries differ."""
     flagged = [{"name": r["name"], "problems": r["problems"]} for r in runs if r["problems"]]
     geometries = {r["geometry"] for r in runs if r["geometry"] is not None}
     per_run = (
@@ -210,309 +203,183 @@ def quality_view(runs):
     return {"flagged": flagged, "geometries": per_run}
 
 
-#: The rows of the material table: (constant, symbol, meaning, (scale, unit) or None for
-#: the constant's own display unit). α is shown in 1/µm too (1/m per 1e6: not a display
-#: unit of the unit table).
+# --------------------------------------------------------------------------- material
+
+
 _MATERIAL = (
     ("mu_a", "μ_a", "aging amplitude over normal load a/F_N", None),
     ("mu_d", "μ_d", "dynamic friction coefficient F_d/F_N", None),
     ("alpha", "α", "shear-rejuvenation constant", None),
-    ("alpha", "α", "shear-rejuvenation constant", (1e-6, "1/µm")),
 )
 
 
-def material_view(results):
-    """The material constants: one row per constant (α twice), or None without any."""
-    material = results.get("material")
-    if material is None:
+def material_view(result: Any) -> dict[str, Any] | None:
+    """The material constants, α also as the rejuvenation length 1/α in µm and in grain
+    diameters; None when the campaign determined none and says nothing why."""
+    material = result.material
+    if not material.determined and not material.reason:
         return None
-    material = as_mapping(material)
     rows = []
-    for key, symbol, meaning, shown in _MATERIAL:
-        scale, unit = shown or display_unit(key)
-        entry = material.get(key)
-        entry = entry if isinstance(entry, Mapping) else {"value": entry}
-        value = real_number(entry.get("value"))
+    for key, symbol, meaning, _ in _MATERIAL:
+        estimate = getattr(material, key)
+        scale, unit = display_scale(key)
         rows.append(
             {
                 "symbol": symbol,
                 "meaning": meaning,
                 "unit": unit,
                 "scale": scale,
-                "value": value,
-                "stderr": real_number(entry.get("stderr")),
-                "ci95": entry.get("ci95"),
-                "reason": None
-                if value is not None
-                else str(entry.get("reason") or material.get("reason") or "not determined"),
+                "value": estimate.value,
+                "stderr": estimate.stderr,
+                "ci95": list(estimate.ci95),
+                "reason": None if estimate.value is not None else material.reason,
             }
         )
-    return {"rows": rows, "source": str(material.get("source") or "")}
+    length = None
+    alpha = material.alpha
+    if alpha.value:
+        low, high = (real_number(b) for b in alpha.ci95)
+        length = {
+            "value": 1.0 / alpha.value,
+            "stderr": (alpha.stderr or 0.0) / alpha.value**2,
+            "ci95": [1.0 / high if high else None, 1.0 / low if low else None],
+            "grains": 1.0 / alpha.value / GRAIN_DIAMETER,
+        }
+    return {"rows": rows, "source": material.source or "", "length": length}
 
 
-def _joint_status(joint):
-    joint = as_mapping(joint)
-    return {
-        "success": joint.get("success") is not False,
-        "message": str(joint.get("message") or ""),
-        "redchi": real_number(joint.get("redchi")),
-    }
+# --------------------------------------------------------------------------- joint analyses
 
 
-def collapse_view(collapse):
-    """The velocity collapse: per-velocity a and α, the shared fit and the test's verdict."""
-    if collapse is None:
-        return None
-    if reason_of(collapse) is not None:
-        return {"reason": reason_of(collapse)}
-    collapse = as_mapping(collapse)
-    per = as_mapping(collapse.get("per_velocity"))
-    shared = as_mapping(collapse.get("shared"))
-    p, e = as_mapping(per.get("params")), as_mapping(per.get("stderr"))
+def collapse_view(result: Any) -> dict[str, Any] | None:
+    """The velocity collapse: per-velocity a and α, the shared fit and its test."""
+    analysis = result.analyses.velocity_collapse
+    if analysis is None:
+        error = result.analyses.errors.get("velocity_collapse")
+        return None if error is None else {"reason": error}
+    collapse = analysis.result
+    per, shared = collapse.per_velocity, collapse.shared
     rows = [
         {
-            "velocity": real_number(v),
-            "a": _estimate(p, e, f"a_v{i}"),
-            "alpha": _estimate(p, e, f"alpha_v{i}"),
+            "velocity": v,
+            "a": pair(per.params[f"a_v{i}"], per.stderr[f"a_v{i}"]),
+            "alpha": pair(per.params[f"alpha_v{i}"], per.stderr[f"alpha_v{i}"]),
         }
-        for i, v in enumerate(as_list(collapse.get("velocities")))
+        for i, v in enumerate(collapse.velocities)
     ]
-    sp, se = as_mapping(shared.get("params")), as_mapping(shared.get("stderr"))
-    collapses = collapse.get("collapses")
     return {
         "reason": None,
         "rows": rows,
-        "shared": {n: _estimate(sp, se, n) for n in ("a", "alpha", "Fd")},
-        "statistic": real_number(collapse.get("statistic")),
-        "df": collapse.get("df"),
-        "p_value": collapse.get("p_value"),
-        "verdict": None
-        if collapses is None
-        else (
-            "consistent with one curve in slip: the collapse is not rejected at the 5 % level"
-            if collapses
-            else "a and α depend on the velocity: the collapse is rejected at the 5 % level"
-        ),
-        "collapses": collapses,
+        "shared": {n: pair(shared.params[n], shared.stderr[n]) for n in ("a", "alpha", "Fd")},
+        "statistic": collapse.statistic,
+        "df": collapse.df,
+        "p_value": collapse.p_value,
+        "collapses": collapse.collapses,
+        "normal_load": analysis.conditions.get("normal_load"),
     }
 
 
-def amontons_view(amontons):
-    """Amontons' law: per-load means, the lines through the origin and the joint fit."""
-    if amontons is None:
-        return None
-    if reason_of(amontons) is not None:
-        return {"reason": reason_of(amontons)}
-    amontons = as_mapping(amontons)
-    joint = as_mapping(amontons.get("joint"))
-    jp, je = as_mapping(joint.get("params")), as_mapping(joint.get("stderr"))
-
-    def pair(value):
-        value = as_list(value)
-        return (real_number(value[0]), real_number(value[1])) if len(value) == 2 else (None, None)
-
+def amontons_view(result: Any) -> dict[str, Any] | None:
+    """Amontons' law: per-load means, the lines through the origin, the joint fit and the
+    test of the law (a field of :class:`granflow.AmontonsResult`)."""
+    analysis = result.analyses.amontons
+    if analysis is None:
+        error = result.analyses.errors.get("amontons")
+        return None if error is None else {"reason": error}
+    amontons = analysis.result
+    joint = amontons.joint
     rows = [
         {
-            "normal_load": real_number(row.get("normal_load")),
-            "repeats": row.get("repeats"),
-            "a": pair(row.get("a")),
-            "alpha": pair(row.get("alpha")),
-            "alpha_v": pair(row.get("alpha_v")),
-            "Fd": pair(row.get("Fd")),
+            "normal_load": row["normal_load"],
+            "repeats": row["repeats"],
+            "a": tuple(row["a"]),
+            "alpha": tuple(row["alpha"]),
+            "alpha_v": tuple(row["alpha_v"]) if row.get("alpha_v") is not None else (None, None),
+            "Fd": tuple(row["Fd"]),
         }
-        for row in map(as_mapping, as_list(amontons.get("per_load")))
+        for row in amontons.per_load
     ]
-    lines = as_mapping(amontons.get("lines"))
-    bounds = as_mapping(amontons.get("lines_ci95"))
     return {
         "reason": None,
         "rows": rows,
         "has_alpha_v": any(r["alpha_v"][0] is not None for r in rows),
         "lines": [
-            (key, pair(lines.get(key)), pair(bounds.get(key)))
+            (key, tuple(amontons.lines[key]), tuple(amontons.lines_ci95.get(key, (None, None))))
             for key in ("a", "Fd")
-            if key in lines
+            if key in amontons.lines
         ],
-        "joint": {n: _estimate(jp, je, n) for n in ("mu_a", "mu_d", "alpha")},
-        "status": _joint_status(joint),
-        "test": _amontons_test(amontons.get("per_load")),
+        "joint": {n: pair(joint.params[n], joint.stderr[n]) for n in ("mu_a", "mu_d", "alpha")},
+        "success": bool(joint.success),
+        "message": str(joint.message or ""),
+        "test": amontons.test,
     }
 
 
-def _amontons_test(per_load):
-    from granflow.analysis.report_summary import amontons_test
-
-    return amontons_test(per_load)
-
-
-def labelled(value, keys=("name", "run", "preparation", "label")):
-    """(label, entry) pairs from one result, a list of results or a mapping label -> result."""
-    if isinstance(value, list | tuple):
-        pairs = []
-        for index, entry in enumerate(value):
-            entry = as_mapping(entry)
-            label = next((str(entry[k]) for k in keys if entry.get(k) is not None), None)
-            pairs.append((label or f"#{index + 1}", entry))
-        return pairs
-    value = as_mapping(value)
-    keyed = value and all(isinstance(v, Mapping) for v in value.values())
-    if keyed and not any(k in value for k in ("rows", "start", "Fd")):
-        return [(str(k), v) for k, v in value.items()]
-    return [(None, value)]
-
-
-def spread_view(spread):
-    """The preparation spread of each group of repeats."""
-    if spread is None:
-        return None
-    if reason_of(spread) is not None:
-        return {"reason": reason_of(spread), "groups": []}
+def spread_view(result: Any) -> dict[str, Any] | None:
+    """The preparation spread of each group of repeats (x0 with a, α and F_d held)."""
+    spreads = result.analyses.preparation_spread
+    if not spreads:
+        error = result.analyses.errors.get("preparation_spread")
+        return None if error is None else {"reason": error, "groups": []}
     groups = []
-    for label, entry in labelled(spread):
-        label = label if label is None else str(entry.get("preparation") or label)
-        domain = entry.get("domain", "slip")
-        start_name = "x0" if domain == "slip" else "t0"
-        scale, unit = display_unit(start_name)
-        start, Fd = as_mapping(entry.get("start")), as_mapping(entry.get("Fd"))
-        peaks = [p for p in map(real_number, as_list(entry.get("peak_force"))) if p is not None]
+    for analysis in spreads:
+        spread, conditions = analysis.result, analysis.conditions
+        start_name = "x0" if spread.domain == "slip" else "t0"
+        held = conditions.get("held")
         groups.append(
             {
-                "label": label,
-                "reason": reason_of(entry),
-                "repeats": entry.get("repeats"),
+                "label": str(conditions.get("preparation") or DASH),
+                "repeats": spread.repeats,
                 "start_name": start_name,
-                "start_scale": scale,
-                "start_unit": unit,
-                "start": start,
-                "Fd": Fd,
-                "peak_range": (min(peaks), max(peaks)) if peaks else None,
-                "correlation": real_number(entry.get("correlation")),
-                "p_value": entry.get("p_value"),
-                "normal_load": real_number(entry.get("normal_load")),
-                "velocity": real_number(entry.get("velocity")),
-                "held": _held_view(entry.get("held")),
+                "start_scale": display_scale(start_name)[0],
+                "start": spread.start,
+                "Fd": spread.Fd,
+                "correlation": spread.correlation,
+                "p_value": spread.p_value,
+                "normal_load": conditions.get("normal_load"),
+                "velocity": conditions.get("velocity"),
+                "held": None
+                if held is None
+                else {
+                    "a": tuple(held["a"]),
+                    "alpha": tuple(held["alpha"]),
+                    "Fd": tuple(held["Fd"]),
+                    "x0_spread": held["x0_spread"],
+                    "success": held.get("success") is not False,
+                },
             }
         )
     return {"reason": None, "groups": groups}
 
 
-def _held_view(held):
-    """The joint fit of a group's repeats with a, α and F_d held common, or None."""
-    if not isinstance(held, Mapping):
-        return None
-
-    def pair(key):
-        value = as_list(held.get(key))
-        return (real_number(value[0]), real_number(value[1])) if len(value) == 2 else (None, None)
-
-    return {
-        "a": pair("a"),
-        "alpha": pair("alpha"),
-        "Fd": pair("Fd"),
-        "x0": [real_number(v) for v in as_list(held.get("x0"))],
-        "x0_spread": as_mapping(held.get("x0_spread")),
-        "success": held.get("success") is not False,
-    }
-
-
-def comparison_view(comparison):
-    """The model comparison of each group: AIC and BIC per model, and the best."""
-    if comparison is None:
-        return None
-    if reason_of(comparison) is not None:
-        return {"reason": reason_of(comparison), "groups": []}
-    groups = []
-    for label, entry in labelled(comparison):
-        label = label or (f"run {entry['run']}" if entry.get("run") else None)
-        rows = [as_mapping(row) for row in as_list(entry.get("rows"))]
-        groups.append(
-            {
-                "label": label,
-                "reason": reason_of(entry),
-                "rows": [
-                    {
-                        "model": str(row.get("model") or DASH),
-                        "formula": str(row.get("formula") or ""),
-                        "nfree": row.get("nfree"),
-                        "aic": real_number(row.get("aic")),
-                        "bic": real_number(row.get("bic")),
-                        "delta_aic": real_number(row.get("delta_aic")),
-                        "delta_bic": real_number(row.get("delta_bic")),
-                        "message": str(row.get("message") or ""),
-                        "fitted": real_number(row.get("aic")) is not None,
-                    }
-                    for row in rows
-                ],
-                "best_aic": str(entry.get("best_aic") or DASH),
-                "best_bic": str(entry.get("best_bic") or DASH),
-            }
-        )
-    return {"reason": None, "groups": groups}
-
-
-def _bounds(pair, scale):
-    """An interval for display, an unbounded end as ∞."""
-    low, high = ("∞" if value == float("inf") else format_number(value, scale) for value in pair)
-    return f"[{low}, {high}]"
-
-
-def _observed(window):
-    if window is None:
-        return "none in the record"
-    low, high = (format_number(value) for value in window)
-    return f"between {low} and {high} s (the last point held, the first runaway point)"
-
-
-def _forecast_entry(saved, figure):
-    from granflow.analysis.forecasts import RunForecast
-
-    try:
-        forecast = RunForecast.from_dict(as_mapping(saved))
-    except (KeyError, TypeError, ValueError) as exc:
-        label = str(as_mapping(saved).get("run") or DASH)
-        reason = f"the forecast cannot be read ({type(exc).__name__}: {exc})"
-        return {"label": label, "reason": reason, "rows": [], "details": [], "figure": None}
-    force, _ = display_unit("force")
-    verdict = {True: "yes", False: "no", None: DASH}
-    details = [
-        ("observed failure", _observed(forecast.observed_window)),
-        ("observed F_peak", format_number(forecast.observed_force, force) + " mN"),
-        ("prior", forecast.prior_from),
-        ("converged", verdict[forecast.converged]),
-    ]
+def comparison_view(comparison: Any, label: Any = None) -> dict[str, Any]:
+    """One model comparison (:class:`granflow.ModelComparison`): AIC and BIC per model."""
     rows = [
         {
-            "cut": format_number(cut.cut),
-            "time": format_number(cut.time),
-            "interval": _bounds(cut.time_interval, 1.0) if cut.time is not None else DASH,
-            "force": format_number(cut.force, force),
-            "force_interval": _bounds(cut.force_interval, force) if cut.time is not None else DASH,
-            "holds": verdict[forecast.holds(cut)],
-            "message": cut.message,
+            "model": str(row.get("model") or DASH),
+            "formula": str(row.get("formula") or ""),
+            "nfree": row.get("nfree"),
+            "aic": real_number(row.get("aic")),
+            "bic": real_number(row.get("bic")),
+            "delta_aic": real_number(row.get("delta_aic")),
+            "delta_bic": real_number(row.get("delta_bic")),
+            "message": str(row.get("message") or ""),
+            "fitted": real_number(row.get("aic")) is not None,
         }
-        for cut in forecast.cuts
+        for row in comparison.rows
     ]
     return {
-        "label": forecast.run,
-        "reason": forecast.reason,
-        "level": f"{forecast.level:.0%}",
-        "observed": format_number(forecast.observed),
-        "converged": forecast.converged,
+        "label": label,
         "rows": rows,
-        "details": details,
-        "figure": figure,
+        "best_aic": comparison.best_aic,
+        "best_bic": comparison.best_bic,
     }
 
 
-def forecast_view(forecasts, figures):
-    """The running forecast of each run and its figure ("forecast_<k>", k from 1), and the
-    other figures; (None, figures) without forecasts."""
-    if not forecasts:
-        return None, figures
-    names = {f"forecast_{k}" for k in range(1, len(forecasts) + 1)}
-    own = {figure["name"]: figure for figure in figures if figure["name"] in names}
-    entries = [
-        _forecast_entry(saved, own.get(f"forecast_{k}"))
-        for k, saved in enumerate(as_list(forecasts), start=1)
-    ]
-    return entries, [figure for figure in figures if figure["name"] not in names]
+def model_comparison_view(result: Any) -> dict[str, Any] | None:
+    """Eq. 3 against simpler models on the representative start-up."""
+    analysis = result.analyses.model_comparison
+    if analysis is None:
+        error = result.analyses.errors.get("model_comparison")
+        return None if error is None else {"reason": error}
+    return {"reason": None, **comparison_view(analysis.result, analysis.conditions.get("run"))}

@@ -28,6 +28,7 @@ from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Materi
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.values import Value, frozen_json
+from granflow.analysis.velocity_steps import VelocitySteps
 from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 from granflow.model.units import display_unit, to_display
@@ -193,10 +194,10 @@ class AnalysisResult(Value):
         Table name to its files (relative to ``output``).
     provenance : mapping
         Version, Python, input files with their SHA-256, options.
-    velocity_steps : mapping
+    velocity_steps : granflow.analysis.velocity_steps.VelocitySteps
         The rate-and-state fits and model comparison of the manifest's velocity-step records
-        (:func:`granflow.analysis.velocity_steps.campaign_velocity_steps`: ``records`` and
-        ``failed``); empty without any. Its failures are among :attr:`failed_runs`.
+        (``records`` and ``failed``); empty without any. Its failures are among
+        :attr:`failed_runs`.
     timing : mapping
         Dates, durations, jobs, scheduler, runs fitted now or reused (not in ``to_dict``).
     output : pathlib.Path or None
@@ -219,7 +220,7 @@ class AnalysisResult(Value):
     figures: tuple = ()
     tables: FrozenMap = field(default_factory=FrozenMap)
     provenance: FrozenMap = field(default_factory=FrozenMap)
-    velocity_steps: FrozenMap = field(default_factory=FrozenMap)
+    velocity_steps: VelocitySteps = field(default_factory=VelocitySteps)
     timing: FrozenMap = field(default_factory=FrozenMap, repr=False)
     output: Path | None = None
     fitted_now: int = 0
@@ -250,7 +251,7 @@ class AnalysisResult(Value):
                 "figures": list(self.figures),
                 "tables": self.tables,
                 "provenance": self.provenance,
-                "velocity_steps": self.velocity_steps,
+                "velocity_steps": self.velocity_steps.to_dict(),
             }
         )
 
@@ -279,7 +280,7 @@ class AnalysisResult(Value):
             figures=frozen_json(saved["figures"], tuple),
             tables=frozen_json(saved["tables"], tuple),
             provenance=frozen_json(saved["provenance"], tuple),
-            velocity_steps=frozen_json(saved.get("velocity_steps", {}), tuple),
+            velocity_steps=VelocitySteps.from_dict(saved.get("velocity_steps")),
             timing=frozen_json(saved.get("timing", {}), tuple),
             output=None if output is None else Path(output),
         )
@@ -301,7 +302,7 @@ class AnalysisResult(Value):
         """The runs that could not be analysed: ``name``, ``source``, ``interval``, ``stage``,
         ``reason``."""
         failed = [entry.failure() for entry in self.runs if not entry.ok]
-        return failed + [dict(f) for f in self.velocity_steps.get("failed", ())]
+        return failed + [dict(f) for f in self.velocity_steps.failed]
 
     @property
     def exit_code(self) -> int:
@@ -311,7 +312,7 @@ class AnalysisResult(Value):
 
     def summary(self) -> str:
         """A one-screen summary: counts, material constants with intervals, predictions,
-        failed runs, and where the output is (display units)."""
+        failed runs, and where the output and the report are (display units)."""
         counts = self.campaign["counts"]
         lines = [
             f"campaign: {counts['runs']} runs"
@@ -328,11 +329,11 @@ class AnalysisResult(Value):
             lines.append(f"  synthetic truth: {inside} the 95 % intervals")
         lines += _prediction_lines(self.predictions, self.analyses)
         lines += [forecast.summary() for forecast in self.forecasts]
-        for record in self.velocity_steps.get("records", ()):
-            fit, best = record["fit"], record["comparison"].get("best_aic")
+        for record in self.velocity_steps.records:
             lines.append(
-                f"velocity steps {record['name']}: a - b = {_number(fit['a_minus_b'], 3)} "
-                f"({record['law']} law), best by AIC: {best}"
+                f"velocity steps {record.name}: a - b = "
+                f"{_value_error(record.fit.a_minus_b, record.fit.a_minus_b_stderr)} "
+                f"({record.law} law), best by AIC: {record.comparison.best_aic}"
             )
         for name, reason in self.analyses.errors.items():
             lines.append(f"joint analysis failed: {name.replace('_', ' ')}: {reason}")
@@ -347,6 +348,8 @@ class AnalysisResult(Value):
                 lines.append(f"  ... and {len(failed) - 10} more in results.json")
         if self.output is not None:
             lines.append(f"output: {self.output.resolve()}")
+        if self.report is not None:
+            lines.append(f"report: {self.report.resolve()}")
         return "\n".join(lines)
 
     def _repr_html_(self) -> str:

@@ -16,6 +16,7 @@ from granflow.analysis.joint import (
     preparation_spreads,
     representative,
     startups_of,
+    switch_startups,
     velocity_collapse,
 )
 from granflow.analysis.joint_results import Analyses, Material
@@ -92,7 +93,7 @@ def joint_stage(entries, executor, *, mcmc, seed):
         model_comparison=comparison,
         mcmc=posterior,
         **comparisons,
-        goodness_of_fit=goodness_of_fit(startups),
+        goodness_of_fit=goodness_of_fit(startups + switch_startups(entries)),
         errors=FrozenMap(dict(notes.errors)),
     )
     return JointStage(

@@ -1,6 +1,7 @@
 """Velocity-step records in a campaign: their rate-and-state fits and model comparison.
 
-A self-contained piece of the campaign analysis, for the report to take in: for each
+A self-contained piece of the campaign analysis: :class:`VelocitySteps` (its records, each a
+:class:`VelocityStepRecord`) is the campaign's ``velocity_steps``. It holds, for each
 velocity-step record (:func:`is_velocity_step_file` tells them from rheometer exports), the
 rate-and-state fit of :func:`granflow.rsf.fit`, the comparison of
 :func:`granflow.compare_models` (rate-and-state aging and slip laws, the paper's Eq. 2 with
@@ -13,15 +14,25 @@ reads: ``model_comparison`` (one entry per record, with ``label``, ``rows``, ``b
 """
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from granflow._json import json_safe
 from granflow._typing import PathLike
+from granflow.analysis.values import Value
 from granflow.errors import GranflowError
+from granflow.fitting.compare import ModelComparison
+from granflow.fitting.results import FrozenMap
 from granflow.io.velocity_steps import is_velocity_step_file
 
 __all__ = [
     "VELOCITY_STEP_TEST",
+    "StepFit",
+    "StepParameter",
+    "VelocityStepRecord",
+    "VelocitySteps",
     "campaign_velocity_steps",
     "is_velocity_step_file",
     "velocity_step_entries",
@@ -264,3 +275,224 @@ def campaign_velocity_steps(
             }
         )
     return {"records": records, "failed": failed}
+
+
+# --------------------------------------------------------------------------- typed results
+
+
+def _value(value):
+    return math.nan if value is None else float(value)
+
+
+@dataclass(frozen=True, eq=False)
+class StepParameter(Value):
+    """One parameter of a velocity-step record's rate-and-state fit.
+
+    Attributes
+    ----------
+    name : str
+    value, stderr : float
+        [unit]
+    ci95 : (float, float)
+        Its 95 % interval [unit].
+    method : str
+        ``"profile"``, ``"wald"`` or ``"fixed"``.
+    unit : str
+        Its SI unit ("" for the friction coefficients, "m" for Dc).
+    """
+
+    name: str
+    value: float
+    stderr: float
+    ci95: tuple
+    method: str
+    unit: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe mapping."""
+        return json_safe(
+            {
+                "name": self.name,
+                "value": self.value,
+                "stderr": self.stderr,
+                "ci95": list(self.ci95),
+                "method": self.method,
+                "unit": self.unit,
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, saved: Mapping[str, Any]) -> "StepParameter":
+        """The parameter of :meth:`to_dict`."""
+        low, high = saved.get("ci95") or (None, None)
+        return cls(
+            name=str(saved["name"]),
+            value=_value(saved["value"]),
+            stderr=_value(saved["stderr"]),
+            ci95=(_value(low), _value(high)),
+            method=str(saved.get("method") or ""),
+            unit=str(saved.get("unit") or ""),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class StepFit(Value):
+    """The rate-and-state fit of a velocity-step record, as the campaign keeps it.
+
+    Attributes
+    ----------
+    law : str
+    success : bool
+    message : str
+    a_minus_b, a_minus_b_stderr : float
+        [-]
+    residual_rms, scatter : float
+        The residuals' RMS and the record's high-frequency scatter [-].
+    harmonics : int
+        Harmonics of the fitted apparatus ripple (0 without one).
+    periodicity : mapping
+        The residuals' check for a ripple.
+    parameters : tuple of StepParameter
+    """
+
+    law: str
+    success: bool
+    message: str
+    a_minus_b: float
+    a_minus_b_stderr: float
+    residual_rms: float
+    scatter: float
+    harmonics: int
+    periodicity: FrozenMap
+    parameters: tuple
+
+    @property
+    def rms_ratio(self) -> float:
+        """The residuals' RMS over the record's scatter [-] (NaN without a scatter)."""
+        return self.residual_rms / self.scatter if self.scatter > 0 else math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe mapping (the shape of :func:`velocity_step_section`'s ``fits``)."""
+        return json_safe(
+            {
+                "law": self.law,
+                "success": self.success,
+                "message": self.message,
+                "a_minus_b": self.a_minus_b,
+                "a_minus_b_stderr": self.a_minus_b_stderr,
+                "residual_rms": self.residual_rms,
+                "scatter": self.scatter,
+                "harmonics": self.harmonics,
+                "periodicity": dict(self.periodicity),
+                "parameters": [p.to_dict() for p in self.parameters],
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, saved: Mapping[str, Any]) -> "StepFit":
+        """The fit of :meth:`to_dict`."""
+        return cls(
+            law=str(saved["law"]),
+            success=bool(saved["success"]),
+            message=str(saved.get("message") or ""),
+            a_minus_b=_value(saved["a_minus_b"]),
+            a_minus_b_stderr=_value(saved["a_minus_b_stderr"]),
+            residual_rms=_value(saved["residual_rms"]),
+            scatter=_value(saved["scatter"]),
+            harmonics=int(saved.get("harmonics") or 0),
+            periodicity=FrozenMap(saved.get("periodicity") or {}),
+            parameters=tuple(StepParameter.from_dict(p) for p in saved["parameters"]),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class VelocityStepRecord(Value):
+    """One velocity-step record of a campaign: its fit, its model comparison, its figure.
+
+    Attributes
+    ----------
+    name : str
+        The file, as the manifest names it.
+    law : str
+        The rate-and-state law of the fit shown.
+    fit : StepFit
+    comparison : granflow.ModelComparison
+        Rate-and-state aging and slip laws, Eq. 2 with and without the direct effect (its
+        fits left out).
+    figure : str
+        The figure's PNG, relative to the output folder.
+    caption : str
+    """
+
+    name: str
+    law: str
+    fit: StepFit
+    comparison: ModelComparison
+    figure: str
+    caption: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe mapping."""
+        comparison = self.comparison.to_dict(include_arrays=False)
+        comparison.pop("fits", None)
+        return json_safe(
+            {
+                "name": self.name,
+                "law": self.law,
+                "fit": self.fit.to_dict(),
+                "comparison": comparison,
+                "figure": self.figure,
+                "caption": self.caption,
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, saved: Mapping[str, Any]) -> "VelocityStepRecord":
+        """The record of :meth:`to_dict`."""
+        return cls(
+            name=str(saved["name"]),
+            law=str(saved["law"]),
+            fit=StepFit.from_dict(saved["fit"]),
+            comparison=ModelComparison.from_dict(saved["comparison"]),
+            figure=str(saved["figure"]),
+            caption=str(saved.get("caption") or ""),
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class VelocitySteps(Value):
+    """The velocity-step records of a campaign (``results.json``'s ``velocity_steps``).
+
+    Attributes
+    ----------
+    records : tuple of VelocityStepRecord
+    failed : tuple of mapping
+        ``name``, ``source``, ``interval``, ``stage``, ``reason`` of each record that could
+        not be read or fitted (as the campaign's failed runs).
+    """
+
+    records: tuple = ()
+    failed: tuple = ()
+
+    def __bool__(self) -> bool:
+        return bool(self.records or self.failed)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Empty without records, else ``{"records", "failed"}``."""
+        if not self:
+            return {}
+        return json_safe(
+            {
+                "records": [record.to_dict() for record in self.records],
+                "failed": [dict(f) for f in self.failed],
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, saved: Mapping[str, Any] | None) -> "VelocitySteps":
+        """The records of :meth:`to_dict` (or of :func:`campaign_velocity_steps`)."""
+        saved = saved or {}
+        return cls(
+            records=tuple(VelocityStepRecord.from_dict(r) for r in saved.get("records", ())),
+            failed=tuple(FrozenMap(f) for f in saved.get("failed", ())),
+        )

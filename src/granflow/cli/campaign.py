@@ -165,8 +165,34 @@ def _analyze_and_report(args, campaign):
             file=sys.stderr,
         )
         return 130
-    print(result.summary())
+    summary = result.summary()
+    print(wrapped(summary) if sys.stdout.isatty() else summary)
     return result.exit_code
+
+
+def wrapped(text, width=None):
+    """``text`` with each line wrapped at the terminal's width between words, never inside
+    a number or a path (a continued line indented under its start): for a terminal, which
+    would otherwise break a line wherever it reaches the edge; a log keeps whole lines."""
+    import shutil
+    import textwrap
+
+    width = width or shutil.get_terminal_size(fallback=(100, 24)).columns
+    lines = []
+    for line in text.splitlines():
+        indent = line[: len(line) - len(line.lstrip())]
+        lines.append(
+            textwrap.fill(
+                line,
+                width=max(width, 40),
+                subsequent_indent=indent + "    ",
+                break_long_words=False,
+                break_on_hyphens=False,
+            )
+            if line.strip()
+            else line
+        )
+    return "\n".join(lines)
 
 
 def _run_analyze(args):

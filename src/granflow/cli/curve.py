@@ -83,12 +83,12 @@ def _run_curve(args):
     force = granflow.friction_time(time, params, velocity)
     print(f"parameters: {params!r}")
     print(
-        f"velocity:   {velocity * 1e6:.6g} um/s  "
+        f"velocity:   {velocity * 1e6:.6g} µm/s  "
         f"(k = {params.k(velocity):.6g} 1/s, t0 = {t0:.6g} s)"
     )
     print(
         f"peak:       F = {top.force * 1e3:.10g} mN at t = {top.time:.10g} s, "
-        f"slip = {top.slip * 1e6:.10g} um"
+        f"slip = {top.slip * 1e6:.10g} µm"
     )
     print(f"steady:     Fd = {params.Fd * 1e3:.6g} mN")
     if args.output:

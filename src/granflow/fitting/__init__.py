@@ -8,6 +8,7 @@ statistics, the fields every result shares and the one report, :func:`fit_report
 ``results`` (equality by value and the JSON codec of every result), ``curves`` (data at the
 door, starting values), ``single`` (:func:`fit` of one curve), ``batch`` (:func:`fit_many`),
 ``joint`` (tied parameters, velocity collapse, Amontons' law, preparation spread),
+``amontons_test`` (the test of Amontons' law over loads),
 ``creep``, ``compare`` (Eq. 3 against simpler laws) and ``mcmc`` (posterior sampling with
 emcee). Stands on :mod:`granflow.model`.
 """
@@ -32,6 +33,7 @@ __getattr__, __dir__, __all__ = attach(
             "preparation_spread",
             "velocity_collapse",
         ],
+        "amontons_test": ["AmontonsTest", "RelationTest", "amontons_test"],
         "creep": ["CurveFitResult", "fit_creep"],
         "compare": ["ModelComparison", "compare_models"],
         "mcmc": ["PosteriorResult", "sample_posterior"],

@@ -91,6 +91,16 @@ class CurveFitResult(FitOutcome):
         return f"CurveFitResult({self.model}, success={self.success}, {values})"
 
     @property
+    def residual_std(self) -> float:
+        """The residuals' standard deviation per degree of freedom, sqrt(χ²/(n − p)), in the
+        unit of the data ([m] for a creep fit); NaN where the noise was given (``sigma_known``:
+        χ² is then already normalised, see ``redchi``)."""
+        dof = self.ndata - self.nfree
+        if self.sigma_known or dof <= 0:
+            return math.nan
+        return math.sqrt(self.chisqr / dof)
+
+    @property
     def correl(self) -> FrozenMap:
         """Correlation of the free parameters, by name (from the covariance)."""
         free = [name for name in self.names if name in self.covar]

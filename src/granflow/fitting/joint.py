@@ -27,6 +27,7 @@ from scipy.stats import t as student
 
 from granflow._html import HtmlReport
 from granflow.errors import InvalidParameterError
+from granflow.fitting.amontons_test import AmontonsTest, amontons_test
 from granflow.fitting.results import (
     FrozenMap,
     ValueEquality,
@@ -104,7 +105,7 @@ class CollapseResult(HtmlReport, ValueEquality):
         """Summary of the test, then the per-velocity values."""
         lines = [
             "[[Velocity collapse]]",
-            f"    velocities    = {', '.join(f'{v * 1e6:.4g}' for v in self.velocities)} um/s",
+            f"    velocities    = {', '.join(f'{v * 1e6:.4g}' for v in self.velocities)} µm/s",
             f"    LR statistic  = {self.statistic:.4g} (df = {self.df})",
             f"    p-value       = {self.p_value:.4g}",
             f"    collapse      = {'not rejected' if self.collapses else 'rejected'} at 5 %",
@@ -112,7 +113,7 @@ class CollapseResult(HtmlReport, ValueEquality):
         for i, v in enumerate(self.velocities):
             p, e = self.per_velocity.params, self.per_velocity.stderr
             lines.append(
-                f"    v = {v * 1e6:.4g} um/s: a = {p[f'a_v{i}']:.5g} +/- {e[f'a_v{i}']:.2g} N, "
+                f"    v = {v * 1e6:.4g} µm/s: a = {p[f'a_v{i}']:.5g} +/- {e[f'a_v{i}']:.2g} N, "
                 f"alpha = {p[f'alpha_v{i}']:.5g} +/- {e[f'alpha_v{i}']:.2g} 1/m"
             )
         return "\n".join(lines)
@@ -241,6 +242,11 @@ class AmontonsResult(HtmlReport, ValueEquality):
     lines_ci95 : mapping
         ``"a"`` and ``"Fd"`` to the 95 % interval of the slope: slope +/- t * stderr with
         Student's t at the line's degrees of freedom (runs - 1), wider than +/- 1.96 stderr.
+    test : AmontonsTest or None
+        The test of the law on the per-load means (``test.statistic``, ``test.p_value``,
+        ``test.holds``, each relation in ``test.relations``;
+        :func:`granflow.fitting.amontons_test.amontons_test`); None with fewer than three
+        loads with repeats.
 
     The lines are least squares through the origin over every run (each repeat a point, so a
     load's mean weighs by its repeats), and their standard error comes from the scatter of
@@ -254,6 +260,7 @@ class AmontonsResult(HtmlReport, ValueEquality):
     per_load: tuple
     lines: FrozenMap
     lines_ci95: FrozenMap = field(default_factory=FrozenMap)
+    test: AmontonsTest | None = None
 
     def __repr__(self):
         slopes = ", ".join(f"{key}={slope:.4g}*F_N" for key, (slope, _) in self.lines.items())
@@ -274,6 +281,15 @@ class AmontonsResult(HtmlReport, ValueEquality):
             lines.append(
                 f"    {key} = ({slope:.5g} +/- {error:.2g}) F_N  95%: [{low:.5g}, {high:.5g}]"
             )
+        if self.test is not None:
+            verdict = "holds" if self.test.holds else "rejected"
+            lines.append(f"[[Test of the law: {verdict} at the 5 % level]]")
+            for relation in self.test.relations:
+                lines.append(
+                    f"    {relation.name} = chi2 {relation.statistic:.3g} with {relation.df} "
+                    f"d.o.f., p = {relation.p_value:.2g}"
+                )
+            lines.append(f"    p (Bonferroni, 3 relations) = {self.test.p_value:.2g}")
         return "\n".join(lines)
 
     def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
@@ -291,6 +307,7 @@ class AmontonsResult(HtmlReport, ValueEquality):
                 "per_load": [dict(row) for row in self.per_load],
                 "lines": {k: list(v) for k, v in self.lines.items()},
                 "lines_ci95": {k: list(v) for k, v in self.lines_ci95.items()},
+                "test": None if self.test is None else self.test.to_dict(),
             }
         )
 
@@ -306,6 +323,7 @@ class AmontonsResult(HtmlReport, ValueEquality):
             per_load=tuple(per_load),
             lines=intervals(d["lines"]),
             lines_ci95=intervals(d.get("lines_ci95", {})),
+            test=None if d.get("test") is None else AmontonsTest.from_dict(d["test"]),
         )
 
 
@@ -422,6 +440,7 @@ def fit_amontons(
         per_load=tuple(per_load),
         lines=FrozenMap(lines),
         lines_ci95=FrozenMap(lines_ci95),
+        test=amontons_test(per_load),
     )
 
 

@@ -151,7 +151,7 @@ class RateStateFitResult(FitOutcome):
                 (
                     "ripple",
                     f"wavelength {self.params['wavelength'] * 1e6:.4g} +/- "
-                    f"{self.stderr['wavelength'] * 1e6:.2g} um, amplitudes {amplitudes}",
+                    f"{self.stderr['wavelength'] * 1e6:.2g} µm, amplitudes {amplitudes}",
                 )
             )
         check = self.periodicity
@@ -159,7 +159,7 @@ class RateStateFitResult(FitOutcome):
             verdict = "significant" if check["significant"] else "not significant"
             line = (
                 f"{'left: ' if self.harmonics else ''}wavelength "
-                f"{check['wavelength'] * 1e6:.4g} um, amplitude {check['amplitude']:.3g}, "
+                f"{check['wavelength'] * 1e6:.4g} µm, amplitude {check['amplitude']:.3g}, "
                 f"{100 * check['fraction']:.0f}% of the residual variance, false alarm "
                 f"{check['false_alarm']:.2g} ({verdict})"
             )
@@ -168,20 +168,37 @@ class RateStateFitResult(FitOutcome):
             rows.append(("periodic residual", line))
         return rows
 
-    def report(self) -> str:
-        """A text report in the manner of lmfit's ``fit_report``."""
-        return fit_report(
-            self,
-            title=f"Rate-and-state fit ({', '.join(self.laws)} law)",
-            extra=[("windows [s]", ", ".join(f"{lo:g}..{hi:g}" for lo, hi in self.windows))],
-            after=[
-                ("residual RMS", f"{self.residual_rms:.4g}"),
-                ("HF scatter", f"{self.noise:.4g}"),
+    def _report_rows(self) -> dict[str, list[tuple[str, object]]]:
+        """The rows :meth:`report` and :meth:`_repr_html_` add to the fit statistics."""
+        from granflow._format import format_number, format_value_error
+
+        return {
+            "extra": [("windows [s]", ", ".join(f"{lo:g}..{hi:g}" for lo, hi in self.windows))],
+            "after": [
+                ("residual RMS", format_number(self.residual_rms, significant=3)),
+                ("HF scatter", format_number(self.noise, significant=3)),
                 ("correlation time", f"{self.correlation_time:.3g} points"),
-                ("a - b", f"{self.a_minus_b:.6g} +/- {self.a_minus_b_stderr:.3g}"),
+                ("a - b", format_value_error(self.a_minus_b, self.a_minus_b_stderr)),
                 *self._ripple_rows(),
             ],
+        }
+
+    def report(self) -> str:
+        """A text report in the manner of lmfit's ``fit_report``: every value with the digits
+        its error justifies, lengths in µm."""
+        return fit_report(
+            self, title=f"Rate-and-state fit ({', '.join(self.laws)} law)", **self._report_rows()
         )
+
+    def _repr_html_(self) -> str:
+        """The fit as HTML tables (Jupyter), built from its fields: statistics, variables in
+        display units (Dc in µm) with their intervals, correlations."""
+        from granflow._html import fit_html
+
+        title = f"RateStateFitResult: {'+'.join(self.laws)} law" + (
+            f" of {self.source}" if self.source else ""
+        )
+        return fit_html(self, title=title, **self._report_rows())
 
     def __getstate__(self):
         """Pickle the fields only: the model kept for sampling the posterior

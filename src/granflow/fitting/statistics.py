@@ -271,21 +271,27 @@ def fit_report(
 
 
 def _variable_line(result, name):
-    """One ``[[Variables]]`` line: ``name = value +/- stderr (rel) unit  95%: [low, high]``,
-    with the interval's method and ``at bound`` where the result knows them."""
+    """One ``[[Variables]]`` line: ``name = value +/- stderr unit (rel)  95%: [low, high]``,
+    in the display unit of the parameter's SI unit (mN for N, µm for m: see
+    :func:`granflow.model.units.display_of_si`), the value with the digits its error
+    justifies, with the interval's method and ``at bound`` where the result knows them."""
+    from granflow._format import format_interval, format_number, format_value_error
+    from granflow.model.units import display_of_si
+
     width = max(5, *(len(n) for n in result.names))
     value = result.params[name]
-    unit = f" {result.units[name]}" if result.units[name] else ""
+    scale, unit = display_of_si(result.units[name])
+    unit = f" {unit}" if unit else ""
     if name in getattr(result, "fixed", ()):
-        return f"    {name:<{width}} = {value:.8g}{unit} (fixed)"
+        return f"    {name:<{width}} = {format_number(value, scale, 8)}{unit} (fixed)"
     err = result.stderr[name]
-    rel = f" ({100 * err / abs(value):.2f}%)" if value else ""
-    low, high = result.ci95[name]
+    rel = f" ({100 * err / abs(value):.2g} %)" if value and math.isfinite(err) else ""
+    interval = format_interval(result.ci95[name], scale).replace("—", "nan")
     method = getattr(result, "ci_method", None)
     method = f" ({method[name]})" if method is not None else ""
     at_bound = getattr(result, "at_bound", None)
     flag = " at bound" if at_bound is not None and at_bound[name] else ""
-    return (
-        f"    {name:<{width}} = {value:.8g} +/- {err:.4g}{rel}{unit}  "
-        f"95%: [{low:.6g}, {high:.6g}]{method}{flag}"
-    )
+    shown = format_value_error(value, err, scale).replace(" ± ", " +/- ")
+    if not math.isfinite(err):
+        shown += " +/- nan"
+    return f"    {name:<{width}} = {shown}{unit}{rel}  95%: {interval}{method}{flag}"

@@ -36,14 +36,39 @@ def _optional(value):
     return None if value is None else float(value)
 
 
+#: How each method is named where it is shown.
+METHOD_NAMES = {
+    "model": "model (Eq. 2, quasi-static)",
+    "inverse velocity": "inverse velocity (Fukuzono)",
+    "voight": "Voight's law",
+}
+
+
 def _fmt(value, scale, unit, digits=4):
+    from granflow._format import format_number
+
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "n/a"
-    return f"{value * scale:.{digits}g} {unit}"
+    return f"{format_number(value, scale, digits)} {unit}".rstrip()
 
 
 def _fmt_interval(pair, scale, unit):
-    return f"[{_fmt(pair[0], scale, '')}, {_fmt(pair[1], scale, '')}] {unit}"
+    """``[low, high] unit`` with digits enough that the two ends differ."""
+    from granflow._format import format_interval
+
+    text = format_interval(list(pair), scale).replace("—", "n/a")
+    return f"{text} {unit}".rstrip()
+
+
+def _card(title, rows, notes=()):
+    """An HTML card built from fields: a title, a table of (quantity, value, interval, unit)
+    rows in display units, and notes."""
+    from granflow._html import Html, result_html, table, text
+
+    header = ("quantity", "value", "interval", "unit")
+    parts = [table(rows, header=header, numeric=(1, 2))]
+    parts += [Html(f"<p>{text(note)}</p>") for note in notes if note]
+    return result_html(title, parts)
 
 
 def _within(cdf, until, seconds):
@@ -196,16 +221,38 @@ class PeakForecast(_Fitted, _Codec):
             f"time={self.time:.4g} s, until={self.until:.4g} s)"
         )
 
+    def _repr_html_(self) -> str:
+        """An HTML card built from the fields (Jupyter), in display units."""
+        from granflow._format import format_number
+
+        pct = f"{self.level:.0%}"
+        rows = [
+            (
+                "F_peak",
+                _fmt(self.force, 1e3, ""),
+                _fmt_interval(self.force_interval, 1e3, ""),
+                "mN",
+            ),
+            ("x_peak", _fmt(self.slip, 1e6, ""), _fmt_interval(self.slip_interval, 1e6, ""), "µm"),
+            ("t_peak", _fmt(self.time, 1, ""), _fmt_interval(self.time_interval, 1, ""), "s"),
+        ]
+        title = (
+            f"PeakForecast from the start-up up to t = {format_number(self.until)} s "
+            f"({self.n_points} points, v = {format_number(self.velocity, 1e6)} µm/s); "
+            f"intervals {pct}"
+        )
+        return _card(title, rows, [f"clock: {self.clock}", self.message])
+
     def report(self) -> str:
-        """A short text report in display units (mN, um, s)."""
+        """A short text report in display units (mN, µm, s)."""
         pct = f"{self.level:.0%}"
         lines = [
             f"[[Peak forecast]] from the start-up up to t = {self.until:.4g} s "
-            f"({self.n_points} points, v = {self.velocity * 1e6:.4g} um/s)",
+            f"({self.n_points} points, v = {self.velocity * 1e6:.4g} µm/s)",
             f"    F_peak = {_fmt(self.force, 1e3, 'mN')}  {pct}: "
             f"{_fmt_interval(self.force_interval, 1e3, 'mN')}",
-            f"    x_peak = {_fmt(self.slip, 1e6, 'um')}  {pct}: "
-            f"{_fmt_interval(self.slip_interval, 1e6, 'um')}",
+            f"    x_peak = {_fmt(self.slip, 1e6, 'µm')}  {pct}: "
+            f"{_fmt_interval(self.slip_interval, 1e6, 'µm')}",
             f"    t_peak = {_fmt(self.time, 1, 's')}  {pct}: "
             f"{_fmt_interval(self.time_interval, 1, 's')}",
             f"    prior: {self.prior or 'none'}; clock: {self.clock}",
@@ -359,11 +406,69 @@ class FailureForecast(_Fitted, _Codec):
         when = "no failure in sight" if self.time is None else f"time={self.time:.5g} s"
         return f"FailureForecast({when}, interval={self.time_interval}, until={self.until:.4g} s)"
 
+    def _repr_html_(self) -> str:
+        """An HTML card built from the fields (Jupyter): t_f, F_f and the slip at failure
+        with their intervals in display units, and the staircase's likely steps."""
+        from granflow._format import format_number
+
+        pct = f"{self.level:.0%}"
+        method = METHOD_NAMES.get(self.method, self.method)
+        title = (
+            f"FailureForecast ({method}) from the record up to t = "
+            f"{format_number(self.until)} s ({self.n_points} points, loading: "
+            f"{self.loading.kind}); intervals {pct}"
+        )
+        if self.time is None:
+            return _card(title, [], [f"no failure forecast: {self.message}"])
+        rows = [
+            (
+                "failure time t_f",
+                _fmt(self.time, 1, ""),
+                _fmt_interval(self.time_interval, 1, ""),
+                "s",
+            ),
+            (
+                "failure force F_f",
+                _fmt(self.force, 1e3, ""),
+                _fmt_interval(self.force_interval, 1e3, ""),
+                "mN",
+            ),
+            (
+                "slip at failure",
+                _fmt(self.slip, 1e6, ""),
+                _fmt_interval(self.slip_interval, 1e6, ""),
+                "µm",
+            ),
+        ]
+        notes = [f"clock: {self.clock}", self.message]
+        if self.steps is not None:
+            notes.insert(0, self._steps_line())
+        return _card(title, rows, notes)
+
+    def _steps_line(self) -> str:
+        """The staircase's likely steps in words."""
+        likely = [
+            f"step {n} at {0.5 * (lo + hi):.4g} s: {p:.1%}"
+            for n, lo, hi, p in zip(
+                self.steps["step"],
+                self.steps["earliest"],
+                self.steps["latest"],
+                self.steps["probability"],
+                strict=True,
+            )
+            if p >= 0.01
+        ]
+        line = f"fails at the start of {'; '.join(likely) or 'a later step'}"
+        if math.isfinite(self.time_probability):
+            line += f"; the interval's steps hold {self.time_probability:.1%}"
+        return line
+
     def report(self) -> str:
-        """A short text report in display units (mN, um, s)."""
+        """A short text report in display units (mN, µm, s)."""
         pct = f"{self.level:.0%}"
         lines = [
-            f"[[Failure forecast]] ({self.method}) from the record up to t = {self.until:.4g} s "
+            f"[[Failure forecast]] ({METHOD_NAMES.get(self.method, self.method)}) from the "
+            f"record up to t = {self.until:.4g} s "
             f"({self.n_points} points, loading: {self.loading.kind})",
         ]
         if self.observed_failure is not None:
@@ -382,25 +487,12 @@ class FailureForecast(_Fitted, _Codec):
             f"{_fmt_interval(self.time_interval, 1, 's')}",
             f"    F_f = {_fmt(self.force, 1e3, 'mN')}  {pct}: "
             f"{_fmt_interval(self.force_interval, 1e3, 'mN')}",
-            f"    slip at failure = {_fmt(self.slip, 1e6, 'um')}  {pct}: "
-            f"{_fmt_interval(self.slip_interval, 1e6, 'um')}",
+            f"    slip at failure = {_fmt(self.slip, 1e6, 'µm')}  {pct}: "
+            f"{_fmt_interval(self.slip_interval, 1e6, 'µm')}",
             f"    prior: {self.prior or 'none'}; clock: {self.clock}",
         ]
         if self.steps is not None:
-            likely = [
-                f"step {n} at {0.5 * (lo + hi):.4g} s: {p:.1%}"
-                for n, lo, hi, p in zip(
-                    self.steps["step"],
-                    self.steps["earliest"],
-                    self.steps["latest"],
-                    self.steps["probability"],
-                    strict=True,
-                )
-                if p >= 0.01
-            ]
-            lines.append(f"    fails at the start of {'; '.join(likely) or 'a later step'}")
-            if math.isfinite(self.time_probability):
-                lines.append(f"    the interval's steps hold {self.time_probability:.1%}")
+            lines.append(f"    {self._steps_line()}")
         if self.message:
             lines.append(f"    note: {self.message}")
         return "\n".join(lines)
@@ -441,12 +533,30 @@ class BaselineForecast(_Codec):
     approaching: bool
     message: str = ""
 
+    def _repr_html_(self) -> str:
+        """An HTML card built from the fields (Jupyter)."""
+        method = METHOD_NAMES.get(self.method, self.method)
+        title = f"BaselineForecast ({method}) up to t = {self.until:.4g} s"
+        if self.time is None:
+            return _card(title, [], [f"no failure forecast: {self.message}"])
+        rows = [
+            (
+                "failure time t_f",
+                _fmt(self.time, 1, ""),
+                _fmt_interval(self.time_interval, 1, ""),
+                "s",
+            ),
+            ("exponent α", f"{self.exponent:.3g}", "", ""),
+        ]
+        return _card(title, rows, [self.message])
+
     def report(self) -> str:
         """One line."""
+        name = METHOD_NAMES.get(self.method, self.method)
         if self.time is None:
-            return f"[[{self.method}]] no failure forecast: {self.message}"
+            return f"[[{name}]] no failure forecast: {self.message}"
         return (
-            f"[[{self.method}]] t_f = {self.time:.4g} s, {self.level:.0%}: "
+            f"[[{name}]] t_f = {self.time:.4g} s, {self.level:.0%}: "
             f"{_fmt_interval(self.time_interval, 1, 's')} (alpha = {self.exponent:.3g})"
         )
 

@@ -28,6 +28,7 @@ __all__ = [
     "QUANTITIES",
     "Quantity",
     "as_si",
+    "display_of_si",
     "display_unit",
     "is_quantity",
     "parse_quantity",
@@ -145,6 +146,30 @@ def si_unit(name):
 def display_unit(name):
     """The unit the quantity ``name`` is shown in ("mN", "µm", ...)."""
     return quantity(name).display
+
+
+#: The display unit of an SI unit, where it differs: (factor from SI, display unit).
+_DISPLAY_OF_SI = {
+    "N": (1e3, "mN"),
+    "m": (1e6, "µm"),
+    "m/s": (1e6, "µm/s"),
+    "N/s": (1e3, "mN/s"),
+    "N m": (1e3, "mN m"),
+}
+
+
+def display_of_si(unit):
+    """The display factor and unit of a value in the SI unit ``unit``: ``(1e6, "µm")`` for
+    "m", ``(1e3, "mN")`` for "N", ``(1.0, unit)`` for the units shown as they are.
+
+    Examples
+    --------
+    >>> display_of_si("m")
+    (1000000.0, 'µm')
+    >>> display_of_si("1/m")
+    (1.0, '1/m')
+    """
+    return _DISPLAY_OF_SI.get(unit, (1.0, unit))
 
 
 def to_display(name, value):

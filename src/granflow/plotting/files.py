@@ -43,6 +43,11 @@ def figure_of(figure: Any) -> Figure | SubFigure:
     )
 
 
+#: zlib level of the PNG files: 3 writes a page of small multiples in 0.8 s rather than
+#: 1.3 s (level 6, PIL's default) for a file 15 % larger.
+PNG_COMPRESSION = 3
+
+
 def _atomic_save(figure, path, **options):
     """Write to a temporary file beside ``path``, then rename it (no half-written figure)."""
     from granflow._files import write_atomic
@@ -120,7 +125,14 @@ def save_figure(
     directory.mkdir(parents=True, exist_ok=True)
     paths = {suffix: directory / f"{stem}.{suffix}" for suffix in formats}
     if "png" in paths:
-        _atomic_save(whole, paths["png"], format="png", dpi=PNG_DPI, metadata={"Software": None})
+        _atomic_save(
+            whole,
+            paths["png"],
+            format="png",
+            dpi=PNG_DPI,
+            metadata={"Software": None},
+            pil_kwargs={"compress_level": PNG_COMPRESSION},
+        )
     if "svg" in paths:
         with matplotlib.rc_context({"svg.hashsalt": stem, "svg.fonttype": "path"}):
             _atomic_save(whole, paths["svg"], format="svg", metadata={"Date": None})

@@ -82,14 +82,20 @@ def _fit_in_time(run, fit):
 
 def _fit_label(run, fit):
     """a, alpha v and t0 of a fit (the paper's Fig. 2a caption), or a and alpha."""
+    from granflow._format import format_number
+
     velocity = fit.velocity if fit.velocity is not None else run.nominal_velocity
     p = fit.params
-    a = f"a = {p['a'] * FORCE_SCALE:.3g} {FORCE_UNIT}"
+    # the same digits on every line (3.30 beside 3.29, not 3.3), as the paper's caption
+    a = f"a = {format_number(p['a'], FORCE_SCALE, 3)} {FORCE_UNIT}"
     if fit.domain == "time":
-        return f"{a}, αv = {p['k']:.2g} 1/s, t₀ = {p['t0']:.2g} s"
-    if velocity:
-        return f"{a}, αv = {p['alpha'] * velocity:.2g} 1/s, t₀ = {p['x0'] / velocity:.2g} s"
-    return f"{a}, α = {p['alpha']:.3g} 1/m"
+        k, t0 = p["k"], p["t0"]
+    elif velocity:
+        k, t0 = p["alpha"] * velocity, p["x0"] / velocity
+    else:
+        return f"{a}, α = {format_number(p['alpha'], significant=3)} 1/m"
+    k, t0 = format_number(k, significant=2), format_number(t0, significant=2)
+    return f"{a}, αv = {k} 1/s, t₀ = {t0} s"
 
 
 def plot_startup(runs, fits, ax=None, *, residual_ax=None):
@@ -201,24 +207,63 @@ def _runaway_time(t, slip):
     return float(t[fast[0]]) if fast.size else None
 
 
+#: The inset of a stress ramp magnifies the creep up to this slip [m]: the sub-µm slip of the
+#: paper's inset, far below the slip at failure.
+CREEP_ZOOM = 1e-6
+
+
+def _zoom_window(t, slip, end):
+    """The time [s] and slip [m] the inset shows: from the start until the slip first
+    reaches the smaller of :data:`CREEP_ZOOM` and a quarter of the slip at ``end``."""
+    before = slip[t <= end]
+    limit = min(CREEP_ZOOM, 0.25 * float(np.max(before)))
+    reached = np.flatnonzero(before >= limit)
+    stop = float(t[reached[0]]) if reached.size else float(end)
+    return max(stop, float(t[0]) + 1e-9), limit
+
+
 def _slip_inset(parent, t, slip, end, model=None):
-    """An inset of the slip [µm] up to time ``end`` [s] in the upper left of ``parent``."""
-    inset = parent.inset_axes([0.06, 0.48, 0.34, 0.34])
-    window = t <= end
-    inset.plot(t[window], slip[window] * SLIP_SCALE, ".", ms=2, color=SLIP_COLOR)
+    """An inset (upper left of ``parent``) magnifying the sub-µm creep long before the
+    failure: time up to where the slip reaches about 1 µm, slip [µm] up to a little above."""
+    stop, limit = _zoom_window(t, slip, end)
+    inset = parent.inset_axes([0.07, 0.47, 0.32, 0.33])
+    window = t <= stop * 1.02
+    inset.plot(t[window], slip[window] * SLIP_SCALE, ".", ms=2.5, color=SLIP_COLOR)
     if model is not None:
         t_model, slip_model = model
-        keep = t_model <= end
+        keep = t_model <= stop * 1.02
         inset.plot(t_model[keep], slip_model[keep] * SLIP_SCALE, "--", color=MODEL_COLOR, lw=1.2)
-    inset.set_xlim(0.0, end)
+    inset.set_xlim(0.0, stop)
+    inset.set_ylim(min(0.0, float(np.min(slip[window])) * SLIP_SCALE), 1.15 * limit * SLIP_SCALE)
     small_axes(inset, f"t [{TIME_UNIT}]", f"δ [{SLIP_UNIT}]")
     inset.text(
-        0.04, 0.94, "before failure", transform=inset.transAxes, va="top", fontsize="x-small"
+        0.04, 0.94, "creep below F_peak", transform=inset.transAxes, va="top", fontsize="x-small"
     )
     return inset
 
 
-def plot_stress_ramp(run, params=None, ax=None, *, inset=True, clip_runaway=True):
+def _rate_controlled_force(force_ax, params, velocity, end):
+    """The rate-controlled F(t) of Eq. 3 at ``velocity`` (grey, on the force axis), from t0
+    to ``end`` [s], as the paper's grey curve."""
+    from granflow.model.friction import friction_time
+
+    start = params.t0(velocity)
+    if not end > start:
+        return
+    grid = np.linspace(start, end, 400)
+    force_ax.plot(
+        grid,
+        friction_time(grid, params, velocity) * FORCE_SCALE,
+        "-",
+        color=MODEL_COLOR,
+        lw=2.5,
+        alpha=0.55,
+        zorder=1,
+        label=f"F(t) under rate control, v = {velocity * 1e6:.3g} µm/s (model)",
+    )
+
+
+def plot_stress_ramp(run, params=None, ax=None, *, inset=True, clip_runaway=True, velocity=None):
     """A stress ramp (Fig. 3a): slip (left axis) and imposed force (right axis) against time.
 
     Parameters
@@ -234,12 +279,17 @@ def plot_stress_ramp(run, params=None, ax=None, *, inset=True, clip_runaway=True
     ax : matplotlib.axes.Axes, optional
         Axes for the slip; the force goes on its twin. A new figure when None.
     inset : bool
-        Magnify the slip before failure in an inset (upper left), when the runaway makes it
-        small in the main axes. The end of that window is the first of the predicted failure
-        (with ``params``) and the first time the slip rate exceeds 50 times its median.
+        Magnify the sub-µm creep long before the failure in an inset (upper left): time up
+        to where the slip reaches 1 µm (or a quarter of the slip before failure), as the
+        paper's inset. The failure is the first of the predicted failure (with ``params``)
+        and the first time the slip rate exceeds 50 times its median.
     clip_runaway : bool
         Scale the slip axis to the creep before that time (three times its largest slip),
         the runaway leaving through the top, marked "runaway ↑".
+    velocity : float, optional
+        With ``params``, also draws the rate-controlled F(t) of Eq. 3 at this velocity
+        [m/s] on the force axis (grey), as the paper's grey curve: the imposed force meets
+        its peak where the layer fails.
 
     Returns
     -------
@@ -293,6 +343,8 @@ def plot_stress_ramp(run, params=None, ax=None, *, inset=True, clip_runaway=True
                 lw=1.2,
                 label="slip, quasi-static model",
             )
+        if velocity is not None and t_force.size:
+            _rate_controlled_force(force_ax, params, velocity, float(np.max(t_force)))
     align_zeros(slip_ax, force_ax, slip, force, peak)
     runaway = _runaway_time(t_slip, slip)
     ends = [value for value in (failure, runaway) if value is not None]
@@ -318,13 +370,14 @@ def _imposed_force(run):
 
 
 def _creep_inset(parent, params, levels):
-    """The rate-controlled overshoot F(x) with the creep forces and F_d (lower right)."""
+    """The rate-controlled overshoot F(x) with the creep forces and F_d (upper left, where
+    logarithmic creep leaves room; a legend inside the axes goes upper right)."""
     from granflow.model.friction import friction_slip
 
     peak = peak_or_none(params)
     top = 4.0 * peak.slip if peak is not None else 40.0 / params.alpha
     slip = np.linspace(params.x0, top, 400)
-    inset = parent.inset_axes([0.52, 0.64, 0.45, 0.32])
+    inset = parent.inset_axes([0.1, 0.62, 0.36, 0.33])
     inset.plot(
         (slip - params.x0) * SLIP_SCALE,
         friction_slip(slip, params) * FORCE_SCALE,
@@ -355,7 +408,7 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
         drawn as lines in the run's colour.
     ax : matplotlib.axes.Axes, optional
     params : Params, optional
-        Adds an inset (lower right) with the rate-controlled overshoot F(x), F_d (green
+        Adds an inset (upper left) with the rate-controlled overshoot F(x), F_d (green
         dashed) and the creep forces, as in the paper's inset.
     log_time : bool
         Logarithmic time axis (logarithmic creep is then a straight line).
@@ -387,14 +440,15 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
         if log_time:
             t, slip = t[t > 0], slip[t > 0]
         fitted = usable(fit)
-        ax.plot(t, slip * SLIP_SCALE, ".", ms=2.5, color=color, alpha=0.45 if fitted else 0.8)
+        # the points stay visible: drawn full size, the fit a thin line over them
+        ax.plot(t, slip * SLIP_SCALE, ".", ms=4.0, color=color, alpha=0.55, zorder=2)
         if fitted:
             order = np.argsort(fit.x)
             x, y = fit.x[order], fit.best_fit[order]
             if log_time:
                 x, y = x[x > 0], y[x > 0]
-            outline = [patheffects.Stroke(linewidth=3.2, foreground="white"), patheffects.Normal()]
-            ax.plot(x, y * SLIP_SCALE, "-", color=color, lw=1.6, zorder=3, path_effects=outline)
+            outline = [patheffects.Stroke(linewidth=2.0, foreground="white"), patheffects.Normal()]
+            ax.plot(x, y * SLIP_SCALE, "-", color=color, lw=0.9, zorder=3, path_effects=outline)
         level = _imposed_force(run)
         label = run_label(run) if level is None else f"F = {level * FORCE_SCALE:.3g} {FORCE_UNIT}"
         if fitted:
@@ -425,7 +479,7 @@ def plot_creep(runs, fits=None, ax=None, *, params=None, log_time=False):
     ax.set_xlabel(f"time t [{TIME_UNIT}]")
     ax.set_ylabel(f"creep slip δ [{SLIP_UNIT}]")
     if params is not None:
-        # the inset takes the upper right: the curves keep the lower half
+        # the inset takes the upper left: the curves keep the lower half
         ax.set_ylim(0.0, ax.get_ylim()[1] / 0.55)
         _creep_inset(ax, params, levels)
         handles.append(Line2D([], [], color=STEADY_COLOR, ls="--", label=f"{F_D} (inset)"))

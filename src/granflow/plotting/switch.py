@@ -116,7 +116,7 @@ def plot_switch(
     ax: Axes | None = None,
     *,
     switch_time: float | None = None,
-    clip: bool = True,
+    clip: bool = False,
 ) -> NDArray[Any]:
     """Switch from rate to force control (Fig. 3c): slip and force against time.
 
@@ -141,8 +141,9 @@ def plot_switch(
         Without a velocity column, the slip rate over 2 % of the run's duration stands in.
 
     clip : bool
-        When the slip runs away after the switch, scale the slip axis to the slip before it
-        (three times its largest value), the runaway leaving through the top.
+        Scale the slip axis to the slip before the switch (three times its largest value),
+        the runaway leaving through the top. Off by default: the runaway after the switch is
+        what the figure shows (Fig. 3c).
 
     Returns
     -------
@@ -201,7 +202,8 @@ def plot_switch(
         slip_ax.axhline(
             outcome[1] * SLIP_SCALE, color=MODEL_COLOR, ls=":", lw=1.2, label="stop slip (model)"
         )
-    align_zeros(slip_ax, force_ax, slip, force, None)
+    # the force axis holds the model's whole overshoot too, not only the measured force
+    align_zeros(slip_ax, force_ax, slip, force, None if params is None else peak_or_none(params))
     if clip and switch is not None and slip.size:
         # a failure's runaway would squash the slip before the switch: scale to it
         scale_to_creep(slip_ax, t_slip, slip, switch)

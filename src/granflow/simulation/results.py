@@ -155,11 +155,11 @@ class Origin:
             return (
                 f"start of shear at t = {self.shear_start:.6g} s; the model takes over at "
                 f"t = {self.model_start:.6g} s (model time = t - {self.shear_start:.6g} s, "
-                f"slip = displacement + {self.slip_offset * 1e6:.6g} um)"
+                f"slip = displacement + {self.slip_offset * 1e6:.6g} µm)"
             )
         return (
             f"rest at t = {self.model_start:.6g} s; the model describes the layer from there "
-            f"(slip = displacement + {self.slip_offset * 1e6:.6g} um)"
+            f"(slip = displacement + {self.slip_offset * 1e6:.6g} µm)"
         )
 
     def to_dict(self):
@@ -417,18 +417,89 @@ class SimulationResult:
             work=mapping.get("work", {}),
         )
 
-    def _repr_html_(self) -> str:
-        """The report as HTML (Jupyter): the run, its events and its segments as tables
-        (display units)."""
-        from granflow._html import heading, report_parts, result_html, table
+    def _layer_outcome(self) -> str:
+        """What the layer did, in words with display units: failed (when, at what force),
+        stopped, or neither."""
+        from granflow._format import format_number
 
-        summary = self.report().split("[[Events]]")[0]
+        if self.failure is not None:
+            return (
+                f"fails at t = {format_number(self.failure.time)} s, force "
+                f"{format_number(self.failure.force, 1e3)} mN"
+            )
+        stops = [event for event in self.events if event.kind == "stop"]
+        if stops:
+            return f"stops at t = {format_number(stops[-1].time)} s (no failure)"
+        return "no failure"
+
+    def _summary_rows(self) -> list[tuple[str, str]]:
+        """The rows of the summary (display units, the digits a reader needs)."""
+        from granflow._format import display_text, format_number
+
+        opts = self.options
+        rows = [
+            ("layer", self._layer_outcome()),
+            (
+                "simulation",
+                ("completed" if self.success else "stopped early")
+                + f": {display_text(self.message)}",
+            ),
+            ("method", str(opts["method"])),
+            ("clock", str(opts["clock"])),
+            ("origin", self.origin.describe()),
+            ("segments", f"{len(self.segments)} of {len(self.protocol)}"),
+            (
+                "time",
+                f"{format_number(self.t[-1])} s of {format_number(self.protocol.duration)} s",
+            ),
+            ("v_fail", f"{format_number(opts['v_fail'], 1e6)} µm/s"),
+        ]
+        if opts["method"] == "dynamic":
+            rows.append(
+                (
+                    "drive",
+                    f"mass {format_number(opts['mass'])} kg, damping "
+                    f"{format_number(opts['damping'])} N s/m"
+                    + (
+                        f", stiffness {format_number(opts['stiffness'])} N/m"
+                        if opts["stiffness"] is not None
+                        else ""
+                    ),
+                )
+            )
+        if opts["direct_effect"] is not None:
+            effect = opts["direct_effect"]
+            rows.append(
+                (
+                    "direct effect",
+                    f"A {format_number(effect.amplitude, 1e3)} mN, v_ref "
+                    f"{format_number(effect.velocity, 1e6)} µm/s",
+                )
+            )
+        if self.work:
+            rows.append(
+                (
+                    "work",
+                    f"{self.work['evaluations']} evaluations, "
+                    f"{self.work['transitions']} transitions (counted)",
+                )
+            )
+        if opts.get("max_wall") is not None:
+            rows.append(("max_wall", f"{format_number(opts['max_wall'])} s (a wall-clock limit)"))
+        return rows
+
+    def _repr_html_(self) -> str:
+        """An HTML card built from the fields (Jupyter): what the layer did, the run, its
+        events and its segments as tables, every number in display units (s, µm, mN)."""
+        from granflow._format import format_number
+        from granflow._html import heading, result_html, table
+
         events = [
             (
                 event.kind,
-                f"{event.time:.6g}",
-                f"{event.slip * 1e6:.6g}",
-                f"{event.force * 1e3:.6g}",
+                format_number(event.time, significant=5),
+                format_number(event.slip, 1e6, 5),
+                format_number(event.force, 1e3, 5),
                 event.segment + 1,
                 event.message,
             )
@@ -439,21 +510,22 @@ class SimulationResult:
                 record.index + 1,
                 record.kind,
                 record.control,
-                f"{record.start_time:.6g} – {record.end_time:.6g}",
-                f"{record.start_force * 1e3:.6g} → {record.end_force * 1e3:.6g}",
+                f"{format_number(record.start_time)} – {format_number(record.end_time)}",
+                f"{format_number(record.start_force, 1e3)} → "
+                f"{format_number(record.end_force, 1e3)}",
                 record.outcome,
             )
             for record in self.segments
         ]
-        outcome = "failed" if self.failed else ("ok" if self.success else "aborted")
         return result_html(
-            f"SimulationResult: {self.options['method']}, {len(self.t)} points, {outcome}",
+            f"SimulationResult ({self.options['method']}, {len(self.t)} points): the layer "
+            f"{self._layer_outcome()}",
             [
-                *report_parts(summary),
+                table(self._summary_rows()),
                 heading(f"Events ({len(events)})"),
                 table(
                     events,
-                    header=("event", "t [s]", "slip [µm]", "force [mN]", "segment", ""),
+                    header=("event", "t [s]", "slip x [µm]", "force [mN]", "segment", ""),
                     numeric=(1, 2, 3, 4),
                 ),
                 heading("Segments"),
@@ -470,6 +542,7 @@ class SimulationResult:
         opts = self.options
         lines = [
             "[[Simulation]]",
+            f"    layer      = {self._layer_outcome()}",
             f"    method     = {opts['method']}",
             f"    clock      = {opts['clock']}",
             f"    origin     = {self.origin.describe()}",
@@ -484,7 +557,7 @@ class SimulationResult:
             )
             if opts["stiffness"] is not None:
                 lines.append(f"    stiffness  = {opts['stiffness']:.6g} N/m")
-        lines.append(f"    v_fail     = {opts['v_fail'] * 1e6:.6g} um/s")
+        lines.append(f"    v_fail     = {opts['v_fail'] * 1e6:.6g} µm/s")
         if self.work:
             lines.append(
                 f"    work       = {self.work['evaluations']} evaluations, "
@@ -496,7 +569,7 @@ class SimulationResult:
             effect = opts["direct_effect"]
             lines.append(
                 f"    direct     = A {effect.amplitude * 1e3:.6g} mN, v_ref "
-                f"{effect.velocity * 1e6:.6g} um/s"
+                f"{effect.velocity * 1e6:.6g} µm/s"
             )
         lines.append("[[Events]]")
         if not self.events:
@@ -504,7 +577,7 @@ class SimulationResult:
         for event in self.events:
             lines.append(
                 f"    {event.kind:<8} t = {event.time:<12.7g} s  slip = "
-                f"{event.slip * 1e6:<12.7g} um  force = {event.force * 1e3:.7g} mN"
+                f"{event.slip * 1e6:<12.7g} µm  force = {event.force * 1e3:.7g} mN"
             )
         lines.append("[[Segments]]")
         for record in self.segments:

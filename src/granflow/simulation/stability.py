@@ -204,7 +204,7 @@ class StabilityMap(HtmlReport):
             "[[Stability map]]",
             f"    method        = {self.method}",
             f"    clock         = {self.clock}",
-            f"    start-up      = {self.velocity * 1e6:.6g} um/s",
+            f"    start-up      = {self.velocity * 1e6:.6g} µm/s",
             f"    switch points = {n} from {self.switch_points.min():.6g} to "
             f"{self.switch_points.max():.6g} s",
             f"    stress ratios = {m} from {self.stress_ratios.min():.6g} to "
@@ -217,7 +217,7 @@ class StabilityMap(HtmlReport):
         if counts["stop"]:
             slips = self.stop_slip[self.stopped]
             lines.append(
-                f"    stop slip     = {np.min(slips) * 1e6:.6g} .. {np.max(slips) * 1e6:.6g} um"
+                f"    stop slip     = {np.min(slips) * 1e6:.6g} .. {np.max(slips) * 1e6:.6g} µm"
             )
         if counts["failure"]:
             times = self.failure_time[self.failed]
