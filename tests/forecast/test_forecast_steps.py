@@ -13,12 +13,18 @@ from rising_branch import branch_slip
 from scipy.stats import chi2, kstest, norm
 
 import granflow as gf
-from granflow.forecast.calibration import _record, step_pit
+from granflow.forecast.calibration import draw, step_pit
 from granflow.forecast.distribution import Distribution
 from granflow.forecast.results import FailureForecast
 from granflow.forecast.synthetic import staircase_record
 
 PARAMS = gf.Params(a=3.3e-3, alpha=5.0e4, Fd=11.0e-3, x0=0.3e-6)
+
+
+def _record(seed, cell):
+    """(t, slip, force, failure time) of one seed's record of the calibration study."""
+    case = draw(seed, cell)
+    return case.t, case.slip, case.force, case.failure
 
 
 def staircase(offset, steps=12, duration=15.0, noise=3e-9, seed=0):
@@ -158,7 +164,7 @@ def test_the_steps_survive_the_round_trip(near_a_level, open_above):
 def open_above():
     """A staircase of the calibration study cut half way to failure, where the record does
     not yet bound the failure from above."""
-    t, slip, force, failure = _record(3, "steps")
+    t, slip, force, failure = _record(200, "steps")
     return gf.forecast_failure(t, slip, force, until=0.5 * failure), failure
 
 
@@ -255,14 +261,15 @@ def test_the_step_probabilities_are_calibrated_over_seeds():
     assert kstest(pits, "uniform").pvalue > 1e-3
 
 
-def test_the_calibration_runs_the_protocols_and_leads_it_is_given():
-    from granflow.forecast.calibration import calibrate
+def test_the_calibration_runs_the_cells_and_leads_it_is_given():
+    from granflow.forecast.calibration import study
 
-    outcomes = calibrate([9001], protocols=("steps anywhere",), leads=(0.1,))
-    assert {(o.protocol, o.lead) for o in outcomes} == {("steps anywhere", 0.1)}
-    (model,) = [o for o in outcomes if o.method == "model"]
-    assert model.claimed >= 0.9
-    assert 0.0 <= model.pit <= 1.0
+    outcomes = study([9001], cells=("steps",), leads=(0.1,))
+    assert {(o.cell, o.lead) for o in outcomes} == {("steps", 0.1)}
+    (outcome,) = outcomes
+    assert outcome.issued and 0.0 <= outcome.pit <= 1.0
+    assert len(outcome.within) == 5
+    assert all(0.0 <= p <= 1.0 for p, _ in outcome.within)
 
 
 @pytest.mark.parametrize("seed", [3, 10])

@@ -9,9 +9,11 @@ anything it showed before. A sample interval is the failure when
   rate reaches about sqrt(t_f / dt) times that mean: 17 at 300 samples, 140 at 20 000),
 * its slip increment exceeds ``_NOISE_FACTOR`` times the slip's noise (a single noisy sample
   cannot pass), and
-* the layer keeps running away: within the next ``_AHEAD`` samples (or to the record's end)
-  it gains more than all the slip before, and it never comes back below the interval's
-  midpoint.
+* the layer keeps running away: over the next ``_SUSTAINED`` intervals (at least
+  ``_SHOWN`` of them must be in the record) the median rate stays that high, within the next
+  ``_AHEAD`` samples it gains more than all the slip before, and it never comes back below
+  the interval's midpoint. (A staircase's step moves a quasi-static layer by a jump that can
+  exceed all the slip before it near the peak, but the layer then holds still.)
 
 The first such interval ``(t_i, t_(i+1))`` is the observed failure; the forecast then uses
 the samples up to t_i only.
@@ -29,6 +31,8 @@ __all__ = ["ObservedFailure", "find_failure"]
 _RATE_FACTOR = 100.0
 _NOISE_FACTOR = 20.0
 _AHEAD = 50  # samples
+_SUSTAINED = 10  # intervals
+_SHOWN = 3  # intervals after a failure the record must hold to show it
 
 
 @dataclass(frozen=True)
@@ -67,6 +71,9 @@ def find_failure(t, slip, force):
     factor = max(_RATE_FACTOR, 3.0 * math.sqrt(t.size))
     candidates = np.flatnonzero((rate > factor * mean_rate) & (step > _NOISE_FACTOR * noise))
     for i in candidates:
+        following = rate[i + 1 : i + 1 + _SUSTAINED]
+        if following.size < _SHOWN or not np.median(following) > factor * mean_rate[i]:
+            continue
         ahead = slip[i + 1 : min(i + 1 + _AHEAD, slip.size)]
         middle = slip[i] + 0.5 * step[i]
         runs_away = ahead[-1] - slip[i] > max(so_far[i], _NOISE_FACTOR * noise)
