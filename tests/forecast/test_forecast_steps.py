@@ -10,7 +10,7 @@ import types
 import numpy as np
 import pytest
 from rising_branch import branch_slip
-from scipy.stats import chi2, kstest, norm
+from scipy.stats import kstest, norm
 
 import granflow as gf
 from granflow.forecast.calibration import draw, step_pit

@@ -253,12 +253,23 @@ class _Conditional:
         return ProfilePoint(u, float(values[self.index]), float(delta), values)
 
 
-def _side(conditional, direction, targets, step, record, check=False, precision=2e-2, hints=()):
+def _side(
+    conditional,
+    direction,
+    targets,
+    step,
+    record,
+    check=False,
+    precision=2e-2,
+    hints=(),
+    expand=False,
+):
     """Secant searches, one after the other, for the coordinates where sqrt(delta) reaches
     each of ``targets`` (increasing) on one side, to ``precision`` of sqrt(delta). With
     ``check``, a point past a target is solved from more starts (see :class:`_Conditional`);
     ``hints`` (one internal coordinate per target, or NaN) are where each search looks
-    first (a previous scan's ends). Returns (ends, reached)."""
+    first (a previous scan's ends); with ``expand`` the step grows fourfold wherever the
+    profile is flat. Returns (ends, reached)."""
     parameter = conditional.parameter
     lower_u, upper_u = parameter.internal_bounds()
     limit = upper_u if direction > 0 else lower_u
@@ -314,6 +325,8 @@ def _side(conditional, direction, targets, step, record, check=False, precision=
                 end = u2 - g2 / slope
                 break
             proposal = u + direction * step if slope * direction <= 0 else u2 - g2 / slope
+            if expand and g2 < 0 and abs(g2 - g1) < 0.05 * target:
+                step *= 4.0  # a flat stretch: cross it in a few evaluations, not dozens
             # do not jump more than four steps at once, nor back past where the search began
             proposal = min(max(proposal, u - 4 * step), u + 4 * step)
             if (proposal - origin[0]) * direction <= 0:
@@ -410,6 +423,7 @@ def profile_scan(
             check,
             precision,
             () if hints is None else hints.get(direction, ()),
+            damped,
         )
     optimum = ProfilePoint(
         conditional.u_hat, float(values[index]), 0.0, np.asarray(values, dtype=float)

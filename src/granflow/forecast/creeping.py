@@ -71,6 +71,9 @@ _EDGE_SCALE = 0.1  # steps: the edges move by 0.1 e sampling intervals
 _PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 d sampling intervals longer
 _CONTINUED_STEPS = 400
 _AMPLITUDE_STARTS = (0.003, 0.01, 0.03)  # A over F_peak
+_PEAK_FACTORS = (1.05, 1.3, 2.0)  # F_peak over the largest force held
+_RATIOS = (0.5, 0.8)
+_INITIAL_STATES = (3e-3, 3e-2)
 _VELOCITY_STARTS = (-3.0, 0.0, 3.0)  # ln of v_ref over the record's last velocity
 _FIXED_POINT = 3
 _STEP = 1e-7  # forward differences: relative in log slots, absolute in linear ones
@@ -562,18 +565,27 @@ def creep_problem(model, sigma, values, prior=None):
     return Problem([data], parameters, model=engine_model, penalty=penalty)
 
 
-def _starts(model, quasi_static):
-    """Starting slot values: the quasi-static best fit's shape (F_peak, r, s0), A at a few
-    fractions of F_peak (unless held) and no lag at the reference rate."""
-    peak_force, ratio, s0 = quasi_static
+def _starts(model, quasi_static, floor):
+    """Starting slot values: the quasi-static best fit's shape (F_peak, r, s0) and a grid of
+    shapes about the largest force held (a creeping record can send the quasi-static fit far
+    off: it reads the creep inside a staircase's steps as no peak in sight), each with A at
+    a few fractions of F_peak (unless held) and no lag at the reference rate."""
+    shapes = [tuple(quasi_static)]
+    shapes += [
+        (floor * factor, ratio, s0)
+        for factor in _PEAK_FACTORS
+        for ratio in _RATIOS
+        for s0 in _INITIAL_STATES
+    ]
     starts = []
     amplitudes = (None,) if model.fixed is not None else _AMPLITUDE_STARTS
-    for factor in amplitudes:
-        slots = {"peak_force": peak_force, "ratio": ratio, "s0": s0, "lag": 0.0}
-        slots.update(e=0.0, d=0.0, z0=0.0, z1=0.0)
-        if factor is not None:
-            slots["amplitude"] = factor * peak_force
-        starts.append([slots[name] for name in model.names])
+    for peak_force, ratio, s0 in shapes:
+        for factor in amplitudes:
+            slots = {"peak_force": peak_force, "ratio": ratio, "s0": s0, "lag": 0.0}
+            slots.update(e=0.0, d=0.0, z0=0.0, z1=0.0)
+            if factor is not None:
+                slots["amplitude"] = factor * peak_force
+            starts.append([slots[name] for name in model.names])
     return starts
 
 
@@ -581,22 +593,30 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     """The forecast with the direct effect of a checked record cut at ``until``: see
     :func:`granflow.forecast_failure`."""
     from granflow.forecast.failure import (
-        _no_date,
-        _observed_dict,
+        NO_TREND,
         loading_error,
+        no_date,
+        observed_dict,
         quasi_static_fit,
     )
 
     root, _, _, _ = loading_error(loading, time)
-    fit_qs, peak_slip = quasi_static_fit(time, slip, loading, prior, sigma)
+    fit_qs, peak_slip, trend = quasi_static_fit(time, slip, loading, prior, sigma)
+    held = float(np.max(loading.force(time)))
+    if trend > NO_TREND:
+        text = (
+            "the layer has not slipped beyond the noise (the slip's trend against none: "
+            f"p = {trend:.2g}): no sign of approaching failure"
+        )
+        return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
     tail = max(time.size // 10, 3)
     last = float(np.polyfit(time[-tail:], slip[-tail:], 1)[0])
     velocity = max(last, float(np.ptp(slip)) / max(float(np.ptp(time)), 1e-300))
     model = CreepModel(time, slip, loading, root, amplitude, until, velocity / peak_slip, peak_slip)
-    starts = _starts(model, fit_qs)
+    starts = _starts(model, fit_qs, held)
     if not starts:
         text = "the creep model has no curve for this record: no sign of approaching failure"
-        return _no_date(until, level, loading, time.size, text, prior, observed)
+        return no_date(until, level, loading, time.size, text, prior, observed)
     fitted = len(model.names) - 2 + 1  # the slots but the nuisance, and x_peak
     fit = estimate(
         lambda noise, values: creep_problem(model, noise, values, prior),
@@ -615,7 +635,7 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         or not math.isfinite(state.failure_time)
     ):
         text = "the fitted creep shows no failure in sight: no sign of approaching failure"
-        return _no_date(until, level, loading, time.size, text, prior, observed, bound=held)
+        return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
     force_profile, strength = scan(fit, 0, level, precision=_PRECISION)
     # the time: the same data with t_f for v_ref
     timed = CreepModel(
@@ -677,5 +697,5 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         method="model (creep)",
         cdf={"time": [float(v) for v in nodes], "probability": [float(v) for v in probabilities]},
         observed_failure=None if observed is None else observed.time,
-        observed=None if observed is None else _observed_dict(observed),
+        observed=None if observed is None else observed_dict(observed),
     )

@@ -42,6 +42,8 @@ __all__ = [
     "check_prior",
     "forecast_failure",
     "loading_error",
+    "no_date",
+    "observed_dict",
     "quasi_static",
     "sigma_argument",
     "warm_forecast",
@@ -52,7 +54,8 @@ _RATIOS = (0.3, 0.7, 0.9)
 _INITIAL_STATES = (1e-3, 1e-2, 1e-1)
 _PEAK_FACTORS = (1.05, 1.3, 2.0)
 _RANKED = 256  # groups used to scale the starts
-_NO_TREND = 0.01  # the trend test's p-value above which the record says nothing yet
+#: The trend test's p-value above which the record says nothing yet.
+NO_TREND = 0.01
 
 
 def check_prior(prior):
@@ -130,9 +133,9 @@ def loading_error(loading, time, each_level=False):
     return root, basis.astype(float), anchor, slope
 
 
-def _no_date(until, level, loading, n_points, message, prior, observed=None, bound=None):
-    """A forecast without a date; ``bound`` (a force [N]) keeps the lower end the record
-    does give: the layer has held the force so far, so it fails no earlier."""
+def no_date(until, level, loading, n_points, message, prior, observed=None, bound=None):
+    """A :class:`FailureForecast` without a date; ``bound`` (a force [N]) keeps the lower end
+    the record does give: the layer has held the force so far, so it fails no earlier."""
     interval = _NAN_PAIR
     if bound is not None:
         interval = (loading.times_at(bound, math.inf)[0], math.inf)
@@ -154,11 +157,12 @@ def _no_date(until, level, loading, n_points, message, prior, observed=None, bou
         message=message,
         cdf={"time": [], "probability": []},
         observed_failure=None if observed is None else observed.time,
-        observed=None if observed is None else _observed_dict(observed),
+        observed=None if observed is None else observed_dict(observed),
     )
 
 
-def _observed_dict(observed):
+def observed_dict(observed):
+    """An :class:`~granflow.forecast.observed.ObservedFailure` as the forecast stores it."""
     return {"window": list(observed.window), "force": observed.force, "index": observed.index}
 
 
@@ -300,7 +304,7 @@ def forecast_failure(
     time, slip_cut, loading, until, observed, message = record
     if loading.rate <= 0:
         text = "the imposed force does not rise, so it never reaches the peak"
-        return _no_date(until, level, loading, time.size, text, prior, observed)
+        return no_date(until, level, loading, time.size, text, prior, observed)
     if direct_effect is not None:
         from granflow.forecast.creeping import forecast_creep
 
@@ -341,7 +345,7 @@ def warm_forecast(t, slip, force, *, prior=None, level=0.9, sigma=None, warm=Non
     time, slip_cut, loading, until, observed, message = _prepared(t, slip, force, None)
     if loading.rate <= 0:
         text = "the imposed force does not rise, so it never reaches the peak"
-        return _no_date(until, level, loading, time.size, text, prior, observed), None
+        return no_date(until, level, loading, time.size, text, prior, observed), None
     return quasi_static(
         time, slip_cut, loading, until, level, prior, sigma, observed, message, warm
     )
@@ -416,13 +420,14 @@ def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
 
 
 def quasi_static_fit(time, slip_cut, loading, prior, sigma):
-    """((F_peak [N], r, s0), x_peak [m]) of the quasi-static model's best fit to a record
-    (the creep forecast's first start; from its two best starts only, since a creeping
-    record does not follow it to its noise)."""
-    fit, build, _, floor, _, _ = _branch(time, slip_cut, loading, prior, sigma, tries=2)
+    """((F_peak [N], r, s0), x_peak [m], trend p-value) of the quasi-static model's best fit
+    to a record (the creep forecast's first start; from its two best starts only, since a
+    creeping record does not follow it to its noise; the p-value of :func:`_trend_test`)."""
+    fit, build, groups, floor, _, _ = _branch(time, slip_cut, loading, prior, sigma, tries=2)
     found = build(fit.sigma, fit.values)[1](fit.values)[2]
     peak_slip = found[1][1] if found is not None else max(float(np.ptp(slip_cut)), 1e-12)
-    return (floor + fit.values[0], fit.values[1], fit.values[2]), peak_slip
+    shape = (floor + fit.values[0], fit.values[1], fit.values[2])
+    return shape, peak_slip, _trend_test(fit, groups)
 
 
 def _layout(loading, time, prior):
@@ -445,12 +450,12 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     values = fit.values
     curve = build(fit.sigma, values)[1]
     trend = _trend_test(fit, groups)
-    if trend > _NO_TREND:
+    if trend > NO_TREND:
         text = (
             "the layer has not slipped beyond the noise (the slip's trend against none: "
             f"p = {trend:.2g}): no information on the failure yet"
         )
-        forecast = _no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
+        forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
         return forecast, Warm(layout, fit.first, values, {}, {})
 
     def shapes(gap):
@@ -528,7 +533,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         steps=steps,
         cdf={"time": [float(v) for v in cdf_time], "probability": list(cdf_probability)},
         observed_failure=None if observed is None else observed.time,
-        observed=None if observed is None else _observed_dict(observed),
+        observed=None if observed is None else observed_dict(observed),
     )
     left = Warm(
         layout,
