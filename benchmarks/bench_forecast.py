@@ -1,143 +1,315 @@
-"""Calibration study of the failure forecasts (issue 15): >= 200 seeds of simulated ramps and
-staircases, cut at lead times of 50 %, 25 % and 10 % of the time to failure; the median
-absolute error of t_f and the coverage of the 90 % intervals (of t_f, and of F_peak for the
-model) for the model-based forecast, the inverse-velocity method (Fukuzono) and Voight's law
-with alpha fitted.
+"""The failure forecasts: speed against the code at the start of issue 27 (side by side), the
+agreement of the two, the running forecast's update cost, and the calibration study over
+its design.
 
 Run from the repository root:
-``python benchmarks/bench_forecast.py [SEEDS] [PROCESSES] [FIRST_SEED]``; the table is printed
-after every 20 seeds with the machine's load average. ``python benchmarks/bench_forecast.py
-peak [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the peak study instead: start-ups cut at 70 % of
-their peak time, the coverage of the 90 % interval of F_peak and its width with and without
-a prior from the campaign. ``python benchmarks/bench_forecast.py creep [SEEDS] [PROCESSES]
-[FIRST_SEED]`` runs the creep study: ramps and staircases simulated with the direct effect
-(granflow.simulate), forecast with ``direct_effect=True``. ``python benchmarks/bench_forecast.py
-steps [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the quasi-static staircases alone, F_peak half way
-between two levels ("steps"), anywhere in its step ("steps anywhere"), and with step heights
-scattered by 25 % ("steps irregular"): the coverage of
-the interval of whole steps, the probability its steps claim, and the randomised PIT of the
-step probabilities.
+
+* ``python benchmarks/bench_forecast.py speed [SEEDS] [--old PATH]``: CPU time per forecast
+  of the benchmark records (the calibration study of issue 15: ramps, regular and irregular
+  staircases cut at a quarter lead, creeping ramps, start-ups cut at 70 % of their peak
+  time), forecast by this checkout and by ``PATH/src`` (a checkout of the code at the start
+  of issue 27, e.g. ``git worktree add /tmp/granflow-old f4a6afb``), each in its own
+  process on the same saved records; the ratio printed.
+* ``python benchmarks/bench_forecast.py agree [SEEDS] [--old PATH]``: the two codes'
+  intervals on SEEDS records of each design at leads 50, 25 and 10 %: how often their ends
+  lie within 2 % of the interval's width, and each record where they do not.
+* ``python benchmarks/bench_forecast.py running``: the CPU time of each
+  :class:`granflow.RunningForecast` update as a 10 Hz ramp arrives a second at a time.
+* ``python benchmarks/bench_forecast.py study CELLS SEEDS PROCESSES FIRST [OUT]``: the
+  calibration study (:mod:`granflow.forecast.calibration`) of the cells (comma separated,
+  or ``all``) over seeds FIRST .. FIRST + SEEDS - 1 on PROCESSES processes; prints the
+  table and saves the outcomes to OUT (a pickle) for :func:`tables`.
+* ``python benchmarks/bench_forecast.py tables OUT [OUT ...]``: the tables of saved
+  outcomes: coverage with its binomial standard error per cell and lead, split by thirds of
+  the noise and of the sample count, and the reliability of ``probability_within``.
 """
 
+import math
 import os
+import pickle
+import subprocess
 import sys
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
 
-from granflow.forecast.calibration import (
-    LEADS,
-    METHODS,
-    calibrate,
-    creep_study,
-    peak_study,
-    step_summary,
-    summarise,
+import numpy as np
+
+import granflow as gf
+from granflow.forecast.calibration import CELLS, LEADS, coverage, reliability, study
+from granflow.forecast.synthetic import (
+    creep_ramp_record,
+    levels_record,
+    ramp_record,
+    staircase_record,
 )
 
-
-def _table(outcomes, seeds, elapsed, processes):
-    table = summarise(outcomes)
-    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-    print(
-        f"{seeds} seeds, {len(outcomes)} forecasts in {elapsed:.0f} s ({processes} processes, "
-        f"load average {load})"
-    )
-    print(
-        "| protocol | lead | model: median error, t_f coverage, F_peak coverage, open above | "
-        + " | ".join(f"{m}: median error, coverage" for m in METHODS[1:])
-        + " |"
-    )
-    for protocol in ("ramp", "steps"):
-        for lead in (0.5, 0.25, 0.1):
-            error, coverage, _, force, opened = table[(protocol, lead, "model")]
-            cells = [f"{error:.3g} s, {coverage:.0%}, {force:.0%}, {opened:.0%}"]
-            for method in METHODS[1:]:
-                error, coverage, *_ = table[(protocol, lead, method)]
-                cells.append(f"{error:.3g} s, {coverage:.0%}")
-            print(f"| {protocol} | {lead:.0%} | {' | '.join(cells)} |", flush=True)
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+#: Issue 15's study: the demo's tube at 55 mN, a heavier and a lighter one.
+SETS = (
+    (3.3e-3, 5.0e4, 11.0e-3, 0.3e-6),
+    (6.0e-3, 7.0e4, 20.0e-3, 0.5e-6),
+    (1.5e-3, 3.5e4, 5.0e-3, 0.2e-6),
+)
+DESIGNS = ("ramp", "steps", "steps irregular", "creep ramp", "start-up")
 
 
-def main(seeds=200, processes=1, first=1000, chunk=20):
-    """The study over seeds ``first, ..., first + seeds - 1``, its table printed after every
-    ``chunk`` seeds."""
-    started, outcomes = time.perf_counter(), []
-    with ProcessPoolExecutor(processes) as pool:
-        for start in range(first, first + seeds, chunk):
-            stop = min(start + chunk, first + seeds)
-            outcomes += calibrate(range(start, stop), executor=pool)
-            _table(outcomes, stop - first, time.perf_counter() - started, processes)
+def _load():
+    return ", ".join(f"{v:.1f}" for v in os.getloadavg())
 
 
-def peak(seeds=200, processes=1, first=2000):
-    """The peak study over seeds ``first, ..., first + seeds - 1``."""
-    started = time.perf_counter()
-    with ProcessPoolExecutor(processes) as pool:
-        table = peak_study(range(first, first + seeds), executor=pool)
-    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-    elapsed = time.perf_counter() - started
-    print(f"{seeds} start-ups in {elapsed:.0f} s ({processes} processes, load average {load})")
-    print("| prior | coverage of the 90 % interval | median width | narrower by |")
-    for name, (coverage, width, ratio) in table.items():
-        print(f"| {name} | {coverage:.1%} | {width * 1e6:.1f} uN | {ratio:.2f}x |")
-
-
-def creep(seeds=200, processes=1, first=5000, chunk=20):
-    """The creep study over seeds ``first, ..., first + seeds - 1``, its table printed after
-    every ``chunk`` seeds."""
-    started, outcomes = time.perf_counter(), []
-    with ProcessPoolExecutor(processes) as pool:
-        for start in range(first, first + seeds, chunk):
-            stop = min(start + chunk, first + seeds)
-            outcomes += creep_study(range(start, stop), executor=pool)
-            elapsed = time.perf_counter() - started
-            load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-            print(
-                f"{stop - first} seeds, {len(outcomes)} forecasts in {elapsed:.0f} s "
-                f"({processes} processes, load average {load})"
+def record(seed, design, lead=0.25):
+    """(kind, t, slip, force, until, velocity, truth) of issue 15's study for one seed and
+    design, cut at ``lead`` of the time to failure (a start-up at 1 - lead of its peak
+    time, 70 % by default speed runs)."""
+    rng = np.random.default_rng(seed)
+    params = gf.Params(*SETS[seed % 3])
+    noise = (2e-9, 10e-9)[(seed // 3) % 2]
+    strength = gf.peak(params).force
+    failure = float(rng.uniform(150.0, 300.0))
+    if design == "start-up":
+        velocity = 0.86e-6
+        top = gf.peak(params, velocity=velocity)
+        t = np.arange(1.0, top.time, 0.25)
+        force = gf.friction_time(t, params, velocity) + 3e-5 * rng.standard_normal(t.size)
+        return "peak", t, np.zeros(t.size), force, (1 - lead) * top.time, velocity, top.time
+    if design == "ramp":
+        t, slip, force, truth = ramp_record(
+            params, strength / failure, noise=noise, force_noise=3e-5, seed=seed
+        )
+    elif design == "creep ramp":
+        effect = gf.DirectEffect(amplitude=0.03 * params.a, velocity=1e-7)
+        t, slip, force, truth = creep_ramp_record(
+            params, strength / failure, effect, noise=noise, force_noise=3e-5, seed=seed
+        )
+    else:
+        steps = int(rng.integers(10, 16))
+        offset = float(rng.uniform())
+        step, duration = strength / (steps - offset), failure / steps
+        if design == "steps":
+            t, slip, force, truth = staircase_record(
+                params, step, duration, noise=noise, force_noise=3e-5, seed=seed
             )
-            print(
-                "| protocol | lead | median error | t_f coverage | F_peak coverage | open above |"
+        else:
+            heights = step * np.clip(1.0 + 0.25 * rng.standard_normal(4 * steps), 0.3, None)
+            t, slip, force, truth = levels_record(
+                params, np.cumsum(heights), duration, noise=noise, force_noise=3e-5, seed=seed
             )
-            table = summarise(outcomes)
-            for protocol, lead in ((p, lead) for p in ("ramp", "steps") for lead in LEADS):
-                error, coverage, _, force, opened = table[(protocol, lead, "model (creep)")]
-                print(
-                    f"| {protocol} | {lead:.0%} | {error:.3g} s | {coverage:.0%} | {force:.0%} "
-                    f"| {opened:.0%} |",
-                    flush=True,
-                )
+    kind = "creep" if design.startswith("creep") else "failure"
+    return kind, t, slip, force, (1 - lead) * truth, 0.0, truth
 
 
-def steps(seeds=300, processes=1, first=9000):
-    """The quasi-static staircases over seeds ``first, ..., first + seeds - 1``."""
-    started = time.perf_counter()
-    protocols = ("steps", "steps anywhere", "steps irregular")
-    with ProcessPoolExecutor(processes) as pool:
-        outcomes = calibrate(range(first, first + seeds), protocols=protocols, executor=pool)
-    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
-    elapsed = time.perf_counter() - started
-    print(f"{seeds} seeds in {elapsed:.0f} s ({processes} processes, load average {load})")
-    print(
-        "| staircase | lead | t_f covered | its steps claim | PIT in the central 90 % | "
-        "F_peak covered | median error |"
-    )
-    table = summarise(outcomes)
-    for protocol in protocols:
-        for lead, (covered, claimed, pit, count) in step_summary(outcomes, 0.9, protocol).items():
-            error, _, _, force, _ = table[(protocol, lead, "model")]
+def _side(records, source):
+    """Forecast ``records`` with the granflow at ``source`` (a ``src`` folder) in a process
+    of its own: per record (CPU [s], t_f, interval, force interval)."""
+    with tempfile.TemporaryDirectory() as folder:
+        inputs, outputs = Path(folder) / "records.npz", Path(folder) / "out.npz"
+        arrays = {"count": len(records)}
+        for k, (kind, t, slip, force, until, velocity, _) in enumerate(records):
+            arrays.update(
+                {
+                    f"kind_{k}": kind,
+                    f"t_{k}": t,
+                    f"slip_{k}": slip,
+                    f"force_{k}": force,
+                    f"until_{k}": until,
+                    f"velocity_{k}": velocity,
+                }
+            )
+        np.savez(inputs, **arrays)
+        environment = {**os.environ, "PYTHONPATH": str(source)}
+        subprocess.run(
+            [sys.executable, str(HERE / "forecast_side.py"), str(inputs), str(outputs)],
+            check=True,
+            env=environment,
+        )
+        return np.load(outputs)["rows"]
+
+
+def _old(arguments):
+    if "--old" in arguments:
+        return Path(arguments[arguments.index("--old") + 1]) / "src"
+    return Path("/tmp/granflow-old/src")
+
+
+def speed(arguments):
+    seeds = int(arguments[0]) if arguments and arguments[0].isdigit() else 6
+    old = _old(arguments)
+    print(f"CPU per forecast, {seeds} records a design, median; load average {_load()}")
+    print("| record | code at the start of issue 27 | this code | ratio |")
+    print("|---|---|---|---|")
+    for design in DESIGNS:
+        records = [
+            record(1000 + seed, design, 0.3 if design == "start-up" else 0.25)
+            for seed in range(seeds)
+        ]
+        before = _side(records, old)[:, 0]
+        after = _side(records, ROOT / "src")[:, 0]
+        ratio = np.median(before) / np.median(after)
+        print(
+            f"| {design} | {np.median(before) * 1e3:.0f} ms | {np.median(after) * 1e3:.1f} ms "
+            f"| {ratio:.0f}x |",
+            flush=True,
+        )
+
+
+def agree(arguments):
+    seeds = int(arguments[0]) if arguments and arguments[0].isdigit() else 100
+    old = _old(arguments)
+    print(f"{seeds} records a design and lead; load average {_load()}")
+    print("| record | lead | both ends within 2 % of the width | old covers | new covers |")
+    print("|---|---|---|---|---|")
+    for design in DESIGNS:
+        for lead in LEADS:
+            records = [record(2000 + seed, design, lead) for seed in range(seeds)]
+            before, after = _side(records, old), _side(records, ROOT / "src")
+            truths = np.array([r[-1] for r in records])
+            width = np.abs(after[:, 3] - after[:, 2])
+            close = (np.abs(before[:, 2] - after[:, 2]) <= 0.02 * width) & (
+                np.abs(before[:, 3] - after[:, 3]) <= 0.02 * width
+            )
+            close |= (
+                (before[:, 3] == after[:, 3])
+                & np.isinf(after[:, 3])
+                & (np.abs(before[:, 2] - after[:, 2]) <= 0.02 * np.abs(after[:, 2] - truths))
+            )
+            covered_old = np.mean((before[:, 2] <= truths) & (truths <= before[:, 3]))
+            covered_new = np.mean((after[:, 2] <= truths) & (truths <= after[:, 3]))
             print(
-                f"| {protocol} | {lead:.0%} | {covered:.1%} | {claimed:.1%} | {pit:.1%} "
-                f"({count}) | {force:.1%} | {error:.3g} s |",
+                f"| {design} | {lead:.0%} | {np.mean(close):.0%} | {covered_old:.0%} "
+                f"| {covered_new:.0%} |",
                 flush=True,
             )
 
 
+def running(arguments):
+    params = gf.Params(*SETS[0])
+    top = gf.peak(params)
+    t, slip, force, failure = ramp_record(
+        params, top.force / 250.0, noise=3e-9, force_noise=3e-5, seed=1, dt=0.1
+    )
+    cut = t <= 0.9 * failure
+    t, slip, force = t[cut], slip[cut], force[cut]
+    live = gf.RunningForecast(kind="failure")
+    first = int(0.5 * t.size)
+    live.update(t[:first], slip[:first], force[:first])
+    costs, sizes = [], []
+    for start in range(first, t.size, 10):
+        started = time.process_time()
+        live.update(t[start : start + 10], slip[start : start + 10], force[start : start + 10])
+        costs.append(time.process_time() - started)
+        sizes.append(start + 10)
+    started = time.process_time()
+    gf.forecast_failure(t, slip, force)
+    one_shot = time.process_time() - started
+    costs = np.array(costs)
+    print(
+        f"10 Hz ramp, {len(costs)} updates of 1 s from {first} to {t.size} points "
+        f"(load average {_load()}): CPU per update median {np.median(costs) * 1e3:.1f} ms, "
+        f"90th percentile {np.quantile(costs, 0.9) * 1e3:.1f} ms; the one-shot forecast of the "
+        f"whole record {one_shot * 1e3:.1f} ms"
+    )
+
+
+def _cells(text):
+    return CELLS if text == "all" else tuple(text.split(","))
+
+
+def run_study(arguments):
+    cells, seeds, processes, first = (
+        _cells(arguments[0]),
+        int(arguments[1]),
+        int(arguments[2]),
+        int(arguments[3]),
+    )
+    out = arguments[4] if len(arguments) > 4 else f"study-{first}.pkl"
+    started = time.perf_counter()
+    outcomes = []
+    chunk = max(seeds // 10, 1)
+    with ProcessPoolExecutor(processes) as pool:
+        for begin in range(first, first + seeds, chunk):
+            seeds_now = range(begin, min(begin + chunk, first + seeds))
+            outcomes += study(seeds_now, cells=cells, executor=pool)
+            with open(out, "wb") as handle:
+                pickle.dump(outcomes, handle)
+            elapsed = time.perf_counter() - started
+            print(
+                f"seeds {first}..{seeds_now[-1]}: {len(outcomes)} forecasts in {elapsed:.0f} s "
+                f"({processes} processes, load average {_load()})",
+                flush=True,
+            )
+    tables([out])
+
+
+def _row(chosen, key):
+    share, error, count = coverage(chosen, key)
+    if not count:
+        return "–"
+    return f"{share:.1%} ± {error:.1%} ({count})"
+
+
+def tables(paths):
+    outcomes = []
+    for path in paths:
+        with open(path, "rb") as handle:
+            outcomes += pickle.load(handle)
+    cells = [c for c in CELLS if any(o.cell == c for o in outcomes)]
+    print(
+        "| cell | lead | t_f covered | F_peak covered | step PIT in central 90 % | open above "
+        "| declined | errors | CPU median |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    for cell in cells:
+        for lead in LEADS:
+            chosen = [o for o in outcomes if o.cell == cell and o.lead == lead]
+            if not chosen:
+                continue
+            issued = [o for o in chosen if o.issued]
+            opened = np.mean([o.open_above for o in issued]) if issued else math.nan
+            pit = _row(chosen, "pit") if "steps" in cell and "creep" not in cell else "–"
+            errors = sum(o.message.startswith("error") for o in chosen)
+            cpu = np.median([o.cpu for o in chosen])
+            print(
+                f"| {cell} | {lead:.0%} | {_row(chosen, 'time_covered')} | "
+                f"{_row(chosen, 'force_covered')} | {pit} | {opened:.0%} | "
+                f"{len(chosen) - len(issued)} | {errors} | {cpu * 1e3:.0f} ms |"
+            )
+    print()
+    print("By thirds of the slip noise (of x_peak - x0) and of the samples to failure, t_f:")
+    print("| cell | lead | noise low / mid / high | samples low / mid / high |")
+    print("|---|---|---|---|")
+    for cell in cells:
+        for lead in LEADS:
+            chosen = [o for o in outcomes if o.cell == cell and o.lead == lead and o.issued]
+            if not chosen:
+                continue
+            parts = []
+            for key in ("noise", "samples"):
+                values = np.array([getattr(o, key) for o in chosen])
+                edges = np.quantile(values, [1 / 3, 2 / 3])
+                thirds = [
+                    [o for o, v in zip(chosen, values, strict=True) if v <= edges[0]],
+                    [o for o, v in zip(chosen, values, strict=True) if edges[0] < v <= edges[1]],
+                    [o for o, v in zip(chosen, values, strict=True) if v > edges[1]],
+                ]
+                parts.append(" / ".join(_row(part, "time_covered") for part in thirds))
+            print(f"| {cell} | {lead:.0%} | {parts[0]} | {parts[1]} |")
+    print()
+    print("Reliability of probability_within (all cells, leads and horizons):")
+    print("| predicted (bin mean) | observed | forecasts |")
+    print("|---|---|---|")
+    for predicted, observed, count in reliability([o for o in outcomes if o.issued]):
+        print(f"| {predicted:.3f} | {observed:.3f} | {count} |")
+
+
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["steps"]:
-        steps(*(int(arg) for arg in sys.argv[2:5]))
-    elif sys.argv[1:2] == ["creep"]:
-        creep(*(int(arg) for arg in sys.argv[2:5]))
-    elif sys.argv[1:2] == ["peak"]:
-        peak(*(int(arg) for arg in sys.argv[2:5]))
-    else:
-        main(*(int(arg) for arg in sys.argv[1:4]))
+    command, rest = (sys.argv[1], sys.argv[2:]) if len(sys.argv) > 1 else ("speed", [])
+    {
+        "speed": speed,
+        "agree": agree,
+        "running": running,
+        "study": run_study,
+        "tables": tables,
+    }[command](rest)

@@ -566,7 +566,9 @@ class Problem:
         return float(residuals @ residuals) * self.force_scale**2
 
 
-def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10, tries=None):
+def multistart(
+    problem, starts, noise, *, restart=None, insist=False, rtol=1e-10, tries=None, least=1
+):
     """Levenberg-Marquardt from the start with the smallest chi-square, confirmed by the others.
 
     Parameters
@@ -588,6 +590,9 @@ def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10
         Levenberg-Marquardt stops when a step gains less than this fraction of chi-square.
     tries : int, optional
         At most this many starts are solved (the best ranked); default all, as needed.
+    least : int
+        At least this many starts are solved (the best ranked), however good the first
+        optimum looks (a likelihood with branches whose optima all fit to the noise).
 
     Returns
     -------
@@ -608,7 +613,7 @@ def multistart(problem, starts, noise, *, restart=None, insist=False, rtol=1e-10
         nfev += steps
         if best is None or cost < best[1]:
             best = (u, cost, converged, count, hessian)
-        if noise > 0 and best[1] <= expected:
+        if noise > 0 and best[1] <= expected and count >= least:
             break
         if tries is not None and count >= tries:
             break

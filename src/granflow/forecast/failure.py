@@ -50,7 +50,7 @@ __all__ = [
 ]
 
 _NAN_PAIR = (math.nan, math.nan)
-_RATIOS = (0.3, 0.7, 0.9)
+_RATIOS = (0.3, 0.7, 0.9, 0.98, 0.995)
 _INITIAL_STATES = (1e-3, 1e-2, 1e-1)
 _PEAK_FACTORS = (1.05, 1.3, 2.0)
 _RANKED = 256  # groups used to scale the starts
@@ -415,6 +415,7 @@ def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
         nuisance=shape,
         tries=tries,
         warm=None if warm is None else (warm.first, warm.values),
+        branch=1,
     )
     return fit, build, groups, floor, continuation, shape
 

@@ -26,6 +26,9 @@ __all__ = ["Estimate", "estimate", "heights", "scan"]
 _SHAPE = 4  # the peak coordinates
 _PRECISION = 1e-3  # of chi-square, for the fit's stopping rule
 _ROOT_PRECISION = 1e-4  # of a profile end's signed root
+#: Starts always solved: the curve's branches (a deep overshoot or a shallow one, F_peak
+#: near Fd) can each fit a record to its noise, the better by tens of chi-square.
+_LEAST = 4
 
 
 @dataclass(frozen=True)
@@ -77,7 +80,17 @@ def _solve_at(problem, values, rtol):
 
 
 def estimate(
-    build, starts, *, size, within, sigma=None, rough, nuisance=None, tries=None, warm=None
+    build,
+    starts,
+    *,
+    size,
+    within,
+    sigma=None,
+    rough,
+    nuisance=None,
+    tries=None,
+    warm=None,
+    branch=None,
 ):
     """The best fit of the problem ``build(sigma, values)`` from ``starts``.
 
@@ -108,6 +121,9 @@ def estimate(
     warm : tuple, optional
         ``(first, values)``: a previous estimate's two optima (of the same record before it
         grew), where the two stages start instead of the grid.
+    branch : int, optional
+        A slot that tells the likelihood's branches apart (the curve's Fd / F_peak): the
+        best start of each of its values is solved, and the lowest optimum kept.
 
     Returns
     -------
@@ -131,7 +147,9 @@ def estimate(
         if not cost <= 2.0 * max(size - _SHAPE, 1):
             solution = None
     if solution is None:
-        solution = multistart(problem, starts, 1.0, rtol=rtol, tries=tries)
+        chosen = starts if branch is None else _diverse(problem, starts, branch)
+        least = _LEAST if branch is None else len(chosen)
+        solution = multistart(problem, chosen, 1.0, rtol=rtol, tries=tries, least=least)
     first_values = problem.values(solution.x)
     nfev = solution.nfev
     if not np.all(np.isfinite(first_values)):
@@ -161,6 +179,18 @@ def estimate(
         problem = build(sigma, values)
     chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
     return Estimate(problem, values, float(chisqr), sigma, dof, hessian, nfev + steps, first_values)
+
+
+def _diverse(problem, starts, branch):
+    """The best start (by chi-square on every 8th point) of each value of slot ``branch``."""
+    best = {}
+    for start in starts:
+        cost = problem.chisqr(problem.values(problem.internal(list(start))), stride=8)
+        key = start[branch]
+        if math.isfinite(cost) and (key not in best or cost < best[key][0]):
+            best[key] = (cost, start)
+    chosen = [start for _, start in sorted(best.values(), key=lambda item: item[0])]
+    return chosen or list(starts)
 
 
 def heights(level, dof):
