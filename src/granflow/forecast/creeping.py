@@ -29,6 +29,7 @@ unit curve, the others only the history and its inversion.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -628,15 +629,18 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         nuisance=model.first_nuisance,
     )
     _, state = model.evaluate(fit.values)
-    held = float(np.max(loading.force(time)))
-    if (
-        state is None
-        or state.peak_force > _NO_FAILURE * held
-        or not math.isfinite(state.failure_time)
-    ):
-        text = "the fitted creep shows no failure in sight: no sign of approaching failure"
+    if state is None:
+        text = "the creep model fits no curve to this record: no sign of approaching failure"
         return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
     force_profile, strength = scan(fit, 0, level, precision=_PRECISION)
+    if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
+        # no date, but the lower end the record gives of the strength (its one-sided
+        # quantile); not of the time: a creeping layer can fail before the force reaches
+        # F_peak (static fatigue), so the time's lower end is the cut's
+        text = "the fitted creep shows no failure in sight: no sign of approaching failure"
+        bound = max(strength.quantile(1.0 - level), held)
+        forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=bound)
+        return dataclasses.replace(forecast, time_interval=(until, math.inf))
     # the time: the same data with t_f for v_ref
     timed = CreepModel(
         time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True

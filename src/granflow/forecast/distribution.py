@@ -138,7 +138,8 @@ class Distribution:
         slope = (nodes_r[i] - nodes_r[j]) / du if du != 0 else 0.0
         if slope <= 0:
             return float(self.offset) if side < 0 else math.inf
-        u = nodes_u[i] + (target - nodes_r[i]) / slope
+        # extrapolated, but not past the search range: the tails stay where q can be
+        u = min(max(nodes_u[i] + (target - nodes_r[i]) / slope, self.low_end), self.high_end)
         return float(self._quantity(u))
 
     def interval(self, level):
