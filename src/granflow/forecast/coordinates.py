@@ -38,9 +38,7 @@ from granflow.model.special import (
 
 __all__ = [
     "LARGEST_RATIO",
-    "aging_natural",
     "from_params",
-    "initial_state_root",
     "natural",
     "peak_root",
     "to_params",
@@ -138,87 +136,6 @@ def natural(peak_force, r, s0, peak_slip, jacobian):
     jacobian[3, 2] = peak_slip / s_p - s0 * peak_slip * d_s0 / s_p**2
     jacobian[3, 3] = s0 / s_p
     return a, alpha, fd, x0, s_p
-
-
-@compiled_inline
-def initial_state_root(s_p, target):
-    """The s0 in (0, s_p) of the curve whose peak lies at s_p with q(s_p) = ``target``
-    (= 1 / (1 - r)): the root of ``D(s_p, s0) = (1 + (target - 1) exp(-s_p)) / s_p``, with
-    D = exp(-s_p) (Ei(s_p) - Ei(s0)) falling as s0 rises. Newton's method in ln s0 from s_p,
-    monotone (the gap is convex in ln s0). Returns (s0, D at the root); NaN where s_p is not
-    positive or beyond exp's range."""
-    if not (s_p > 0.0 and s_p < _LARGEST_S and target >= 1.0):
-        return math.nan, math.nan
-    level = (1.0 + (target - 1.0) * math.exp(-s_p)) / s_p
-    w = math.log(s_p)
-    diff = 0.0
-    for _ in range(200):
-        s0 = math.exp(w)
-        diff = scaled_ei_diff_scalar(s_p, s0, scaled_ei_scalar(s0), math.exp(s0 - s_p))
-        gap = level - diff  # rises with s0: its derivative in ln s0 is exp(s0 - s_p)
-        step = gap / math.exp(s0 - s_p)
-        w_new = w - step
-        if abs(w_new - w) <= 1e-15 * max(abs(w), 1.0):
-            w = w_new
-            break
-        w = w_new
-    s0 = math.exp(w)
-    diff = scaled_ei_diff_scalar(s_p, s0, scaled_ei_scalar(s0), math.exp(s0 - s_p))
-    return s0, diff
-
-
-@compiled
-def aging_natural(peak_force, a, x0, r, jacobian):
-    """Eq. 3's parameters from the aging coordinates (F_peak, a, x0, r) and their derivatives.
-
-    The curve with aging amplitude a [N], initial state x0 [m], Fd = r F_peak and its peak
-    at F_peak [N] has ``s_p = a / (F_peak (1 - r))`` (from ``F_peak - Fd = a / s_p``), its
-    s0 from :func:`initial_state_root`, alpha = s0 / x0. Every point of the box (F_peak,
-    a, x0 > 0, r in [0, 1)) is such a curve. A record's early slip fixes a and x0 nearly
-    directly (pure aging, x = x0 exp(F / a)), so in these coordinates the conditional fits
-    of a profile over F_peak move little but r.
-
-    Parameters
-    ----------
-    peak_force, a, x0, r : float
-        F_peak [N], a [N], x0 [m], Fd / F_peak [-].
-    jacobian : numpy.ndarray
-        (4, 4), filled with d(a, alpha, Fd, x0) / d(F_peak, a, x0, r).
-
-    Returns
-    -------
-    tuple of float
-        ``(a, alpha, Fd, x0, s_p)``; NaN outside the box.
-    """
-    jacobian[:, :] = 0.0
-    if not (peak_force > 0.0 and a > 0.0 and x0 > 0.0 and r >= 0.0 and r < 1.0):
-        jacobian[:, :] = math.nan
-        return math.nan, math.nan, math.nan, math.nan, math.nan
-    s_p = a / (peak_force * (1.0 - r))
-    target = 1.0 / (1.0 - r)
-    s0, diff = initial_state_root(s_p, target)
-    if not (math.isfinite(s0) and s0 > 0.0):
-        jacobian[:, :] = math.nan
-        return math.nan, math.nan, math.nan, math.nan, math.nan
-    decay = math.exp(-s_p)
-    level = (1.0 + (target - 1.0) * decay) / s_p
-    # G(s_p, s0, T) = D(s_p, s0) - level(s_p, T) = 0
-    g_sp = (1.0 / s_p - diff) + level / s_p + (target - 1.0) * decay / s_p
-    g_s0 = -math.exp(s0 - s_p) / s0
-    g_t = -decay / s_p
-    # d s_p / d(F_peak, a, x0, r) and d T / d(...)
-    d_sp = (-s_p / peak_force, s_p / a, 0.0, s_p / (1.0 - r))
-    d_t = (0.0, 0.0, 0.0, target * target)
-    alpha = s0 / x0
-    for j in range(4):
-        d_s0 = -(g_sp * d_sp[j] + g_t * d_t[j]) / g_s0
-        jacobian[1, j] = d_s0 / x0
-    jacobian[1, 2] -= s0 / (x0 * x0)
-    jacobian[0, 1] = 1.0
-    jacobian[2, 0] = r
-    jacobian[2, 3] = peak_force
-    jacobian[3, 2] = 1.0
-    return a, alpha, r * peak_force, x0, s_p
 
 
 def to_params(peak_force, r, s0, peak_slip):
