@@ -59,8 +59,12 @@ def load_runs(path, choice):
         return Source(list(table.runs), table.geometry)
     import numpy as np
 
-    try:  # an export, or a CSV with instrument columns: read once
-        runs, failure = granflow.io.read_runs(path, geometry=choice.annulus), None
+    try:  # an export, or a table with instrument or granflow's columns: read once
+        # a table is read strictly: a cell that is not a number is an error naming its line
+        form = granflow.io.detect_file_format(path)
+        options = {"strict": True} if form == "csv" else {}
+        runs = granflow.io.read_runs(path, geometry=choice.annulus, format=form, **options)
+        failure = None
     except FileFormatError as exc:  # perhaps a table whose columns are not instrument data
         runs, failure = [], exc
     if any(np.isfinite(run.force).any() for run in runs):

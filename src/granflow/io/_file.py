@@ -214,8 +214,8 @@ def make_columns(names, units, meanings, source, line, quantities=None):
     """
     units = [_unit(units[index] if index < len(units) else "") for index in range(len(names))]
     chosen = [
-        _columns.match_quantity(name)[0] if given is None else given or None
-        for name, given in zip(names, quantities or [None] * len(names), strict=True)
+        _columns.refine(_columns.match_quantity(name)[0], unit) if given is None else given or None
+        for name, unit, given in zip(names, units, quantities or [None] * len(names), strict=True)
     ]
     if quantities is None and not set(chosen) - {None, "point", "status"}:
         for index, unit in enumerate(units):
@@ -230,7 +230,8 @@ def make_columns(names, units, meanings, source, line, quantities=None):
             try:
                 factor = _columns.si_factor(quantity, unit)
             except InvalidParameterError as exc:
-                raise fail(source, line, f"column {name.strip()!r}: {exc}") from None
+                label = _columns.column_label(index, name)
+                raise fail(source, line, f"{label}: {exc}") from None
         meaning = meanings[index].strip() if index < len(meanings) else ""
         columns.append(Column(name.strip(), unit, quantity, factor, meaning))
     return tuple(columns)
@@ -260,14 +261,24 @@ def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):
     for index in list(block.text):
         column = columns[index]
         if column.quantity not in (None, "status"):
+            cells = block.text[index]
+            filled = np.flatnonzero([bool(str(cell).strip()) for cell in cells])
             raise fail(
                 source,
-                spec.region[2],
-                f"column {column.name!r} should hold numbers ({column.quantity}) but holds text "
-                f"such as {block.text[index][0]!r}",
+                spec.region[2] + (int(filled[0]) if filled.size else 0),
+                f"{_columns.column_label(index, column.name)} should hold numbers "
+                f"({column.quantity}) but holds text",
             )
     problems = [(columns[index].quantity or "", sentence) for index, sentence in block.problems]
     _, _, first_line, rows = spec.region
+    if spec.cut_line is not None:
+        problems.append(
+            (
+                None,
+                f"line {spec.cut_line}, the last of the file, has no line end: the file looks "
+                "cut short there, so that row was left out (its last number may be incomplete)",
+            )
+        )
     declared = metadata.get("declared_points")
     if not rows:
         problems.append((None, f"no data rows after the header at line {spec.header_line}"))
@@ -361,6 +372,23 @@ class BlockSpec:
     skip_first: bool = False
     quantities: list | None = None
     strict: bool = False
+    cut_line: int | None = None
+
+
+def without_cut_row(buffer, spec):
+    """``spec`` without the last row of the file when that row has no line end.
+
+    A file whose last line lacks its line end was most likely cut short while it was written
+    or copied, perhaps in the middle of a number ('0.0123' cut to '0.01' still reads as a
+    number): the row is left out and :attr:`BlockSpec.cut_line` names its line.
+    """
+    start, stop, first_line, rows = spec.region
+    data = buffer.data
+    if not rows or stop < len(data) or data[-1:] in (b"\n", b"\r"):
+        return spec
+    last = data.rfind(b"\n", start, stop)
+    region = (start, start if last < 0 else last + 1, first_line, rows - 1)
+    return replace(spec, region=region, cut_line=first_line + rows - 1)
 
 
 def metadata_value(key, cells, numbers):
@@ -441,6 +469,7 @@ def finish(source, form, buffer, delimiter, specs, metadata, problems):
             buffer.line_number(len(buffer.data)),
             f"no data block found in this {form} export",
         )
+    specs = [without_cut_row(buffer, spec) for spec in specs]
     samples = []
     for spec in specs:
         for line, row in _sample(buffer, spec.region, 100):

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow.io import _buffer
+from granflow.io import _buffer, _columns
 from granflow.io._buffer import fail
 
 __all__ = ["MISSING_MARKERS", "NumberFormat", "decode", "fail", "read_block", "sniff_delimiter"]
@@ -237,6 +237,7 @@ def read_block(
     start, stop, first_line, rows = region
     offset = 1 if skip_first else 0
     count = len(names)
+    width = max(count + offset, _most_cells(buffer.data, start, stop, delimiter))
     if not rows:
         empty = np.empty(0, dtype=np.float64)
         return Block(
@@ -255,8 +256,10 @@ def read_block(
                 stream,
                 sep=delimiter,
                 header=None,
-                names=list(range(count + offset)),
-                usecols=list(range(offset, count + offset)),
+                names=list(range(width)),
+                # every cell of a row wider than the header is read, and checked below
+                usecols=list(range(offset, width)) if width == count + offset else None,
+                index_col=False,
                 dtype={offset + i: "category" for i in text_columns},
                 decimal=numbers.decimal,
                 thousands=numbers.thousands,
@@ -279,6 +282,8 @@ def read_block(
         raise fail(source, first_line, f"cannot parse the data rows ({exc})") from None
     if len(frame) != rows:
         raise fail(source, first_line, f"{rows} data lines gave {len(frame)} rows")
+    if width > count + offset:
+        _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, source)
     problems = []
     values, text = {}, {}
     line_numbers = np.arange(first_line, first_line + rows)
@@ -293,6 +298,7 @@ def read_block(
             continue
         array, missing, invalid = parsed
         name = names[position]
+        _refuse_broken_numbers(column, invalid, line_numbers, name, position, source)
         infinite = ~np.isfinite(array) & ~missing & ~invalid
         if missing.any():
             problems.append((position, _cells_problem(name, "missing", missing, line_numbers)))
@@ -303,7 +309,7 @@ def read_block(
                 raise fail(
                     source,
                     int(line_numbers[index]),
-                    f"column {name!r} has a non-numeric value {example}",
+                    f"{_columns.column_label(position, name)} holds a cell that is not a number",
                 )
             problems.append(
                 (position, _cells_problem(name, "invalid", invalid, line_numbers, example))
@@ -316,6 +322,85 @@ def read_block(
             array[infinite] = np.nan
         values[position] = array
     return Block(values=values, text=text, rows=len(frame), problems=problems)
+
+
+#: Bytes of a data block scanned at once when counting its cells.
+_SCAN = 1 << 24
+#: A cell that starts like a number: a sign, then a digit or a decimal mark and a digit.
+_NUMBER_START = re.compile(r"^\s*[-+]?(?:\d|[.,]\d)")
+
+
+def _most_cells(data, start, stop, delimiter):
+    """The largest number of cells in a line of ``data[start:stop]``: its delimiters plus
+    one, counted on the bytes (a quoted delimiter counts too, so never fewer than pandas
+    sees), a chunk at a time."""
+    code = ord(delimiter)
+    most, position = 0, start
+    while position < stop:
+        end = min(position + _SCAN, stop)
+        if end < stop:
+            newline = data.find(b"\n", end, stop)
+            end = stop if newline < 0 else newline + 1
+        chunk = np.frombuffer(data, dtype=np.uint8, count=end - position, offset=position)
+        delimiters = np.flatnonzero(chunk == code)
+        if delimiters.size:
+            ends = np.r_[np.flatnonzero(chunk == 10), chunk.size]
+            per_line = np.diff(np.r_[0, np.searchsorted(delimiters, ends)])
+            most = max(most, int(per_line.max()))
+        position = end
+    return most + 1
+
+
+def _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, source):
+    """A row with more cells than the header is an error naming its line (empty trailing
+    cells excepted): reading only the header's width would silently drop what it holds."""
+    start, _, first_line, _ = region
+    import pandas as pd
+
+    filled = np.zeros(len(frame), dtype=bool)
+    for position in range(count + offset, width):
+        column = frame[position]
+        present = column.notna().to_numpy()
+        if pd.api.types.is_numeric_dtype(column.dtype):
+            filled |= present
+            continue
+        cells = column.astype(object).to_numpy()
+        for index in np.flatnonzero(present):
+            filled[index] |= not _is_marker(cells[index])
+    if not filled.any():
+        return
+    index = int(np.argmax(filled))
+    line = first_line + index
+    offset_in_file = start
+    for _ in range(index):
+        offset_in_file = buffer.data.find(b"\n", offset_in_file) + 1
+    end = buffer.data.find(b"\n", offset_in_file)
+    text = buffer.text(offset_in_file, len(buffer.data) if end < 0 else end).rstrip("\r")
+    cells = len(split(text, delimiter)) - offset
+    hint = ""
+    if delimiter == "," and cells >= 2 * count:
+        hint = (
+            " (numbers with a decimal comma in a comma-separated file? granflow reads decimal "
+            "commas with semicolon or tab separators)"
+        )
+    raise fail(source, line, f"{cells} cells where the header has {count} columns{hint}")
+
+
+def _refuse_broken_numbers(column, invalid, line_numbers, name, position, source):
+    """A cell that starts like a number but is not one whole ('12.5.3', '1.2e', '0,5' in a
+    file of decimal dots) is an error naming its line: part of a number is a wrong number.
+    Text cells ('abc', 'n/a') stay invalid values, kept as NaN."""
+    if not invalid.any():
+        return
+    for index in np.flatnonzero(invalid):
+        cell = column.iloc[int(index)]
+        if isinstance(cell, str) and _NUMBER_START.match(cell):
+            raise fail(
+                source,
+                int(line_numbers[index]),
+                f"{_columns.column_label(position, name)} holds a cell that starts like a "
+                "number but is not one",
+            )
 
 
 def _text_cells(column):
@@ -338,7 +423,9 @@ def _numbers(column, numbers):
     import pandas as pd
 
     if pd.api.types.is_numeric_dtype(column.dtype):
-        array = column.to_numpy(dtype=np.float64, na_value=np.nan)
+        # a copy: under copy-on-write (pandas 3) the frame's own buffer is read-only, and
+        # the non-finite cells are set to NaN in place below
+        array = column.to_numpy(dtype=np.float64, na_value=np.nan, copy=True)
         return array, np.isnan(array), np.zeros(array.shape, dtype=bool)
     raw = column.astype(object).tolist()
     missing = np.array([cell is None or _is_marker(cell) or _isnan(cell) for cell in raw])

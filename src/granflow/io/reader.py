@@ -42,6 +42,19 @@ def detect_format(text: str) -> str:
     return "csv"
 
 
+def detect_file_format(path: PathLike, max_bytes: int | None = None) -> str:
+    """The format :func:`read` would find in a file: "rheoplus", "rheocompass", "trios" or
+    "csv" (see :func:`detect_format`).
+
+    Raises
+    ------
+    granflow.FileFormatError
+        The file cannot be read or is over the size limit.
+    """
+    path = Path(path)
+    return detect_format(_buffer.load(path, max_bytes))
+
+
 def parse(
     text: str,
     source: str = "<text>",

@@ -377,8 +377,8 @@ def _numbers(frame, column, path, header_line=1):
     if bad.any():
         row = int(np.argmax(bad))
         raise FileFormatError(
-            f"{path}, line {row + header_line + 1}: column {column!r} holds "
-            f"{frame[column].iloc[row]!r}, not a number"
+            f"{path}, line {row + header_line + 1}: column {column!r} holds a cell that is "
+            "not a number"
         )
     return values
 
