@@ -116,3 +116,26 @@ def test_a_non_finite_cell_in_an_instrument_export_is_nan_with_its_line():
     interval = parse_csv(text).intervals[0]
     assert interval.si("torque")[[0, 2]].tolist() == [1e-3, 3e-3]
     assert np.isnan(interval.si("torque")[1])
+
+
+# --------------------------------------------------------------------------- point 12
+
+
+def test_a_utf8_file_with_one_latin1_line_names_the_line_that_is_not_utf8(tmp_path):
+    path = tmp_path / "mixed.csv"
+    header = "Time [s]\tDeflection Angle [µm]\tTorque [mN m]\n".encode()
+    rows = b"0\t1\t2\n1\t2\t3\n"
+    path.write_bytes(header + rows + "# note: café\n".encode("latin-1") + rows)
+    with pytest.raises(granflow.FileFormatError) as caught:
+        granflow.read_runs(path)
+    message = str(caught.value)
+    assert message.startswith(f"{path}, line 4: ") and "not UTF-8" in message
+    assert "Âµm" not in message
+
+
+def test_a_cp1252_file_is_still_read_as_cp1252(tmp_path):
+    path = tmp_path / "cp1252.csv"
+    path.write_bytes("Time [s]\tTorque [µN·m]\n0\t1\n1\t2\n".encode("cp1252"))
+    parsed = granflow.read(path)
+    assert parsed.encoding == "cp1252"
+    assert parsed.intervals[0].si("torque").tolist() == [1e-6, 2e-6]

@@ -356,10 +356,18 @@ def add_fit(subparsers):
     rsf.add_argument(
         "--steps", help="the step times, e.g. 68.6s or 100s,250s (default: found automatically)"
     )
-    rsf.add_argument(
+    noise = rsf.add_mutually_exclusive_group()
+    noise.add_argument(
         "--correlated-noise",
         action="store_true",
-        help="scale the uncertainties by the residuals' correlation time (real records)",
+        help="always scale the uncertainties by the residuals' correlation time (by default "
+        "they are scaled whenever the residuals are correlated, as on real records)",
+    )
+    noise.add_argument(
+        "--white-noise",
+        action="store_true",
+        help="take the noise as white even where the residuals are correlated (the "
+        "intervals are then too narrow on a real record; for simulated records)",
     )
     rsf.add_argument(
         "--periodic",
@@ -421,7 +429,7 @@ def _run_fit_rsf(args):
             detrend=args.detrend,
             windows=windows,
             sigma=float(args.sigma) if args.sigma else None,
-            correlated_noise=args.correlated_noise,
+            correlated_noise=_noise_option(args),
             periodic=periodic,
             harmonics=args.harmonics,
         )
@@ -435,14 +443,43 @@ def _run_fit_rsf(args):
             "velocities": list(record.velocities),
             "time_offset": record.time_offset,
         }
+        payload["problems"] = list(record.meta.get("problems", []))
         print(json.dumps(payload, indent=2))
     else:
         speeds = " -> ".join(f"{v * 1e6:.4g}" for v in record.velocities)
         steps_text = ", ".join(f"{s:.4g}" for s in record.step_times)
         print(f"fit of {args.data} ({plural(record.t.size, 'point')}; load point {speeds} µm/s,")
         print(f"  steps at {steps_text} s after the first row, t = {record.time_offset:g} s)")
+        print(_quality_text(record.meta.get("problems", [])))
+        print(_noise_sentence(result, args))
         print(result.report())
     return 0 if result.success else 1
+
+
+def _noise_option(args):
+    """``correlated_noise`` of :func:`granflow.rsf.fit` from the options: "auto" unless
+    --correlated-noise or --white-noise says otherwise."""
+    if args.correlated_noise:
+        return True
+    return False if args.white_noise else "auto"
+
+
+def _noise_sentence(result, args):
+    """One line saying how the noise was taken, and why."""
+    tau = result.correlation_time
+    if result.correlated_noise:
+        why = "--correlated-noise" if args.correlated_noise else "the residuals are correlated"
+        return (
+            f"noise: correlated ({why}: correlation time {tau:.3g} points); the uncertainties "
+            f"are scaled by sqrt({tau:.3g}) = {max(tau, 1.0) ** 0.5:.3g} (--white-noise to "
+            "take it as white)"
+        )
+    if args.white_noise and tau > 2:
+        return (
+            f"noise: white (--white-noise), although the residuals are correlated over "
+            f"{tau:.3g} points: the intervals are too narrow by about {tau**0.5:.3g}x"
+        )
+    return f"noise: white (the residuals' correlation time is {tau:.3g} points)"
 
 
 def _choose(runs, interval, path):
@@ -503,6 +540,13 @@ def _run_fit(args):
 
     if args.model == "rsf":
         return _run_fit_rsf(args)
+    from granflow.io.velocity_steps import is_velocity_step_file
+
+    if Path(args.data).is_file() and is_velocity_step_file(args.data):
+        raise UsageError(
+            f"{args.data} is a velocity-step record (time, load-point displacement, friction "
+            "coefficient), not a friction curve of Eq. 3: fit it with --model rsf"
+        )
     choice = geometry_choice(args.geometry)
     source = load_runs(args.data, choice)
     if choice.given and source.geometry is None:

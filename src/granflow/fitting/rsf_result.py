@@ -67,6 +67,9 @@ class RateStateFitResult(FitOutcome):
         (:func:`granflow.fitting.rsf_periodic.periodicity_check`): ``wavelength`` [m],
         ``amplitude`` [-], ``rms`` [-], ``fraction``, ``false_alarm``, ``significant``;
         empty where the load point moves too little to tell.
+    correlated_noise : bool
+        Whether the covariance and the intervals were scaled by the correlation time
+        (correlated noise); False: the noise was taken as white.
     """
 
     laws: tuple
@@ -87,6 +90,7 @@ class RateStateFitResult(FitOutcome):
     source: str = ""
     harmonics: int = 0
     periodicity: FrozenMap = field(default_factory=lambda: FrozenMap({}))
+    correlated_noise: bool = False
 
     ARRAYS = (
         "t",
@@ -168,6 +172,14 @@ class RateStateFitResult(FitOutcome):
             rows.append(("periodic residual", line))
         return rows
 
+    def _noise_text(self):
+        if self.correlated_noise:
+            return (
+                f"correlated: uncertainties scaled by the correlation time "
+                f"(x{np.sqrt(max(self.correlation_time, 1.0)):.3g} in standard error)"
+            )
+        return "white (uncertainties not scaled)"
+
     def report(self) -> str:
         """A text report in the manner of lmfit's ``fit_report``."""
         return fit_report(
@@ -178,6 +190,7 @@ class RateStateFitResult(FitOutcome):
                 ("residual RMS", f"{self.residual_rms:.4g}"),
                 ("HF scatter", f"{self.noise:.4g}"),
                 ("correlation time", f"{self.correlation_time:.3g} points"),
+                ("noise", self._noise_text()),
                 ("a - b", f"{self.a_minus_b:.6g} +/- {self.a_minus_b_stderr:.3g}"),
                 *self._ripple_rows(),
             ],
@@ -207,6 +220,7 @@ class RateStateFitResult(FitOutcome):
                 "source": self.source,
                 "harmonics": self.harmonics,
                 "periodicity": dict(self.periodicity),
+                "correlated_noise": self.correlated_noise,
                 **statistics(self),
                 **arrays(self, include_arrays),
             }
@@ -230,6 +244,7 @@ class RateStateFitResult(FitOutcome):
             source=d.get("source", ""),
             harmonics=int(d.get("harmonics", 0)),
             periodicity=FrozenMap(d.get("periodicity", {})),
+            correlated_noise=bool(d.get("correlated_noise", False)),
             **read_arrays(cls, d),
         )
 
