@@ -71,3 +71,50 @@ def test_fit_rsf_reads_a_utf16_record(tmp_path, capsys):
     payload = json.loads(capsys.readouterr().out)
     assert payload["record"]["step_times"] == pytest.approx([68.59], abs=0.01)
     assert np.isfinite(payload["params"]["a"])
+
+
+# --------------------------------------------------------------------------- point 5
+
+
+def test_fit_of_data_that_are_not_a_friction_record_exits_1_and_says_why(capsys):
+    export = shared_data("instrument-exports", "rheocompass-en-utf16-shear.txt")
+    assert main(["fit", str(export)]) == 1
+    captured = capsys.readouterr()
+    assert "success            = False" in captured.out
+    assert "not a fit of these data: " in captured.out
+    assert "Traceback" not in captured.err
+
+
+# --------------------------------------------------------------------------- point 8
+
+
+def test_fit_of_a_rheocompass_export_cut_at_three_quarters_is_no_crash(tmp_path, capsys):
+    export = shared_data("instrument-exports", "rheocompass-en-utf16-shear.txt")
+    raw = export.read_bytes()
+    cut = tmp_path / "cut.txt"
+    cut.write_bytes(raw[: 3 * len(raw) // 4])
+    code = main(["fit", str(cut)])
+    captured = capsys.readouterr()
+    assert code in (1, 2)
+    assert "OverflowError" not in captured.err and "Traceback" not in captured.err
+    assert "cut short" in captured.out + captured.err
+
+
+# --------------------------------------------------------------------------- point 12
+
+
+def test_fit_of_a_creep_record_suggests_the_time_domain(capsys):
+    export = shared_data("instrument-exports", "trios", "creep_experiment.txt")
+    assert main(["fit", str(export)]) == 2
+    err = one_line(capsys.readouterr().err, "fit")
+    assert "--domain time" in err and "must increase strictly" not in err
+
+
+def test_fit_without_an_overshoot_speaks_the_command_lines_words(tmp_path, capsys):
+    flat = tmp_path / "flat.csv"
+    slip = np.linspace(0.1e-6, 500e-6, 200)
+    text = "slip [m],force [N]\n" + "".join(f"{x:.17g},0.01\n" for x in slip)
+    flat.write_text(text, encoding="utf-8")
+    assert main(["fit", str(flat)]) == 2
+    err = one_line(capsys.readouterr().err, "fit")
+    assert "--fix a=VALUE" in err

@@ -566,6 +566,13 @@ def _run_fit(args):
     if not np.isfinite(run.slip if domain == "slip" else run.t).any():
         column = "a slip (or deflection angle)" if domain == "slip" else "a time"
         raise UsageError(f"--domain {domain} needs {column} column in {label}")
+    slip = run.slip[np.isfinite(run.slip) & np.isfinite(run.force)]
+    if args.domain is None and args.window is None and np.any(np.diff(slip) <= 0):
+        raise UsageError(
+            f"{label}: the slip stands still or goes back (a creep or stress-controlled "
+            "record?), so it cannot be the abscissa: fit the force against time with "
+            "--domain time (and --velocity), or choose the sliding part with --window"
+        )
     options = _fit_options(args, domain)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

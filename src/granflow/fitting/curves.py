@@ -35,6 +35,10 @@ __all__ = [
 
 ABSCISSA = {"slip": ("x", "m"), "time": ("t", "s")}
 MIN_POINTS = 10
+#: The largest magnitude of a force [N] or an abscissa [m or s] a fit takes: least squares
+#: sums squares, and 1e100 squared is still far from float64's 1.8e308 (a value beyond it
+#: is a wrong unit, never a friction force).
+LARGEST = 1e100
 _START_PEAK_SLIPS = (0.9, 0.5, 1.6)  # trial alpha * x_peak for the starts
 
 
@@ -123,6 +127,13 @@ def prepare(data, domain, velocity, window, weights, sigma):
     """The points of ``data`` inside the window, with their weights (see :func:`granflow.fit`)."""
     z, y, run_velocity, name, non_finite = _as_curve_arrays(data, domain)
     abscissa, unit = ABSCISSA[domain]
+    for values, what, what_unit in ((z, abscissa, unit), (y, "force", "N")):
+        if values.size and np.max(np.abs(values)) > LARGEST:
+            index = int(np.argmax(np.abs(values)))
+            raise InvalidDataError(
+                f"{what}[{index}] = {values[index]:.6g} {what_unit} is beyond what a fit can "
+                f"square (|{what}| <= {LARGEST:g} {what_unit}): is the unit right?"
+            )
     steps = np.diff(z)
     if np.any(steps <= 0):
         index = int(np.argmax(steps <= 0))

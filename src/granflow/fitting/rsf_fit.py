@@ -457,7 +457,8 @@ def fit(
     if loose:
         message += (
             "; the stiffness is poorly determined (the rise after a step is not resolved): "
-            "Wald intervals; consider fixed={'stiffness': ...}"
+            "Wald intervals; consider fixed={'stiffness': ...} (--fix stiffness=VALUE on the "
+            "command line)"
         )
     elif profile_failed:
         message += f"; Wald intervals for {', '.join(profile_failed)} (the profile ran off)"

@@ -393,12 +393,14 @@ def _require_overshoot(features, fixed, names):
             "the data show no stress overshoot (the smoothed maximum exceeds the final "
             f"plateau by {overshoot:.3g} N, within the noise allowance {resolution:.3g} N), "
             "so the aging amplitude a and the initial state cannot be determined; fix them "
-            "(fixed={'a': ...}) or compare simpler models with granflow.compare_models"
+            "(fixed={'a': ...}; on the command line --fix a=VALUE) or compare simpler models "
+            "with granflow.compare_models"
         )
     if features["peak_index"] >= 0.95 * features["smooth"].size:
         raise FitError(
             "the force still rises at the end of the window: the overshoot and the plateau Fd "
-            "are not in the data; extend the window or fix Fd"
+            "are not in the data; extend the window or fix Fd (fixed={'Fd': ...}; on the "
+            "command line --fix Fd=VALUE)"
         )
 
 
@@ -541,6 +543,44 @@ def _interval(problem, solution, stats, index, name, *, profile, exact_data, var
     return stats.ci95[name], "wald", at_bound, None
 
 
+#: A free parameter whose standard error exceeds this many times its value is not
+#: determined by the data (a 95 % interval of +-200 times the value).
+UNDETERMINED = 100.0
+
+
+def not_a_fit(stats, ci95, bound_names, names, fixed):
+    """The sentence that says why a converged optimisation is no fit of the data, or "".
+
+    A fit is no fit when the model describes the data worse than their mean (R-squared
+    below 0), when a free parameter is not determined by the data (a standard error over
+    :data:`UNDETERMINED` times its value, or an interval with an infinite end), or when a
+    parameter ended on a bound of its search range (the optimum lies outside it).
+    """
+    reasons = []
+    if math.isfinite(stats.rsquared) and stats.rsquared < 0:
+        reasons.append(
+            f"R-squared is {stats.rsquared:.3g}: the model describes the data worse than their mean"
+        )
+    loose = []
+    for name in names:
+        if name in fixed:
+            continue
+        value, error = stats.params[name], stats.stderr[name]
+        low, high = ci95[name]
+        if not (math.isfinite(low) and math.isfinite(high)):
+            loose.append(f"{name} (95 % interval [{low:.3g}, {high:.3g}])")
+        elif not abs(error) <= UNDETERMINED * abs(value):
+            share = abs(error / value) * 100 if value else math.inf
+            loose.append(f"{name} (+- {share:.3g} %)")
+    if loose:
+        reasons.append(f"not determined by the data: {', '.join(loose)}")
+    if bound_names:
+        reasons.append("a parameter on a bound of its search range is no optimum")
+    if not reasons:
+        return ""
+    return "not a fit of these data: " + "; ".join(reasons)
+
+
 def _result(problem, solution, prepared, domain, names, fixed, profile):
     values = problem.values(solution.x)
     stats = fit_statistics(
@@ -572,6 +612,10 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     bound_names = [n_ for n_, flag in at_bound.items() if flag]
     if bound_names:
         messages.append(f"at a bound of the search range: {', '.join(bound_names)}")
+    verdict = not_a_fit(stats, ci95, bound_names, names, fixed)
+    if verdict:
+        success = False
+        messages.append(verdict)
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
