@@ -1,12 +1,20 @@
 """Bad input through the command line, tried as a user would (issue 31): a clear one-line
 error naming the culprit, or a result that says what it did; never a raw exception."""
 
+import contextlib
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import shared_data
 
+import granflow
 from granflow import rsf
 from granflow.cli import main
 
@@ -118,3 +126,92 @@ def test_fit_without_an_overshoot_speaks_the_command_lines_words(tmp_path, capsy
     assert main(["fit", str(flat)]) == 2
     err = one_line(capsys.readouterr().err, "fit")
     assert "--fix a=VALUE" in err
+
+
+# --------------------------------------------------------------------------- point 10
+
+_MEASURED = """
+import sys
+from granflow.cli import main
+code = main(sys.argv[1:])
+status = open("/proc/self/status").read()
+print("exit", code, "VmHWM", status.split("VmHWM:")[1].split()[0])
+"""
+
+_BLOCKED_JOINT = """
+import sys
+import granflow.analysis.engine as engine
+joint_stage = engine.joint_stage
+def blocked(*args, **kwargs):
+    with open({barrier!r}, encoding="utf-8") as barrier:
+        barrier.read()
+    return joint_stage(*args, **kwargs)
+engine.joint_stage = blocked
+from granflow.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.fixture(scope="module")
+def twelve_thousand(tmp_path_factory):
+    """A campaign folder whose manifest has 12 000 short entries naming three runs."""
+    from conftest import write_small_campaign
+
+    folder = tmp_path_factory.mktemp("large")
+    write_small_campaign(folder)
+    lines = ["runs:"]
+    lines += [
+        f"  - {{file: startup_30mN.txt, interval: {1 + i % 3}, normal_load: 30 mN}}"
+        for i in range(12_000)
+    ]
+    (folder / "manifest.yaml").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return folder
+
+
+def _granflow_env():
+    return {**os.environ, "PYTHONPATH": str(Path(granflow.__file__).resolve().parents[1])}
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(
+    not Path("/proc/self/status").is_file(), reason="reads the peak memory from /proc (Linux)"
+)
+def test_analyze_on_twelve_thousand_entries_stays_under_one_gigabyte(twelve_thousand, tmp_path):
+    done = subprocess.run(
+        [sys.executable, "-c", _MEASURED, "analyze", str(twelve_thousand), "-o",
+         str(tmp_path / "out"), "--jobs", "1", "--quiet"],
+        capture_output=True, text=True, timeout=1200, env=_granflow_env(), check=False,
+    )  # fmt: skip
+    last = done.stdout.strip().splitlines()[-1].split()
+    assert last[:2] == ["exit", "1"], done.stderr  # the repeats failed, named
+    assert "campaign: 12000 runs, 3 analysed, 11997 failed" in done.stdout
+    assert int(last[3]) < 1024 * 1024, last  # peak resident memory [KiB] under 1 GB
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes (POSIX)")
+def test_sigterm_stops_the_analysis_of_twelve_thousand_entries(twelve_thousand, tmp_path):
+    barrier = tmp_path / "barrier"
+    os.mkfifo(barrier)
+    output = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-c", _BLOCKED_JOINT.format(barrier=str(barrier)), "analyze",
+         str(twelve_thousand), "-o", str(output), "--jobs", "1", "--quiet"],
+        env=_granflow_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        # a guard against a hang, not a timing assumption: the process blocks at the joint
+        # stage, after its three runs are saved, until the pipe is opened
+        deadline = time.monotonic() + 900
+        while len(list((output / "runs").glob("*.json"))) < 3:
+            assert process.poll() is None, process.communicate()
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+        process.send_signal(signal.SIGTERM)
+    finally:
+        # the signal may already have taken the reader out of open(): nothing to release
+        with contextlib.suppress(OSError):
+            os.close(os.open(barrier, os.O_WRONLY | os.O_NONBLOCK))
+    _, err = process.communicate(timeout=600)
+    assert process.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err

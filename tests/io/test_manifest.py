@@ -201,20 +201,23 @@ def test_each_file_is_read_once_however_many_entries_name_it(folder, monkeypatch
     monkeypatch.setattr(granflow.io, "read_runs", counting)
     path = folder / "manifest.yaml"
     path.write_text(
-        "runs:\n" + "".join(GOOD.replace("1,", f"{i},") for i in (1, 2, 3, 1)), encoding="utf-8"
+        "runs:\n" + "".join(GOOD.replace("1,", f"{i},") for i in (1, 2, 3)), encoding="utf-8"
     )
     campaign = granflow.Campaign.from_manifest(path)
-    assert [run.meta["interval"] for run in campaign] == [1, 2, 3, 1]
+    assert [run.meta["interval"] for run in campaign] == [1, 2, 3]
     assert len(calls) == 1
 
 
 def test_the_geometry_converts_and_is_named(folder):
+    # the same export three times under three names (one entry may name a run only once)
+    for copy in ("paper.csv", "other.csv"):
+        (folder / copy).write_bytes((folder / "runs.csv").read_bytes())
     path = folder / "manifest.yaml"
     path.write_text(
         "defaults: {normal_load: 20 mN}\nruns:\n"
         "  - {file: runs.csv, interval: 1}\n"
-        "  - {file: runs.csv, interval: 1, geometry: paper}\n"
-        "  - {file: runs.csv, interval: 1, geometry: 'outer_radius=10 mm, inner_radius=8 mm'}\n",
+        "  - {file: paper.csv, interval: 1, geometry: paper}\n"
+        "  - {file: other.csv, interval: 1, geometry: 'outer_radius=10 mm, inner_radius=8 mm'}\n",
         encoding="utf-8",
     )
     default, paper, other = granflow.Campaign.from_manifest(path)

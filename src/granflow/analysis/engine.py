@@ -217,6 +217,7 @@ def analyze(
     geometry: Any = None,
     strict: bool = False,
     figure_formats: Sequence[str] = ("png",),
+    allow_outside: bool = False,
 ) -> AnalysisResult:
     """Analyse a whole campaign and write results, tables, figures and a report.
 
@@ -268,6 +269,10 @@ def analyze(
     figure_formats : sequence of {"png", "svg", "pdf"}
         The files of each figure in ``figures/``, each figure drawn once (default PNG, which
         the report embeds; the report links an SVG where there is one).
+    allow_outside : bool
+        Read files outside the manifest's folder too. Default False: an entry whose file
+        lies outside it (``..``, an absolute path, a symbolic link leading out) fails,
+        named, so that a manifest someone else wrote reads only the campaign's files.
 
     Returns
     -------
@@ -307,7 +312,7 @@ def analyze(
     # recycled between stages, so that no worker holds two stages' stacks
     executor = Executor(jobs, scheduler, isolate=True)
     try:
-        items, manifest, inputs = load_campaign(source, geometry, executor)
+        items, manifest, inputs = load_campaign(source, geometry, executor, allow_outside)
         executor.recycle()
         stages["read_s"] = time.perf_counter() - clock
         output.mkdir(parents=True, exist_ok=True)
@@ -334,10 +339,10 @@ def analyze(
         stages["joint_s"] = time.perf_counter() - clock_stage
         reporter.line("velocity steps")
         clock_stage = time.perf_counter()
-        steps = velocity_step_entries(manifest)
+        steps = velocity_step_entries(manifest, allow_outside)
         velocity_steps = {}
         if steps:  # on a worker: the rate-and-state fits and their figures load matplotlib
-            velocity_steps = executor.call(_velocity_steps, (manifest, output))
+            velocity_steps = executor.call(_velocity_steps, (manifest, output, allow_outside))
             executor.recycle()
         inputs += [e["file"] for e in steps if e["file"] not in inputs]
         stages["velocity_steps_s"] = time.perf_counter() - clock_stage
@@ -387,9 +392,10 @@ def analyze(
 
 
 def _velocity_steps(task):
-    """:func:`campaign_velocity_steps` of ``(manifest, output)``, as one executor task."""
-    manifest, output = task
-    return campaign_velocity_steps(manifest, output, FIGURES_DIR)
+    """:func:`campaign_velocity_steps` of ``(manifest, output, allow_outside)``, as one
+    executor task."""
+    manifest, output, allow_outside = task
+    return campaign_velocity_steps(manifest, output, FIGURES_DIR, allow_outside)
 
 
 def _with_results(result, content):

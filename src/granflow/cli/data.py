@@ -160,6 +160,11 @@ def add_convert(subparsers):
     )
     parser.add_argument("files", nargs="*", help="export files")
     parser.add_argument("--manifest", help="a campaign manifest (.yaml or .csv)")
+    parser.add_argument(
+        "--allow-outside",
+        action="store_true",
+        help="read files the manifest names outside its folder (refused by default)",
+    )
     parser.add_argument("-o", "--output", required=True, help="output .csv or .parquet")
     add_geometry_option(parser)
 
@@ -183,7 +188,9 @@ def _run_convert(args):
     runs, failures = [], []
     if args.manifest:
         campaign = granflow.Campaign.from_manifest(
-            args.manifest, geometry=choice.annulus if choice.given else None
+            args.manifest,
+            geometry=choice.annulus if choice.given else None,
+            allow_outside=args.allow_outside,
         )
         runs += list(campaign)
         failures += list(campaign.problems)
