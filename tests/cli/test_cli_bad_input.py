@@ -215,3 +215,66 @@ def test_sigterm_stops_the_analysis_of_twelve_thousand_entries(twelve_thousand, 
     _, err = process.communicate(timeout=600)
     assert process.returncode == 130, err
     assert "interrupted" in err and "Traceback" not in err
+
+
+# --------------------------------------------------------------------------- point 9
+
+
+@pytest.fixture(scope="module")
+def small_campaign(tmp_path_factory):
+    from conftest import write_small_campaign
+
+    return write_small_campaign(tmp_path_factory.mktemp("small")).parent
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["analyze", "{campaign}", "-o", "{blocked}/out", "--jobs", "1", "--quiet"],
+        ["demo", "-o", "{blocked}/demo", "--quiet"],
+        [
+            "curve",
+            "--a",
+            "3mN",
+            "--Fd",
+            "10mN",
+            "--alpha",
+            "4e4/m",
+            "--x0",
+            "0.2um",
+            "-o",
+            "{blocked}/curve.csv",
+        ],
+        ["convert", "{campaign}/ramp.txt", "-o", "{blocked}/tidy.csv"],
+    ],
+    ids=["analyze", "demo", "curve", "convert"],
+)
+def test_an_output_that_cannot_be_written_is_a_sentence_before_any_work(
+    small_campaign, tmp_path, capsys, command
+):
+    blocked = tmp_path / "a-file"
+    blocked.write_text("not a folder", encoding="utf-8")
+    argv = [word.format(campaign=small_campaign, blocked=blocked) for word in command]
+    assert main(argv) == 2
+    err = one_line(capsys.readouterr().err, command[0])
+    assert str(blocked) in err and "cannot write" in err and "not a folder" in err
+    assert blocked.read_text(encoding="utf-8") == "not a folder"  # nothing touched
+
+
+def test_a_folder_the_system_refuses_is_named_with_the_reason(
+    small_campaign, tmp_path, capsys, monkeypatch
+):
+    import errno
+
+    import granflow._files
+
+    def refuse(folder):
+        raise PermissionError(errno.EPERM, "Operation not permitted", str(folder))
+
+    monkeypatch.setattr(granflow._files, "_probe", refuse)
+    out = tmp_path / "out"
+    assert main(["analyze", str(small_campaign), "-o", str(out), "--jobs", "1", "--quiet"]) == 2
+    err = one_line(capsys.readouterr().err, "analyze")
+    assert f"{out}: cannot write the output folder (operation not permitted)" in err
+    with pytest.raises(granflow.OutputError, match="operation not permitted"):
+        granflow.analyze(small_campaign, out, jobs=1, quiet=True)

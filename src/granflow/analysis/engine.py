@@ -93,12 +93,11 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from granflow._files import write_atomic
+from granflow._files import writable_folder, write_atomic
 from granflow._json import json_safe
 from granflow._parallel import Executor
 from granflow._progress import RunProgress, silenced
@@ -304,7 +303,8 @@ def analyze(
     figure_formats = check_formats(figure_formats, "figure_formats")  # an error now, not later
     if mcmc:
         _require_emcee()  # a missing extra is an error now, not after the fits
-    output = Path(output)
+    # checked now, not after the fits: the folder is made and a file written in it
+    output = writable_folder(output, "output folder")
     reporter = RunProgress(quiet, progress)
     stages = {}
     # one executor for the whole analysis: reading, the per-run work, the joint stage's

@@ -14,6 +14,7 @@ __all__ = [
     "UsageError",
     "add_command",
     "add_geometry_option",
+    "check_outputs",
     "describe_geometry",
     "geometry_choice",
     "plural",
@@ -212,6 +213,17 @@ def geometry_choice(text):
                 value, length, f"--geometry {key}", lambda typed, key=key: f"{key}={typed}"
             )
     return GeometryChoice(Annulus.from_spec(text), text.strip(), True)
+
+
+def check_outputs(args):
+    """Refuse ``-o``/``--output`` and ``--plot`` files that cannot be written, before any work
+    (:class:`granflow.OutputError` naming the file and the reason)."""
+    from granflow._files import writable_file
+
+    if getattr(args, "output", None):
+        writable_file(args.output, "output file")
+    if getattr(args, "plot", None):
+        writable_file(args.plot, "figure")
 
 
 def write_outputs(args, frame, rows, axes):

@@ -181,8 +181,10 @@ def _run_analyze(args):
 
 
 def _run_demo(args):
+    from granflow._files import writable_folder
     from granflow.analysis.demo import make_demo_campaign
 
+    writable_folder(args.output, "output folder")
     manifest = make_demo_campaign(args.output, seed=args.seed)
     if not args.quiet:
         print(f"wrote a synthetic campaign (seed {args.seed}): {manifest}", file=sys.stderr)

@@ -1,7 +1,7 @@
 """``granflow curve``: the model curve (Eq. 3) under a constant velocity, and its peak."""
 
 import granflow
-from granflow.cli._common import UsageError, add_command, plural, quantity
+from granflow.cli._common import UsageError, add_command, check_outputs, plural, quantity
 
 __all__ = ["add_curve"]
 
@@ -71,6 +71,7 @@ def _curve_params(args):
 def _run_curve(args):
     import numpy as np
 
+    check_outputs(args)
     params, velocity = _curve_params(args)
     if args.points < 2:
         raise UsageError(f"--points must be at least 2, got {args.points}")

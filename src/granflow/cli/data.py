@@ -16,6 +16,7 @@ from granflow.cli._common import (
     UsageError,
     add_command,
     add_geometry_option,
+    check_outputs,
     describe_geometry,
     geometry_choice,
     plural,
@@ -185,6 +186,7 @@ def _run_convert(args):
         raise UsageError(f"-o must end in .csv or .parquet, got {Path(args.output).name!r}")
     if not args.files and not args.manifest:
         raise UsageError("give export files or --manifest")
+    check_outputs(args)
     runs, failures = [], []
     if args.manifest:
         campaign = granflow.Campaign.from_manifest(

@@ -1,7 +1,7 @@
 """``granflow simulate`` and ``granflow stability-map``: protocols through the model."""
 
 import granflow
-from granflow.cli._common import UsageError, add_command, quantity, write_outputs
+from granflow.cli._common import UsageError, add_command, check_outputs, quantity, write_outputs
 
 __all__ = ["add_simulate", "add_stability_map"]
 
@@ -74,6 +74,7 @@ def add_simulate(subparsers):
 def _run_simulate(args):
     from granflow.plotting import plot_simulation
 
+    check_outputs(args)
     params = granflow.Params.load(args.params)
     protocol = granflow.Protocol.load(args.protocol)
     result = granflow.simulate(params, protocol, **_dynamic_options(args))
@@ -135,6 +136,7 @@ def _run_stability_map(args):
 
     from granflow.plotting import plot_stability_map
 
+    check_outputs(args)
     params = granflow.Params.load(args.params)
     options = _dynamic_options(args)
     stability = granflow.stability_map(
