@@ -278,3 +278,28 @@ def test_a_folder_the_system_refuses_is_named_with_the_reason(
     assert f"{out}: cannot write the output folder (operation not permitted)" in err
     with pytest.raises(granflow.OutputError, match="operation not permitted"):
         granflow.analyze(small_campaign, out, jobs=1, quiet=True)
+
+
+# --------------------------------------------------------------------------- point 12
+
+
+@pytest.mark.slow
+def test_a_joint_fit_that_fails_makes_the_exit_code_1_and_leaks_no_numpy_warning(
+    small_campaign, tmp_path, capsys
+):
+    # every run declared at one huge load (9 MN): the single-load joint fit over runs of
+    # three real loads cannot hold one Fd, and is no fit
+    manifest = small_campaign / "manifest.yaml"
+    text = manifest.read_text(encoding="utf-8")
+    for load in ("30 mN", "60 mN", "90 mN"):
+        text = text.replace(load, "9e6 N")
+    (tmp_path / "campaign").mkdir()
+    for path in small_campaign.glob("*.txt"):
+        (tmp_path / "campaign" / path.name).write_bytes(path.read_bytes())
+    (tmp_path / "campaign" / "manifest.yaml").write_text(text, encoding="utf-8")
+    out = tmp_path / "out"
+    code = main(["analyze", str(tmp_path / "campaign"), "-o", str(out), "--jobs", "1", "--quiet"])
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "joint analysis failed" in captured.out
+    assert "RuntimeWarning" not in captured.err and "overflow" not in captured.err

@@ -170,3 +170,14 @@ def test_twelve_thousand_entries_are_read_in_bounded_memory(campaign):
     counts, peak_kib = done.stdout.split("\n")[:2]
     assert counts == "3 11997"  # three runs, the repeats failed and named
     assert int(peak_kib) < 1024 * 1024  # under 1 GB
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [("normal_load", "1e300 N"), ("velocity", "1e10 m/s"), ("rest_time", "1e12 s")],
+)
+def test_a_quantity_beyond_any_laboratory_record_is_the_entrys_error(campaign, field, value):
+    path = _write(campaign, f"runs:\n  - {{file: runs.csv, interval: 1, {field}: {value}}}\n")
+    (entry,) = read_manifest(path, errors="collect")
+    assert isinstance(entry, BadEntry)
+    assert f"{field} '{value}' is beyond any laboratory record" in entry.reason

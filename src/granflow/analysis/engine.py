@@ -91,6 +91,7 @@ import contextlib
 import datetime
 import os
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
@@ -334,7 +335,7 @@ def analyze(
         clock_stage = time.perf_counter()
         entries = tuple(run_entry(item, index, strict) for index, item in enumerate(items))
         with silenced():  # one bar per campaign: none from the stability map or MCMC
-            joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
+            joint = _noted(joint_stage, entries, executor, mcmc=mcmc, seed=seed)
         executor.recycle()
         stages["joint_s"] = time.perf_counter() - clock_stage
         reporter.line("velocity steps")
@@ -389,6 +390,24 @@ def analyze(
     result = _with_results(replace(result, timing=_finished(timing, clock), report=report), content)
     write_json(output / RESULTS_FILE, result.results)
     return result
+
+
+def _noted(stage, *args, **kwargs):
+    """``stage(*args, **kwargs)`` (a :class:`JointStage`) with NumPy's floating-point warnings
+    kept as the campaign's warnings ("joint stage: overflow encountered in ...") instead of
+    lines on stderr; other warnings go on as they were."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        joint = stage(*args, **kwargs)
+    numerical = []
+    for item in caught:
+        if issubclass(item.category, RuntimeWarning):
+            numerical.append(f"joint stage: numerical warning: {item.message}")
+        else:
+            warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
+    if not numerical:
+        return joint
+    return replace(joint, warnings=joint.warnings + tuple(dict.fromkeys(numerical)))
 
 
 def _velocity_steps(task):

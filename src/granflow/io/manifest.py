@@ -83,6 +83,10 @@ MAX_MANIFEST_BYTES = 1 << 20
 MAX_DEPTH = 16
 #: Physical quantities: True where the value must be positive, False where it may be zero.
 _QUANTITIES = {"normal_load": True, "velocity": True, "rest_time": False, "switch_time": False}
+#: The largest value of each quantity a laboratory record may have [SI]: a press of 10 MN,
+#: a sliding velocity of 1 km/s, times of 30 years. Beyond is a wrong unit, and the joint
+#: analyses would divide forces by it into numbers float64 cannot hold.
+LARGEST = {"normal_load": 1e7, "velocity": 1e3, "rest_time": 1e9, "switch_time": 1e9}
 _TOP_LEVEL = ("defaults", "runs")
 
 
@@ -287,6 +291,11 @@ def _quantity(key, value):
     if number < 0 or (number == 0 and _QUANTITIES[key]):
         sign = "positive" if _QUANTITIES[key] else "zero or positive"
         raise InvalidParameterError(f"{key} must be {sign}, got {value!r}")
+    if number > LARGEST[key]:
+        raise InvalidParameterError(
+            f"{key} {str(value)[:40]!r} is beyond any laboratory record (at most "
+            f"{LARGEST[key]:g} {si_unit(key)}): is the unit right?"
+        )
     return number
 
 
