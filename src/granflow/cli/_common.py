@@ -21,6 +21,7 @@ __all__ = [
     "positive_int",
     "quantity",
     "write_outputs",
+    "written_names",
 ]
 
 #: A word that starts like a negative number ("-0.86um/s", "-.5mN", "-3e-6m/s") is a value.
@@ -226,11 +227,23 @@ def check_outputs(args):
         writable_file(args.plot, "figure")
 
 
-def write_outputs(args, frame, rows, axes):
+def written_names(quantities):
+    """{column: the name granflow writes it under} for columns holding the quantities of
+    :data:`granflow.model.units.QUANTITIES` ("t" -> "t_s", "failure_force" -> "failure_force_N");
+    one name per quantity in every CSV, which every command reads back."""
+    from granflow.model.units import column_name
+
+    return {name: column_name(name, quantity) for name, quantity in quantities.items()}
+
+
+def write_outputs(args, frame, rows, axes, quantities=None):
     """Write ``frame()`` to ``args.output`` (CSV) and the figure of ``axes()`` to ``args.plot``;
-    ``rows`` names one row ("point", "cell")."""
+    ``rows`` names one row ("point", "cell"); ``quantities`` ({column: quantity}) gives the
+    columns their units in their names (:func:`written_names`)."""
     if args.output:
         table = frame()
+        if quantities:
+            table = table.rename(columns=written_names(quantities))
         table.to_csv(args.output, index=False, float_format="%.17g")
         print(f"wrote {plural(len(table), rows)} to {args.output}")
     if args.plot:

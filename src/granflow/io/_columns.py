@@ -29,6 +29,7 @@ __all__ = [
     "OWN_QUANTITIES",
     "QUANTITIES",
     "SI_UNITS",
+    "TEXT_QUANTITIES",
     "column_label",
     "control_from_text",
     "known_label",
@@ -142,7 +143,10 @@ OWN_QUANTITIES = {
     "slip": ("Slip",),
     "force": ("Force", "Friction Force"),
     "velocity": ("Sliding Velocity",),
+    "control": ("Control",),
 }
+#: Columns of text, not numbers: an instrument's status, granflow's control mode per row.
+TEXT_QUANTITIES = ("status", "control")
 #: The names granflow writes, before their unit suffix: name -> quantity.
 _OWN_NAMES = {"t": "time", "time": "time", "slip": "slip", "velocity": "velocity", "force": "force"}
 _OWN_NAME = re.compile(r"^(?P<name>[A-Za-z]+)_(?P<unit>[A-Za-zµμ0-9]+(?:_[A-Za-zµμ0-9]+)?)$")
@@ -152,7 +156,9 @@ MAPPED_ONLY = tuple(OWN_QUANTITIES)
 #: The SI unit of each column quantity, from the one unit table
 #: (:data:`granflow.model.units.QUANTITIES`); None: a count or text, no unit.
 SI_UNITS = {
-    name: units.QUANTITIES[name].si if name in units.QUANTITIES else None
+    name: units.QUANTITIES[name].si
+    if name in units.QUANTITIES and name not in TEXT_QUANTITIES
+    else None
     for name in (*QUANTITIES, *MAPPED_ONLY)
 }
 

@@ -85,7 +85,7 @@ class Interval:
         """Index of the column that measures ``quantity`` (best-ranked label), or None."""
         best = None
         for index, column in enumerate(self.columns):
-            if column.quantity == quantity and index in self.values:
+            if column.quantity == quantity and (index in self.values or index in self.text):
                 rank = _columns.match_quantity(column.name)[1] or 0
                 if best is None or rank < best[0]:
                     best = (rank, index)
@@ -94,7 +94,7 @@ class Interval:
     def si(self, quantity):
         """The values of ``quantity`` in SI units (a new array), or None if no such column."""
         index = self.find(quantity)
-        if index is None:
+        if index is None or index not in self.values:
             return None
         factor = self.columns[index].factor
         inverse = round(1.0 / factor)
@@ -217,7 +217,7 @@ def make_columns(names, units, meanings, source, line, quantities=None):
         _columns.refine(_columns.match_quantity(name)[0], unit) if given is None else given or None
         for name, unit, given in zip(names, units, quantities or [None] * len(names), strict=True)
     ]
-    if quantities is None and not set(chosen) - {None, "point", "status"}:
+    if quantities is None and not set(chosen) - {None, "point", *_columns.TEXT_QUANTITIES}:
         for index, unit in enumerate(units):
             role = _columns.quantity_from_unit(unit) if chosen[index] is None else None
             if role is not None and role not in chosen:
@@ -246,7 +246,9 @@ def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):
     """Parse the data rows of one block and wrap them with their columns, metadata and
     data-quality problems (missing, invalid or infinite cells, a truncated block, rows
     without a time, time that does not increase, gaps in time)."""
-    text_columns = [i for i, column in enumerate(columns) if column.quantity == "status"]
+    text_columns = [
+        i for i, column in enumerate(columns) if column.quantity in _columns.TEXT_QUANTITIES
+    ]
     block = read_block(
         buffer,
         spec.region,
@@ -260,7 +262,7 @@ def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):
     )
     for index in list(block.text):
         column = columns[index]
-        if column.quantity not in (None, "status"):
+        if column.quantity not in (None, *_columns.TEXT_QUANTITIES):
             cells = block.text[index]
             filled = np.flatnonzero([bool(str(cell).strip()) for cell in cells])
             raise fail(

@@ -54,6 +54,13 @@ def control_mode(interval: Interval) -> str:
             mode = _columns.control_from_text(value)
             if mode is not None:
                 return mode
+    written = interval.find("control")  # granflow's own tables: the mode of each row
+    if written is not None:
+        modes = {str(cell).strip().lower() for cell in interval.text[written]}
+        if "stress" in modes:
+            return "stress"
+        if "rate" in modes:
+            return "rate"
     rate = next((q for q in ("speed", "shear_rate") if interval.find(q) is not None), None)
     stress = next((q for q in _STRESS if interval.find(q) is not None), None)
     if rate is None or stress is None:

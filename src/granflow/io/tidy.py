@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
 from granflow.model.run import Run
+from granflow.model.units import column_name
 
 if TYPE_CHECKING:
     from granflow._typing import PathLike
@@ -66,8 +67,8 @@ COLUMNS = {
 }
 #: The file suffixes a table may have.
 SUFFIXES = (".csv", ".parquet")
-#: Run attribute -> column.
-_SERIES = {"t": "t_s", "slip": "slip_m", "velocity": "velocity_m_s", "force": "force_N"}
+#: Run attribute -> column: the names every table granflow writes gives these quantities.
+_SERIES = {name: column_name(name) for name in ("t", "slip", "velocity", "force")}
 _REQUIRED = ("run", "t_s", "force_N")
 _KEY = "granflow"
 _VERSION = 1
