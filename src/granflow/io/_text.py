@@ -16,7 +16,15 @@ import numpy as np
 from granflow.io import _buffer, _columns
 from granflow.io._buffer import fail
 
-__all__ = ["MISSING_MARKERS", "NumberFormat", "decode", "fail", "read_block", "sniff_delimiter"]
+__all__ = [
+    "MISSING_MARKERS",
+    "NumberFormat",
+    "count_cells",
+    "decode",
+    "fail",
+    "read_block",
+    "sniff_delimiter",
+]
 
 #: Cells that mean "no value": empty, a single space, asterisks (Rheoplus prints ******).
 MISSING_MARKERS = ("", " ", "******")
@@ -237,7 +245,16 @@ def read_block(
     start, stop, first_line, rows = region
     offset = 1 if skip_first else 0
     count = len(names)
-    width = max(count + offset, _most_cells(buffer.data, start, stop, delimiter))
+    most, short = count_cells(buffer.data, start, stop, delimiter, count + offset)
+    if short is not None:
+        cells = _cells_of_line(buffer, start, short, delimiter) - offset
+        raise fail(
+            source,
+            first_line + short,
+            f"{max(cells, 0)} cells where the header has {count} columns (a row cut short, or "
+            "separators that differ from the header's)",
+        )
+    width = max(count + offset, most)
     if not rows:
         empty = np.empty(0, dtype=np.float64)
         return Block(
@@ -330,12 +347,12 @@ _SCAN = 1 << 24
 _NUMBER_START = re.compile(r"^\s*[-+]?(?:\d|[.,]\d)")
 
 
-def _most_cells(data, start, stop, delimiter):
-    """The largest number of cells in a line of ``data[start:stop]``: its delimiters plus
-    one, counted on the bytes (a quoted delimiter counts too, so never fewer than pandas
-    sees), a chunk at a time."""
+def count_cells(data, start, stop, delimiter, needed):
+    """(most cells in a line, 0-based index of the first line with fewer than ``needed``)
+    of the data rows ``data[start:stop]``: delimiters plus one, counted on the bytes a
+    chunk at a time (a quoted delimiter counts too: never fewer cells than pandas sees)."""
     code = ord(delimiter)
-    most, position = 0, start
+    most, short, lines, position = 0, None, 0, start
     while position < stop:
         end = min(position + _SCAN, stop)
         if end < stop:
@@ -343,12 +360,17 @@ def _most_cells(data, start, stop, delimiter):
             end = stop if newline < 0 else newline + 1
         chunk = np.frombuffer(data, dtype=np.uint8, count=end - position, offset=position)
         delimiters = np.flatnonzero(chunk == code)
-        if delimiters.size:
-            ends = np.r_[np.flatnonzero(chunk == 10), chunk.size]
-            per_line = np.diff(np.r_[0, np.searchsorted(delimiters, ends)])
+        breaks = np.flatnonzero(chunk == 10)
+        ends = breaks if breaks.size and breaks[-1] == chunk.size - 1 else np.r_[breaks, chunk.size]
+        per_line = np.diff(np.r_[0, np.searchsorted(delimiters, ends)]) + 1
+        if per_line.size:
             most = max(most, int(per_line.max()))
+            fewer = np.flatnonzero(per_line < needed)
+            if short is None and fewer.size:
+                short = lines + int(fewer[0])
+        lines += per_line.size
         position = end
-    return most + 1
+    return most, short
 
 
 def _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, source):
@@ -371,12 +393,7 @@ def _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, so
         return
     index = int(np.argmax(filled))
     line = first_line + index
-    offset_in_file = start
-    for _ in range(index):
-        offset_in_file = buffer.data.find(b"\n", offset_in_file) + 1
-    end = buffer.data.find(b"\n", offset_in_file)
-    text = buffer.text(offset_in_file, len(buffer.data) if end < 0 else end).rstrip("\r")
-    cells = len(split(text, delimiter)) - offset
+    cells = _cells_of_line(buffer, start, index, delimiter) - offset
     hint = ""
     if delimiter == "," and cells >= 2 * count:
         hint = (
@@ -384,6 +401,17 @@ def _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, so
             "commas with semicolon or tab separators)"
         )
     raise fail(source, line, f"{cells} cells where the header has {count} columns{hint}")
+
+
+def _cells_of_line(buffer, start, index, delimiter):
+    """The cells of line ``index`` (0-based) of the block starting at byte ``start``, empty
+    trailing cells not counted."""
+    position = start
+    for _ in range(index):
+        position = buffer.data.find(b"\n", position) + 1
+    end = buffer.data.find(b"\n", position)
+    text = buffer.text(position, len(buffer.data) if end < 0 else end).rstrip("\r")
+    return len(split(text, delimiter))
 
 
 def _refuse_broken_numbers(column, invalid, line_numbers, name, position, source):
