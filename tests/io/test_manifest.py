@@ -88,7 +88,7 @@ def _bomb(levels=9):
             "runs.csv#2",
             "geometry must be 'paper' or give",
         ),
-        ("  - {interval: 2}\n", "manifest entry 2", "the entry has no 'file'"),
+        ("  - {interval: 2}\n", "manifest entry 2 (line 3)", "the entry has no 'file'"),
     ],
 )
 def test_a_bad_entry_is_one_line_under_its_own_label_and_the_rest_is_read(
@@ -135,8 +135,11 @@ def test_the_bomb_is_refused_before_expansion_in_little_memory(folder):
     ("text", "message"),
     [
         ("runs:\n" + GOOD + "colour: red\n", "unknown top-level key 'colour'"),
-        ("defaults: {colour: red}\nruns:\n" + GOOD, "defaults: unknown field 'colour'"),
-        ("defaults: {normal_load: 20}\nruns:\n" + GOOD, "defaults: normal_load 20 has no unit"),
+        ("defaults: {colour: red}\nruns:\n" + GOOD, "defaults (line 1): unknown field 'colour'"),
+        (
+            "defaults: {normal_load: 20}\nruns:\n" + GOOD,
+            "defaults (line 1): normal_load 20 has no unit",
+        ),
         ("a: &a [x, x]\nruns:\n" + GOOD, "unknown top-level key 'a'"),
         ("runs: *a\n", "YAML anchors and aliases are not allowed (found *a)"),
         ("runs: [\n", "line 2: not valid YAML"),

@@ -461,6 +461,25 @@ def _after_lines(buffer, start, count):
     return position
 
 
+def refuse_interruption(cursor, header_line, delimiter):
+    """A data block ends at a blank line, at the end of the file or at the next keyword
+    line; any other line there cut the rows short (a line damaged, in another encoding or
+    with other separators), and is an error naming it, not the end of the data."""
+    if cursor.done():
+        return
+    line = cursor.peek()
+    cells = line.split(delimiter)
+    if not line.strip(" \t" + delimiter) or _columns.match_keyword(cells[0] if cells else ""):
+        return
+    raise fail(
+        cursor.source,
+        cursor.number,
+        f"this line interrupts the data rows of the interval whose header is on line "
+        f"{header_line}: it is not a data row (a damaged line, another encoding or other "
+        "separators?)",
+    )
+
+
 def finish(source, form, buffer, delimiter, specs, metadata, problems):
     """Sniff the number format from the data rows of every block, then parse each block."""
     from granflow.io._text import sniff_numbers

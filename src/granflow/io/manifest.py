@@ -127,9 +127,15 @@ class _Refused:
 
 
 class _Located(dict):
-    """A YAML mapping that knows its line in the manifest (``line``, 1-based)."""
+    """A YAML mapping that knows its line in the manifest (``line``, 1-based) and the line
+    of each of its keys (``key_lines``)."""
 
     line = 0
+    key_lines: dict = {}  # noqa: RUF012 - replaced per instance
+
+    def line_of(self, key):
+        """The line of ``key``, else of the mapping."""
+        return self.key_lines.get(key, self.line)
 
 
 class _RefusedError(Exception):
@@ -194,6 +200,11 @@ def _strict_loader():
             data.line = node.start_mark.line + 1
             yield data
             data.update(self.construct_mapping(node))
+            data.key_lines = {
+                key.value: key.start_mark.line + 1
+                for key, _ in node.value
+                if isinstance(key, yaml.ScalarNode)
+            }
 
         @staticmethod
         def _refused(text, event):
@@ -230,8 +241,13 @@ def _read_text(path):
                 f"{path}: the manifest is larger than the limit of {MAX_MANIFEST_BYTES} bytes"
             )
         return data.decode("utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: cannot read the manifest ({exc})") from None
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise FileFormatError(
+            f"{path}, line {line}: the manifest is not UTF-8 text (save it as UTF-8)"
+        ) from None
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot read the manifest ({exc.strerror})") from None
 
 
 def _load_yaml(text, path):
@@ -363,6 +379,12 @@ def _field(key, value):
     return str(value)
 
 
+def _short(value):
+    """``repr(value)``, cut to 60 characters: a message quotes the manifest, not pages of it."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _fields(raw, where, manifest):
     """The checked fields of a mapping (an entry or the defaults); raises on the first error."""
     refused = _refused_in(raw)
@@ -371,7 +393,7 @@ def _fields(raw, where, manifest):
             f"{manifest}, {where}: YAML anchors and aliases are not allowed (found {refused.text})"
         )
     if not isinstance(raw, dict):
-        raise FileFormatError(f"{manifest}, {where}: expected a mapping, got {raw!r}")
+        raise FileFormatError(f"{manifest}, {where}: expected a mapping, got {_short(raw)}")
     entry = {}
     for key, value in raw.items():
         key = str(key).strip()
@@ -414,26 +436,32 @@ def _bad(raw, defaults, where, reason):
 def _yaml_entries(text, path):
     document = _load_yaml(text, path)
     defaults = {}
+    where = f"{path}, line 1"
     if isinstance(document, dict):
         for key in document:
             if isinstance(key, _Refused) or key not in _TOP_LEVEL:
+                shown = str(getattr(key, "text", key))[:40]
+                line = document.line_of(str(getattr(key, "text", key)))
                 raise FileFormatError(
-                    f"{path}: unknown top-level key {getattr(key, 'text', key)!r}; a manifest "
+                    f"{path}, line {line}: unknown top-level key {shown!r}; a manifest "
                     "has 'runs' (a list of entries) and optional 'defaults'"
                 )
         if not _absent(document.get("defaults")):
-            defaults = _fields(document["defaults"], "defaults", path)
+            place = f"defaults (line {document.line_of('defaults')})"
+            defaults = _fields(document["defaults"], place, path)
+        where = f"{path}, line {document.line_of('runs')}"
         document = document.get("runs")
     if isinstance(document, _Refused):
         raise FileFormatError(
-            f"{path}: YAML anchors and aliases are not allowed (found {document.text})"
+            f"{where}: YAML anchors and aliases are not allowed (found {document.text})"
         )
     if not isinstance(document, list):
-        raise FileFormatError(f"{path}: expected a list of runs (or 'runs:' with a list)")
-    return [
-        (_entry(raw, defaults, f"entry {i}", path), getattr(raw, "line", None))
-        for i, raw in enumerate(document, start=1)
-    ]
+        raise FileFormatError(f"{where}: expected a list of runs (or 'runs:' with a list)")
+    located = []
+    for i, raw in enumerate(document, start=1):
+        line = getattr(raw, "line", None)
+        located.append((_entry(raw, defaults, _where(f"entry {i}", line), path), line))
+    return located
 
 
 def _csv_entries(text, path):
@@ -548,7 +576,7 @@ def read_manifest(path: PathLike, errors: str = "raise", *, allow_outside: bool 
     else:
         located = _csv_entries(text, path)
     if not located:
-        raise FileFormatError(f"{path}: the manifest lists no runs")
+        raise FileFormatError(f"{path}, line 1: the manifest lists no runs")
     entries = _checked_files(located, path, allow_outside)
     if errors == "raise":
         bad = next((entry for entry in entries if isinstance(entry, BadEntry)), None)
