@@ -426,3 +426,119 @@ def interval_values(interval, columns):
 
 def finite_or_nan(value):
     return value if math.isfinite(value) else math.nan
+
+
+# --------------------------------------------------------------------------- tidy tables
+
+
+@dataclass(frozen=True)
+class TidyCase:
+    """A tidy table's runs (their arrays are the truth), whether it has its sidecar, and its
+    CSV as lines."""
+
+    runs: tuple
+    sidecar: bool
+    lines: tuple
+
+
+SERIES = ("t", "slip", "velocity", "force")
+#: The cell of each series in a row of a tidy table (run, source, interval, control first).
+SERIES_CELL = {"t": 4, "slip": 5, "velocity": 6, "force": 7}
+
+
+@st.composite
+def tidy_runs(draw):
+    """One to three runs with arbitrary finite floats (inf velocities too), sources with a
+    comma or a non-ASCII character."""
+    import granflow
+
+    finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+    runs = []
+    for number in range(draw(st.integers(1, 3))):
+        size = draw(st.integers(1, 12))
+        steps = draw(st.lists(st.floats(1e-3, 1e3), min_size=size, max_size=size))
+        t = np.cumsum(steps)
+        columns = {"t": t}
+        for name in ("slip", "velocity", "force"):
+            values = draw(st.lists(finite, min_size=size, max_size=size))
+            columns[name] = np.array(values, dtype=float)
+        if draw(st.booleans()):
+            columns["velocity"][-1] = np.inf  # a quasi-static failure
+        source = draw(st.sampled_from(("a.txt", "b µm.txt", "c,d.txt")))
+        meta = {"source": source, "interval": number + 1}
+        runs.append(granflow.Run(**columns, meta=meta))
+    return tuple(runs)
+
+
+def tidy_expected(runs, order=None, changed=None):
+    """The runs' arrays after a damage: the table rows ``order`` (indices into the table's
+    rows, default all, in order), with ``changed`` ((table row, series), value) set.
+    Returns {run number: {series: array}}, the runs in their first row's order."""
+    table = [(number, k) for number, run in enumerate(runs, start=1) for k in range(len(run))]
+    order = range(len(table)) if order is None else order
+    out = {}
+    for index in order:
+        number, k = table[index]
+        entry = out.setdefault(number, {name: [] for name in SERIES})
+        for name in SERIES:
+            value = getattr(runs[number - 1], name)[k]
+            if changed is not None and changed[0] == (index, name):
+                value = changed[1]
+            entry[name].append(value)
+    return {
+        number: {n: np.array(v, dtype=float) for n, v in e.items()} for number, e in out.items()
+    }
+
+
+def csv_cells(line):
+    import csv
+
+    return next(csv.reader([line]))
+
+
+def csv_line(cells):
+    import csv
+    import io
+
+    stream = io.StringIO()
+    csv.writer(stream, lineterminator="").writerow(cells)
+    return stream.getvalue()
+
+
+# --------------------------------------------------------------------------- velocity steps
+
+
+@st.composite
+def velocity_step_files(draw):
+    """A velocity-step record: time, load-point displacement with one step of velocity,
+    friction (and a normal stress column sometimes), as its text lines and its truth."""
+    rows = draw(st.integers(45, 90))
+    start = draw(st.integers(0, 50000))
+    step_at = draw(st.integers(20, rows - 20))
+    slow, fast = draw(st.sampled_from(((1, 10), (3, 10), (10, 2))))
+    time = [f"{start + i / 10:.1f}" for i in range(rows)]
+    displacement, position = [], 1000 * draw(st.integers(0, 9))
+    for i in range(rows):
+        displacement.append(f"{position / 1000:.3f}")
+        position += slow if i < step_at else fast
+    friction = [f"0.{draw(st.integers(4000, 7000))}" for _ in range(rows)]
+    stress = draw(st.booleans())
+    unit = draw(st.sampled_from(("microns", "µm", "um")))
+    delimiter = draw(st.sampled_from(("\t", ",")))
+    header = ["Time(s)", f"Displ({unit})", "Friction", *(["Normal_stress(MPa)"] if stress else [])]
+    cells = [
+        [time[i], displacement[i], friction[i], *(["20.0"] if stress else [])] for i in range(rows)
+    ]
+    lines = (delimiter.join(header), *(delimiter.join(row) for row in cells))
+    encoding = draw(st.sampled_from(("utf-8", "utf-16", "cp1252")))
+    newline = draw(st.sampled_from(("\n", "\r\n")))
+    truth = np.array([[float(row[0]), float(row[1]), float(row[2])] for row in cells])
+    return lines, delimiter, encoding, newline, truth
+
+
+def velocity_step_truth(values):
+    """(t from the first row [s], displacement from the first row [m], friction) as the
+    reader computes them from the values of the file's rows."""
+    t = values[:, 0] * 1.0
+    displacement = values[:, 1] * 1e-6
+    return t - t[0], displacement - displacement[0], values[:, 2] * 1.0

@@ -378,11 +378,13 @@ def _read_csv(path, skip=0):
     for _ in range(skip + 1):  # past the comment line of an old table and the header
         start = data.find(b"\n", start) + 1
     header = data[: start - 1].rsplit(b"\n", 1)[-1].count(b",") + 1
-    _, short = count_cells(data, start, len(data), ",", header)
+    most, short = count_cells(data, start, len(data), ",", header)
     if short is not None and data[start:].strip():
         raise FileFormatError(
             f"{path}, line {skip + 2 + short}: a row has fewer cells than the header's {header}"
         )
+    if most > header:  # more commas than the header's: read the rows with their quotes
+        _refuse_wide_rows(data[start:], header, path, skip + 2)
     try:
         with warnings.catch_warnings():  # empty cells after the last column are no data
             warnings.simplefilter("ignore", pd.errors.ParserWarning)
@@ -397,6 +399,21 @@ def _read_csv(path, skip=0):
         line = re.search(r"line (\d+)", str(exc))
         where = f", line {int(line[1]) + skip}" if line else ""
         raise FileFormatError(f"{path}{where}: a row has more cells than the header") from None
+
+
+def _refuse_wide_rows(rows, header, path, first_line):
+    """A row with more cells than the header (quoted commas are one cell) is an error naming
+    its line; pandas would drop the extra cells of the first row silently."""
+    import csv
+
+    text = bytes(rows).decode("utf-8").splitlines()
+    for number, cells in enumerate(csv.reader(text), start=first_line):
+        while len(cells) > header and not cells[-1].strip():
+            cells.pop()
+        if len(cells) > header:
+            raise FileFormatError(
+                f"{path}, line {number}: a row has {len(cells)} cells where the header has {header}"
+            )
 
 
 def _numbers(frame, column, path, header_line=1):

@@ -212,8 +212,11 @@ def parse_velocity_steps(
                 f"{source}: line {number}: column {columns[role] + 1} ({found[role]!r}) holds "
                 "a cell that is not a number"
             ) from None
+    last = len(lines)  # the file's last line read
     if len(rows) < 10:
-        raise FileFormatError(f"{source}: needs at least 10 rows of data, got {len(rows)}")
+        raise FileFormatError(
+            f"{source}: line {last}: needs at least 10 rows of data, got {len(rows)}"
+        )
     data = np.array(rows) * np.array([units[role] for role in columns])
     values = dict(zip(columns, data.T, strict=True))
     t = values["time"]
@@ -226,9 +229,15 @@ def parse_velocity_steps(
     offset = float(t[0])
     t = t - offset
     displacement = values["displacement"] - values["displacement"][0]
-    breaks, velocities = segment_velocity(
-        t, displacement, step_times=step_times, min_change=min_change
-    )
+    try:
+        breaks, velocities = segment_velocity(
+            t, displacement, step_times=step_times, min_change=min_change
+        )
+    except InvalidDataError as exc:
+        if step_times is not None:  # the caller's step times, not the file
+            raise
+        # too few rows for two pieces: the record ends too soon
+        raise FileFormatError(f"{source}: line {last}: {exc}") from None
     edges = [0.0, *breaks, float(t[-1])]
     protocol = Protocol(
         [
