@@ -94,6 +94,7 @@ import time
 import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -305,7 +306,7 @@ def analyze(
     if mcmc:
         _require_emcee()  # a missing extra is an error now, not after the fits
     # checked now, not after the fits: the folder is made and a file written in it
-    output = writable_folder(output, "output folder")
+    output = Path(writable_folder(output, "output folder"))
     reporter = RunProgress(quiet, progress)
     stages = {}
     # one executor for the whole analysis: reading, the per-run work, the joint stage's

@@ -19,6 +19,7 @@ __all__ = [
     "geometry_choice",
     "plural",
     "positive_int",
+    "quality_text",
     "quantity",
     "write_outputs",
     "written_names",
@@ -249,3 +250,11 @@ def write_outputs(args, frame, rows, axes, quantities=None):
     if args.plot:
         axes().figure.savefig(args.plot, dpi=120)
         print(f"wrote {args.plot}")
+
+
+def quality_text(problems):
+    """The data-quality line (and one line per problem)."""
+    if not problems:
+        return "data quality: no problems recorded by the reader"
+    lines = [f"data quality: {plural(len(problems), 'problem')} (kept in --json's 'problems')"]
+    return "\n".join([*lines, *(f"  - {problem}" for problem in problems)])

@@ -21,6 +21,7 @@ from granflow.cli._common import (
     geometry_choice,
     plural,
     positive_int,
+    quality_text,
     quantity,
 )
 from granflow.errors import FileFormatError, GranflowError
@@ -397,100 +398,6 @@ def add_fit(subparsers):
     )
 
 
-def _run_fit_rsf(args):
-    """``granflow fit FILE --model rsf``: a rate-and-state fit of a velocity-step record."""
-    import json
-
-    from granflow import rsf
-
-    steps = None
-    if args.steps:
-        steps = [quantity(item, "time", "--steps") for item in args.steps.split(",")]
-    record = rsf.read_velocity_steps(args.data, step_times=steps)
-    fixed = {}
-    for item in args.fix:
-        name, sep, value = item.partition("=")
-        try:
-            fixed[name] = float(value)
-        except ValueError:
-            sep = ""
-        if not sep:
-            raise UsageError(f"--fix must be NAME=VALUE (SI), e.g. stiffness=2000, got {item!r}")
-    windows = None
-    if args.window:
-        start, sep, stop = args.window.partition(":")
-        if not sep:
-            raise UsageError(f"--window must be START:STOP, got {args.window!r}")
-        windows = [
-            (quantity(start, "time", "--window start"), quantity(stop, "time", "--window stop"))
-        ]
-    periodic = None
-    if args.wavelength:
-        periodic = quantity(args.wavelength, "slip", "--wavelength")
-    elif args.periodic:
-        periodic = True
-    try:
-        result = rsf.fit(
-            record,
-            law=args.law,
-            states=args.states,
-            fixed=fixed,
-            detrend=args.detrend,
-            windows=windows,
-            sigma=float(args.sigma) if args.sigma else None,
-            correlated_noise=_noise_option(args),
-            periodic=periodic,
-            harmonics=args.harmonics,
-        )
-    except GranflowError as exc:
-        raise type(exc)(f"{args.data}: {exc}") from None
-    if args.json:
-        payload = result.to_dict()
-        payload["record"] = {
-            "source": str(args.data),
-            "step_times": list(record.step_times),
-            "velocities": list(record.velocities),
-            "time_offset": record.time_offset,
-        }
-        payload["problems"] = list(record.meta.get("problems", []))
-        print(json.dumps(payload, indent=2))
-    else:
-        speeds = " -> ".join(f"{v * 1e6:.4g}" for v in record.velocities)
-        steps_text = ", ".join(f"{s:.4g}" for s in record.step_times)
-        print(f"fit of {args.data} ({plural(record.t.size, 'point')}; load point {speeds} µm/s,")
-        print(f"  steps at {steps_text} s after the first row, t = {record.time_offset:g} s)")
-        print(_quality_text(record.meta.get("problems", [])))
-        print(_noise_sentence(result, args))
-        print(result.report())
-    return 0 if result.success else 1
-
-
-def _noise_option(args):
-    """``correlated_noise`` of :func:`granflow.rsf.fit` from the options: "auto" unless
-    --correlated-noise or --white-noise says otherwise."""
-    if args.correlated_noise:
-        return True
-    return False if args.white_noise else "auto"
-
-
-def _noise_sentence(result, args):
-    """One line saying how the noise was taken, and why."""
-    tau = result.correlation_time
-    if result.correlated_noise:
-        why = "--correlated-noise" if args.correlated_noise else "the residuals are correlated"
-        return (
-            f"noise: correlated ({why}: correlation time {tau:.3g} points); the uncertainties "
-            f"are scaled by sqrt({tau:.3g}) = {max(tau, 1.0) ** 0.5:.3g} (--white-noise to "
-            "take it as white)"
-        )
-    if args.white_noise and tau > 2:
-        return (
-            f"noise: white (--white-noise), although the residuals are correlated over "
-            f"{tau:.3g} points: the intervals are too narrow by about {tau**0.5:.3g}x"
-        )
-    return f"noise: white (the residuals' correlation time is {tau:.3g} points)"
-
-
 def _choose(runs, interval, path):
     """(run, label) of ``--interval`` among a file's runs."""
     count = len(runs)
@@ -548,7 +455,9 @@ def _run_fit(args):
     from granflow._json import json_safe
 
     if args.model == "rsf":
-        return _run_fit_rsf(args)
+        from granflow.cli.fit_rsf import run_fit_rsf
+
+        return run_fit_rsf(args)
     from granflow.io.velocity_steps import is_velocity_step_file
 
     if Path(args.data).is_file() and is_velocity_step_file(args.data):
@@ -613,7 +522,7 @@ def _run_fit(args):
             details.insert(0, f"test {run.meta['test']!r}")
         print(f"fit of {label} ({', '.join(details)})")
         print(f"geometry: {_geometry_text(source.geometry)}")
-        print(_quality_text(problems))
+        print(quality_text(problems))
         print(result.report())
         print(_display_text(result))
     return 0 if result.success else 1
@@ -623,14 +532,6 @@ def _geometry_text(geometry):
     if geometry is None:
         return "not used (the file gives the friction force)"
     return describe_geometry(geometry)
-
-
-def _quality_text(problems):
-    """The data-quality line (and one line per problem)."""
-    if not problems:
-        return "data quality: no problems recorded by the reader"
-    lines = [f"data quality: {plural(len(problems), 'problem')} (kept in --json's 'problems')"]
-    return "\n".join([*lines, *(f"  - {problem}" for problem in problems)])
 
 
 def _display_text(result):

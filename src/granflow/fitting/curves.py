@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from granflow import _validate as check
-from granflow.errors import InvalidDataError, InvalidParameterError
+from granflow.errors import FitError, InvalidDataError, InvalidParameterError
 from granflow.model.run import Run
 from granflow.model.special import scaled_ei_diff
 
@@ -30,6 +30,7 @@ __all__ = [
     "noise_level",
     "prepare",
     "real_column",
+    "require_overshoot",
     "start_candidates",
 ]
 
@@ -205,6 +206,28 @@ def check_mapping(mapping, names, what, domain):
                 f"the parameters are {', '.join(names)}"
             )
     return mapping
+
+
+def require_overshoot(features, fixed, names):
+    """Refuse data without a stress overshoot when a and x0 are to be fitted."""
+    if names[0] in fixed:
+        return
+    overshoot = features["overshoot"]
+    resolution = max(features["resolution"], 1e-6 * abs(features["peak_force"]))
+    if overshoot <= resolution:
+        raise FitError(
+            "the data show no stress overshoot (the smoothed maximum exceeds the final "
+            f"plateau by {overshoot:.3g} N, within the noise allowance {resolution:.3g} N), "
+            "so the aging amplitude a and the initial state cannot be determined; fix them "
+            "(fixed={'a': ...}; on the command line --fix a=VALUE) or compare simpler models "
+            "with granflow.compare_models"
+        )
+    if features["peak_index"] >= 0.95 * features["smooth"].size:
+        raise FitError(
+            "the force still rises at the end of the window: the overshoot and the plateau Fd "
+            "are not in the data; extend the window or fix Fd (fixed={'Fd': ...}; on the "
+            "command line --fix Fd=VALUE)"
+        )
 
 
 # --------------------------------------------------------------------------- starting values

@@ -32,7 +32,6 @@ import numpy as np
 from granflow import _validate as check
 from granflow.errors import (
     ConvergenceWarning,
-    FitError,
     InvalidParameterError,
 )
 from granflow.fitting.curves import (
@@ -40,6 +39,7 @@ from granflow.fitting.curves import (
     check_mapping,
     curve_features,
     prepare,
+    require_overshoot,
     start_candidates,
 )
 from granflow.fitting.curves import noise_level as _noise_level
@@ -383,28 +383,6 @@ def _requested(params, fixed, bounds, names, domain):
     return held, requested.ranges, requested.starts
 
 
-def _require_overshoot(features, fixed, names):
-    """Refuse data without a stress overshoot when a and x0 are to be fitted."""
-    if names[0] in fixed:
-        return
-    overshoot = features["overshoot"]
-    resolution = max(features["resolution"], 1e-6 * abs(features["peak_force"]))
-    if overshoot <= resolution:
-        raise FitError(
-            "the data show no stress overshoot (the smoothed maximum exceeds the final "
-            f"plateau by {overshoot:.3g} N, within the noise allowance {resolution:.3g} N), "
-            "so the aging amplitude a and the initial state cannot be determined; fix them "
-            "(fixed={'a': ...}; on the command line --fix a=VALUE) or compare simpler models "
-            "with granflow.compare_models"
-        )
-    if features["peak_index"] >= 0.95 * features["smooth"].size:
-        raise FitError(
-            "the force still rises at the end of the window: the overshoot and the plateau Fd "
-            "are not in the data; extend the window or fix Fd (fixed={'Fd': ...}; on the "
-            "command line --fix Fd=VALUE)"
-        )
-
-
 def fit(
     data: Run | tuple[ArrayLike, ArrayLike],
     *,
@@ -483,7 +461,7 @@ def fit(
     z, y = prepared.z, prepared.y
     features = curve_features(z, y)
     slot_fixed = {SLOTS[names.index(n)]: v for n, v in fixed.items()}
-    _require_overshoot(features, slot_fixed, SLOTS)
+    require_overshoot(features, slot_fixed, SLOTS)
     starts = start_candidates(z, y, slot_fixed, features)
     parameters = _global_parameters(names, starts[0], fixed, bounds, z, params is not None)
     if guesses:
