@@ -376,9 +376,9 @@ def count_cells(data, start, stop, delimiter, needed):
 def _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, source):
     """A row with more cells than the header is an error naming its line (empty trailing
     cells excepted): reading only the header's width would silently drop what it holds."""
-    start, _, first_line, _ = region
     import pandas as pd
 
+    start, _, first_line, _ = region
     filled = np.zeros(len(frame), dtype=bool)
     for position in range(count + offset, width):
         column = frame[position]
