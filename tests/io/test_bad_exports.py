@@ -139,3 +139,10 @@ def test_a_cp1252_file_is_still_read_as_cp1252(tmp_path):
     parsed = granflow.read(path)
     assert parsed.encoding == "cp1252"
     assert parsed.intervals[0].si("torque").tolist() == [1e-6, 2e-6]
+
+
+def test_a_header_of_delimiters_only_is_an_error_naming_its_line(tmp_path):
+    # found by the long fuzzing run: an export cut to nothing, one comma written into it
+    path = write(tmp_path, "comma.txt", ",")
+    with pytest.raises(granflow.FileFormatError, match=r"comma\.txt, line 1: the header line"):
+        granflow.read_runs(path)

@@ -94,6 +94,8 @@ def parse_csv(
         [line for line in [header, *head_lines(buffer, 50)] if line.strip()]
     )
     cells = split(header, delimiter)
+    if not cells:
+        raise fail(source, first, f"the header line holds no column names; expected {EXPECT}")
     names, file_units = zip(*(_name_and_unit(cell) for cell in cells), strict=True)
     names, file_units = list(names), list(file_units)
     below = split(cursor.peek(), delimiter)
