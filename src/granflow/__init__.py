@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # the public names as type checkers and editors see them
     from granflow.errors import InvalidDataError as InvalidDataError
     from granflow.errors import InvalidParameterError as InvalidParameterError
     from granflow.errors import InvalidProtocolError as InvalidProtocolError
+    from granflow.errors import OutputError as OutputError
     from granflow.fitting.batch import fit_many as fit_many
     from granflow.fitting.compare import ModelComparison as ModelComparison
     from granflow.fitting.compare import compare_models as compare_models
@@ -115,6 +116,7 @@ __getattr__, _dir, _names = attach(
             "InvalidDataError",
             "InvalidParameterError",
             "InvalidProtocolError",
+            "OutputError",
         ],
         "granflow.fitting": [
             "AmontonsResult",

@@ -12,6 +12,7 @@ __all__ = [
     "InvalidDataError",
     "InvalidParameterError",
     "InvalidProtocolError",
+    "OutputError",
 ]
 
 
@@ -33,6 +34,11 @@ class InvalidDataError(GranflowError, ValueError):
 
 class FileFormatError(GranflowError, ValueError):
     """A file cannot be parsed; the message names the file and, where known, the line."""
+
+
+class OutputError(GranflowError, OSError):
+    """A file or folder granflow was asked to write cannot be written; the message names it
+    and the reason."""
 
 
 class FitError(GranflowError, RuntimeError):

@@ -117,12 +117,13 @@ def test_bad_manifest_entries_fail_alone_under_their_own_label(tmp_path):
         "startups.txt#99",
         "startups.txt#5",
     ]
+    line = {k: text.splitlines().index(entry) + 1 for k, entry in enumerate(bad)}
     expected = [
-        "entry 7: YAML anchors and aliases are not allowed",
-        "entry 8: unknown field 'colour'",
-        "entry 9: normal_load must be positive, got '-1 mN'",
+        f"entry 7 (line {line[0]}): YAML anchors and aliases are not allowed",
+        f"entry 8 (line {line[1]}): unknown field 'colour'",
+        f"entry 9 (line {line[2]}): normal_load must be positive, got '-1 mN'",
         "no interval 99 (the file has 6)",
-        "entry 11: normal_load 20 has no unit",
+        f"entry 11 (line {line[4]}): normal_load 20 has no unit",
     ]
     for run, message in zip(results["runs"][6:], expected, strict=True):
         assert run["status"] == "failed" and run["stage"] == "read"

@@ -162,7 +162,11 @@ def test_the_real_record_through_the_command(tmp_path, capsys):
     manifest = _campaign(
         tmp_path / "campaign", [{"file": str(path), "test": "velocity_steps", "law": "slip"}]
     )
-    code = main(["analyze", str(manifest), "-o", str(tmp_path / "out"), "--jobs", "1", "--quiet"])
+    # the shared record lies outside the campaign folder: read only when allowed
+    command = ["analyze", str(manifest), "-o", str(tmp_path / "out"), "--jobs", "1", "--quiet"]
+    assert main(command) == 1
+    assert "outside the campaign folder" in capsys.readouterr().out
+    code = main([*command, "--allow-outside"])
     assert code == 0
     results = json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
     [record] = results["velocity_steps"]["records"]

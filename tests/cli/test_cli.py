@@ -19,10 +19,10 @@ def test_curve_writes_csv(tmp_path, capsys):
     target = tmp_path / "curve.csv"
     assert main([*CURVE, "--points", "50", "-o", str(target)]) == 0
     frame = pd.read_csv(target)
-    assert list(frame.columns) == ["time_s", "slip_m", "force_N"]
+    assert list(frame.columns) == ["t_s", "slip_m", "force_N"]
     assert len(frame) == 50
     params = gf.Params.from_time_domain(3.31e-3, 0.036, 0.23, 10e-3, 0.86e-6)
-    expected = gf.friction_time(frame["time_s"].to_numpy(), params, 0.86e-6)
+    expected = gf.friction_time(frame["t_s"].to_numpy(), params, 0.86e-6)
     assert frame["force_N"].to_numpy() == pytest.approx(expected, rel=1e-15)
     assert "wrote 50 points" in capsys.readouterr().out
 

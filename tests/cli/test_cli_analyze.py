@@ -99,7 +99,7 @@ def test_a_bad_entry_fails_alone_and_exits_1(tmp_path, capsys):
     manifest.write_text("runs:\n  - file: a.txt\n    colour: blue\n", encoding="utf-8")
     assert main(["analyze", str(manifest), "-o", str(tmp_path / "out"), "--quiet"]) == 1
     out = capsys.readouterr().out
-    assert "a.txt: " in out and "entry 1: unknown field 'colour'" in out
+    assert "a.txt: " in out and "entry 1 (line 2): unknown field 'colour'" in out
     results = json.loads((tmp_path / "out" / "results.json").read_text(encoding="utf-8"))
     [run] = results["runs"]
     assert run["name"] == "a.txt" and run["stage"] == "read"

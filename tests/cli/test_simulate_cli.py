@@ -47,7 +47,7 @@ def test_simulate_command_writes_csv_and_figure(files, capsys):
     printed = capsys.readouterr().out
     assert "failure" in printed and "[[Events]]" in printed
     frame = pd.read_csv(out)
-    assert {"t", "slip", "velocity", "force", "state"} <= set(frame.columns)
+    assert {"t_s", "slip_m", "velocity_m_s", "force_N", "state_N"} <= set(frame.columns)
     assert png.stat().st_size > 1000
 
 

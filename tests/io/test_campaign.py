@@ -113,7 +113,7 @@ def test_manifest_errors_name_the_entry(tmp_path):
     with pytest.raises(granflow.FileFormatError, match="unknown field 'colour'"):
         granflow.Campaign.from_manifest(bad, errors="raise")
     (problem,) = granflow.Campaign.from_manifest(bad).problems
-    assert "entry 1: unknown field 'colour'" in problem
+    assert "entry 1 (line 1): unknown field 'colour'" in problem
 
 
 def test_manifest_test_kind_is_checked(tmp_path):

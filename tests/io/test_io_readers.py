@@ -253,8 +253,8 @@ def test_report_and_to_dict(tmp_path):
 
 
 def test_a_tidy_table_maps_slip_and_force_and_leaves_the_other_columns_alone():
-    # "Velocity" is a vendor label of the rotational speed; um/s is no speed unit: with
-    # only_mapped the column is read as it is, not refused
+    # "Velocity" is a vendor label of the rotational speed; in um/s it is the sliding
+    # velocity. With only_mapped the column is read as it is, not interpreted
     text = "time_s,slip [um],force [mN],velocity [um/s]\n1,2.5,3.5,1\n2,5.0,4.0,1\n"
     parsed = parse_csv(
         text,
@@ -267,8 +267,9 @@ def test_a_tidy_table_maps_slip_and_force_and_leaves_the_other_columns_alone():
     assert interval.si("force").tolist() == [3.5e-3, 4e-3]
     assert interval.si("time").tolist() == [1.0, 2.0]
     assert [column.quantity for column in interval.columns] == ["time", "slip", "force", None]
-    with pytest.raises(granflow.FileFormatError, match="velocity"):
-        parse_csv(text)  # recognised by its label, its unit is refused
+    recognised = parse_csv(text).intervals[0]  # by their labels and units (issue 31, 6b)
+    assert recognised.si("velocity").tolist() == [1e-6, 1e-6]
+    assert recognised.si("slip").tolist() == [2.5e-6, 5e-6]
 
 
 def test_runs_take_mapped_slip_and_force_columns_as_they_are(tmp_path):
@@ -285,15 +286,18 @@ def test_runs_take_mapped_slip_and_force_columns_as_they_are(tmp_path):
         assert run.t.tolist() == [0.0, 1.0, 2.0]
 
 
-def test_slip_and_force_are_never_recognised_by_name_alone():
+def test_slip_and_force_are_recognised_by_name_and_unit_never_by_name_alone():
     interval = parse_csv("slip [um],force [mN]\n1,2\n").intervals[0]
-    assert interval.si("slip") is None and interval.si("force") is None
+    assert interval.si("slip").tolist() == [1e-6] and interval.si("force").tolist() == [2e-3]
+    with pytest.raises(granflow.FileFormatError, match=r"line 1: column 1 \('slip'\).*no unit"):
+        parse_csv("slip,force [mN]\n1,2\n")
 
 
 def test_strict_tables_refuse_a_non_numeric_cell_naming_its_line():
     text = "time [s],force [mN]\n1,2\n2,abc\n3,4\n4,5\n"
-    with pytest.raises(granflow.FileFormatError, match=r"line 3: column 'force'.*'abc'"):
+    with pytest.raises(granflow.FileFormatError, match=r"line 3: column 2 \('force'\)") as caught:
         parse_csv(text, source="x.csv", column_map={"force": "force"}, strict=True)
+    assert "abc" not in str(caught.value)  # a cell is named by its line, never copied
     assert np.isnan(parse_csv(text, column_map={"force": "force"}).intervals[0].si("force")[1])
 
 

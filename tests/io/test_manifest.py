@@ -88,7 +88,7 @@ def _bomb(levels=9):
             "runs.csv#2",
             "geometry must be 'paper' or give",
         ),
-        ("  - {interval: 2}\n", "manifest entry 2", "the entry has no 'file'"),
+        ("  - {interval: 2}\n", "manifest entry 2 (line 3)", "the entry has no 'file'"),
     ],
 )
 def test_a_bad_entry_is_one_line_under_its_own_label_and_the_rest_is_read(
@@ -135,8 +135,11 @@ def test_the_bomb_is_refused_before_expansion_in_little_memory(folder):
     ("text", "message"),
     [
         ("runs:\n" + GOOD + "colour: red\n", "unknown top-level key 'colour'"),
-        ("defaults: {colour: red}\nruns:\n" + GOOD, "defaults: unknown field 'colour'"),
-        ("defaults: {normal_load: 20}\nruns:\n" + GOOD, "defaults: normal_load 20 has no unit"),
+        ("defaults: {colour: red}\nruns:\n" + GOOD, "defaults (line 1): unknown field 'colour'"),
+        (
+            "defaults: {normal_load: 20}\nruns:\n" + GOOD,
+            "defaults (line 1): normal_load 20 has no unit",
+        ),
         ("a: &a [x, x]\nruns:\n" + GOOD, "unknown top-level key 'a'"),
         ("runs: *a\n", "YAML anchors and aliases are not allowed (found *a)"),
         ("runs: [\n", "line 2: not valid YAML"),
@@ -201,20 +204,23 @@ def test_each_file_is_read_once_however_many_entries_name_it(folder, monkeypatch
     monkeypatch.setattr(granflow.io, "read_runs", counting)
     path = folder / "manifest.yaml"
     path.write_text(
-        "runs:\n" + "".join(GOOD.replace("1,", f"{i},") for i in (1, 2, 3, 1)), encoding="utf-8"
+        "runs:\n" + "".join(GOOD.replace("1,", f"{i},") for i in (1, 2, 3)), encoding="utf-8"
     )
     campaign = granflow.Campaign.from_manifest(path)
-    assert [run.meta["interval"] for run in campaign] == [1, 2, 3, 1]
+    assert [run.meta["interval"] for run in campaign] == [1, 2, 3]
     assert len(calls) == 1
 
 
 def test_the_geometry_converts_and_is_named(folder):
+    # the same export three times under three names (one entry may name a run only once)
+    for copy in ("paper.csv", "other.csv"):
+        (folder / copy).write_bytes((folder / "runs.csv").read_bytes())
     path = folder / "manifest.yaml"
     path.write_text(
         "defaults: {normal_load: 20 mN}\nruns:\n"
         "  - {file: runs.csv, interval: 1}\n"
-        "  - {file: runs.csv, interval: 1, geometry: paper}\n"
-        "  - {file: runs.csv, interval: 1, geometry: 'outer_radius=10 mm, inner_radius=8 mm'}\n",
+        "  - {file: paper.csv, interval: 1, geometry: paper}\n"
+        "  - {file: other.csv, interval: 1, geometry: 'outer_radius=10 mm, inner_radius=8 mm'}\n",
         encoding="utf-8",
     )
     default, paper, other = granflow.Campaign.from_manifest(path)

@@ -165,7 +165,7 @@ def test_bad_input_names_the_file_and_the_reason(tmp_path):
     lines[1] = lines[1].replace("stress", "sideways")
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     sidecar.unlink()
-    with pytest.raises(granflow.FileFormatError, match=r"t\.csv, run 1: .*'sideways'"):
+    with pytest.raises(granflow.FileFormatError, match=r"t\.csv, line 2: run 1: .*'sideways'"):
         tidy.read_tidy(path)
     plain = tmp_path / "plain.parquet"
     pd.DataFrame({"x": [1.0]}).to_parquet(plain)

@@ -79,7 +79,7 @@ def test_a_constant_velocity_has_no_step():
 @pytest.mark.parametrize(
     ("header", "match"),
     [
-        ("Time(s)\tDispl(furlongs)\tFriction", "unknown unit 'furlongs'"),
+        ("Time(s)\tDispl(furlongs)\tFriction", r"column 2 \('Displ'\): its unit is not one"),
         ("Time(s)\tFriction", "no displacement column"),
     ],
 )

@@ -91,6 +91,7 @@ import contextlib
 import datetime
 import os
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -98,7 +99,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from granflow._files import write_atomic
+from granflow._files import writable_folder, write_atomic
 from granflow._json import json_safe
 from granflow._parallel import Executor
 from granflow._progress import RunProgress, silenced
@@ -220,6 +221,7 @@ def analyze(
     geometry: Any = None,
     strict: bool = False,
     figure_formats: Sequence[str] = ("png",),
+    allow_outside: bool = False,
 ) -> AnalysisResult:
     """Analyse a whole campaign and write results, tables, figures and a report.
 
@@ -271,6 +273,10 @@ def analyze(
     figure_formats : sequence of {"png", "svg", "pdf"}
         The files of each figure in ``figures/``, each figure drawn once (default PNG, which
         the report embeds; the report links an SVG where there is one).
+    allow_outside : bool
+        Read files outside the manifest's folder too. Default False: an entry whose file
+        lies outside it (``..``, an absolute path, a symbolic link leading out) fails,
+        named, so that a manifest someone else wrote reads only the campaign's files.
 
     Returns
     -------
@@ -302,7 +308,8 @@ def analyze(
     figure_formats = check_formats(figure_formats, "figure_formats")  # an error now, not later
     if mcmc:
         _require_emcee()  # a missing extra is an error now, not after the fits
-    output = Path(output)
+    # checked now, not after the fits: the folder is made and a file written in it
+    output = Path(writable_folder(output, "output folder"))
     reporter = RunProgress(quiet, progress)
     stages = {}
     # one executor for the whole analysis: reading, the per-run work, the joint stage's
@@ -311,7 +318,7 @@ def analyze(
     executor = Executor(jobs, scheduler, isolate=True)
     try:
         reporter.stage("reading")
-        items, manifest, inputs = load_campaign(source, geometry, executor)
+        items, manifest, inputs = load_campaign(source, geometry, executor, allow_outside)
         executor.recycle()
         stages["read_s"] = time.perf_counter() - clock
         output.mkdir(parents=True, exist_ok=True)
@@ -333,15 +340,15 @@ def analyze(
         clock_stage = time.perf_counter()
         entries = tuple(run_entry(item, index, strict) for index, item in enumerate(items))
         with silenced():  # one bar per campaign: none from the stability map or MCMC
-            joint = joint_stage(entries, executor, mcmc=mcmc, seed=seed)
+            joint = _noted(joint_stage, entries, executor, mcmc=mcmc, seed=seed)
         executor.recycle()
         stages["joint_s"] = time.perf_counter() - clock_stage
         reporter.stage("velocity steps")
         clock_stage = time.perf_counter()
-        steps = velocity_step_entries(manifest)
+        steps = velocity_step_entries(manifest, allow_outside)
         velocity_steps = {}
         if steps:  # on a worker: the rate-and-state fits and their figures load matplotlib
-            velocity_steps = executor.call(_velocity_steps, (manifest, output))
+            velocity_steps = executor.call(_velocity_steps, (manifest, output, allow_outside))
             executor.recycle()
         inputs += [e["file"] for e in steps if e["file"] not in inputs]
         stages["velocity_steps_s"] = time.perf_counter() - clock_stage
@@ -396,10 +403,29 @@ def analyze(
     return result
 
 
+def _noted(stage, *args, **kwargs):
+    """``stage(*args, **kwargs)`` (a :class:`JointStage`) with NumPy's floating-point warnings
+    kept as the campaign's warnings ("joint stage: overflow encountered in ...") instead of
+    lines on stderr; other warnings go on as they were."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", RuntimeWarning)
+        joint = stage(*args, **kwargs)
+    numerical = []
+    for item in caught:
+        if issubclass(item.category, RuntimeWarning):
+            numerical.append(f"joint stage: numerical warning: {item.message}")
+        else:
+            warnings.warn_explicit(item.message, item.category, item.filename, item.lineno)
+    if not numerical:
+        return joint
+    return replace(joint, warnings=joint.warnings + tuple(dict.fromkeys(numerical)))
+
+
 def _velocity_steps(task):
-    """:func:`campaign_velocity_steps` of ``(manifest, output)``, as one executor task."""
-    manifest, output = task
-    return campaign_velocity_steps(manifest, output, FIGURES_DIR)
+    """:func:`campaign_velocity_steps` of ``(manifest, output, allow_outside)``, as one
+    executor task."""
+    manifest, output, allow_outside = task
+    return campaign_velocity_steps(manifest, output, FIGURES_DIR, allow_outside)
 
 
 def _require_emcee():

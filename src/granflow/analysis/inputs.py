@@ -135,14 +135,14 @@ def _run_name(run, source):
     return f"{source}#{run.meta.get('interval', 1)}"
 
 
-def _items_from_manifest(manifest, geometry, executor=None):
+def _items_from_manifest(manifest, geometry, executor=None, allow_outside=False):
     """Items in manifest order: each entry's runs, or why the entry gave none (under the
     entry's own label: ``file#interval`` as the manifest asks for it)."""
     from granflow.io.campaign import manifest_runs
 
     folder = manifest.parent
     items, inputs = [], []
-    for entry in manifest_runs(manifest, geometry, executor=executor):
+    for entry in manifest_runs(manifest, geometry, executor=executor, allow_outside=allow_outside):
         relative = None if entry.file is None else relative_path(entry.file, folder)
         if relative is not None and relative not in inputs:
             inputs.append(relative)
@@ -164,12 +164,13 @@ def _run_item(run, folder):
     )
 
 
-def load_campaign(source, geometry=None, executor=None):
+def load_campaign(source, geometry=None, executor=None, allow_outside=False):
     """(items, manifest path or None, input files relative to the manifest folder).
 
     ``geometry`` (a spec for :meth:`granflow.Annulus.from_spec`) is the tube of the manifest
     entries that declare none; a Campaign's runs are already converted, so it takes none.
-    ``executor`` (a :class:`granflow._parallel.Executor`) reads the files in parallel.
+    ``executor`` (a :class:`granflow._parallel.Executor`) reads the files in parallel;
+    ``allow_outside`` reads files outside the manifest's folder too.
     """
     from granflow.io.campaign import Campaign
 
@@ -184,7 +185,7 @@ def load_campaign(source, geometry=None, executor=None):
         inputs = list(dict.fromkeys(item.source for item in items if item.source))
         return items, None, inputs
     manifest = _find_manifest(source)
-    items, inputs = _items_from_manifest(manifest, geometry, executor)
+    items, inputs = _items_from_manifest(manifest, geometry, executor, allow_outside)
     return items, manifest, [manifest.name, *inputs]
 
 

@@ -292,6 +292,9 @@ def material_constants(startups):
         analysis = JointAnalysis(FrozenMap({"velocity": velocity, "runs": runs}), result)
         joint = result.joint
         if not joint.success:
+            notes += Notes(
+                errors=(("amontons", f"the Amontons joint fit failed: {joint.message}"),)
+            )
             notes += Notes.warning(f"Amontons joint fit: {joint.message}")
         covariance = np.array([[joint.covar[p][q] for q in names] for p in names])
         basis, more = _basis(
@@ -335,6 +338,8 @@ def material_constants(startups):
     )
     notes += more
     if not result.success:
+        reason = f"the joint fit at one load failed: {result.message}"
+        notes += Notes(errors=(("joint_fit", reason),))
         notes += Notes.warning(f"joint fit at one load: {result.message}")
     return basis, analysis, "joint_fit", notes
 

@@ -177,7 +177,9 @@ def velocity_step_section(
     return section
 
 
-def velocity_step_entries(manifest: PathLike | None) -> list[dict[str, Any]]:
+def velocity_step_entries(
+    manifest: PathLike | None, allow_outside: bool = False
+) -> list[dict[str, Any]]:
     """The manifest's velocity-step records (``test: velocity_steps``), in manifest order.
 
     Parameters
@@ -202,13 +204,16 @@ def velocity_step_entries(manifest: PathLike | None) -> list[dict[str, Any]]:
             "law": str(entry.get("law") or "aging"),
             "periodic": entry.get("periodic", False),
         }
-        for entry in read_manifest(manifest, errors="collect")
+        for entry in read_manifest(manifest, errors="collect", allow_outside=allow_outside)
         if not isinstance(entry, BadEntry) and entry.get("test") == VELOCITY_STEP_TEST
     ]
 
 
 def campaign_velocity_steps(
-    manifest: PathLike | None, output: PathLike, figures_dir: str = "figures"
+    manifest: PathLike | None,
+    output: PathLike,
+    figures_dir: str = "figures",
+    allow_outside: bool = False,
 ) -> dict[str, Any]:
     """Fit, compare and draw the velocity-step records a campaign's manifest names.
 
@@ -223,6 +228,9 @@ def campaign_velocity_steps(
         The analysis's output folder; the figures go to ``output/figures_dir``.
     figures_dir : str
         The figures' folder, relative to ``output``.
+    allow_outside : bool
+        Read records outside the manifest's folder too (see
+        :func:`granflow.io.read_manifest`).
 
     Returns
     -------
@@ -232,7 +240,7 @@ def campaign_velocity_steps(
         BIC) and ``figure`` (the PNG relative to ``output``)) and ``failed`` (``name``,
         ``source``, ``interval``, ``stage``, ``reason``, as the failed runs).
     """
-    entries = velocity_step_entries(manifest)
+    entries = velocity_step_entries(manifest, allow_outside)
     if not entries:
         return {}
     folder = Path(manifest).parent  # type: ignore[arg-type]

@@ -14,12 +14,15 @@ __all__ = [
     "UsageError",
     "add_command",
     "add_geometry_option",
+    "check_outputs",
     "describe_geometry",
     "geometry_choice",
     "plural",
     "positive_int",
+    "quality_text",
     "quantity",
     "write_outputs",
+    "written_names",
 ]
 
 #: A word that starts like a negative number ("-0.86um/s", "-.5mN", "-3e-6m/s") is a value.
@@ -214,13 +217,44 @@ def geometry_choice(text):
     return GeometryChoice(Annulus.from_spec(text), text.strip(), True)
 
 
-def write_outputs(args, frame, rows, axes):
+def check_outputs(args):
+    """Refuse ``-o``/``--output`` and ``--plot`` files that cannot be written, before any work
+    (:class:`granflow.OutputError` naming the file and the reason)."""
+    from granflow._files import writable_file
+
+    if getattr(args, "output", None):
+        writable_file(args.output, "output file")
+    if getattr(args, "plot", None):
+        writable_file(args.plot, "figure")
+
+
+def written_names(quantities):
+    """{column: the name granflow writes it under} for columns holding the quantities of
+    :data:`granflow.model.units.QUANTITIES` ("t" -> "t_s", "failure_force" -> "failure_force_N");
+    one name per quantity in every CSV, which every command reads back."""
+    from granflow.model.units import column_name
+
+    return {name: column_name(name, quantity) for name, quantity in quantities.items()}
+
+
+def write_outputs(args, frame, rows, axes, quantities=None):
     """Write ``frame()`` to ``args.output`` (CSV) and the figure of ``axes()`` to ``args.plot``;
-    ``rows`` names one row ("point", "cell")."""
+    ``rows`` names one row ("point", "cell"); ``quantities`` ({column: quantity}) gives the
+    columns their units in their names (:func:`written_names`)."""
     if args.output:
         table = frame()
+        if quantities:
+            table = table.rename(columns=written_names(quantities))
         table.to_csv(args.output, index=False, float_format="%.17g")
         print(f"wrote {plural(len(table), rows)} to {args.output}")
     if args.plot:
         axes().figure.savefig(args.plot, dpi=120)
         print(f"wrote {args.plot}")
+
+
+def quality_text(problems):
+    """The data-quality line (and one line per problem)."""
+    if not problems:
+        return "data quality: no problems recorded by the reader"
+    lines = [f"data quality: {plural(len(problems), 'problem')} (kept in --json's 'problems')"]
+    return "\n".join([*lines, *(f"  - {problem}" for problem in problems)])

@@ -97,11 +97,23 @@ def _main(argv):
         return args.run(args)
     except BrokenPipeError:
         raise
-    except (GranflowError, ImportError, OSError) as exc:
-        # bad input, a missing optional extra, a file that cannot be read or written
+    except (GranflowError, ImportError) as exc:
+        # bad input, a missing optional extra
         return _error(args, exc, 2)
+    except OSError as exc:  # a file that cannot be read or written: its name and the reason
+        return _error(args, _file_error(exc), 2)
     except Exception as exc:  # a bug: one line, the traceback with --debug
         return _error(args, exc, 1, internal=True)
+
+
+def _file_error(error):
+    """An OSError as a sentence naming the file and the reason, not '[Errno 1] ...'."""
+    from granflow._files import reason
+    from granflow.errors import OutputError
+
+    if error.filename is None:
+        return OutputError(reason(error))
+    return OutputError(f"{error.filename}: {reason(error)}")
 
 
 def _discard_stdout():

@@ -76,6 +76,12 @@ def add_analyze(subparsers):
         help="make every data-quality problem (a truncated file, NaN cells, points a fit "
         "left out) an error: those runs fail (exit 1), the rest is analysed",
     )
+    parser.add_argument(
+        "--allow-outside",
+        action="store_true",
+        help="read files the manifest names outside its folder ('..', absolute paths, "
+        "symbolic links leading out); by default such an entry fails, named",
+    )
 
 
 def _add_execution_options(parser):
@@ -157,6 +163,7 @@ def _analyze_and_report(args, campaign):
                 geometry=getattr(args, "geometry", None),
                 strict=getattr(args, "strict", False),
                 figure_formats=_figure_formats(args),
+                allow_outside=getattr(args, "allow_outside", False),
             )
     except KeyboardInterrupt:
         print(
@@ -200,8 +207,10 @@ def _run_analyze(args):
 
 
 def _run_demo(args):
+    from granflow._files import writable_folder
     from granflow.analysis.demo import make_demo_campaign
 
+    writable_folder(args.output, "output folder")
     manifest = make_demo_campaign(args.output, seed=args.seed)
     if not args.quiet:
         print(f"wrote a synthetic campaign (seed {args.seed}): {manifest}", file=sys.stderr)

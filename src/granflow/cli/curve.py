@@ -1,14 +1,22 @@
 """``granflow curve``: the model curve (Eq. 3) under a constant velocity, and its peak."""
 
 import granflow
-from granflow.cli._common import UsageError, add_command, plural, quantity
+from granflow.cli._common import (
+    UsageError,
+    add_command,
+    check_outputs,
+    plural,
+    quantity,
+    written_names,
+)
 
 __all__ = ["add_curve"]
 
 _EPILOG_CURVE = """examples:
   granflow curve --a 3.31mN --k 0.036/s --t0 0.23s --Fd 10mN --velocity 0.86um/s
   granflow curve --a 3.31mN --alpha 4.19e4/m --x0 0.198um --Fd 10mN -o curve.csv
-The curve CSV (time_s, slip_m, force_N) is what 'granflow fit' reads back."""
+The curve CSV (t_s, slip_m, force_N: the names of every table granflow writes) is what
+'granflow fit', 'inspect', 'convert' and 'forecast' read back."""
 
 
 def add_curve(subparsers):
@@ -71,6 +79,7 @@ def _curve_params(args):
 def _run_curve(args):
     import numpy as np
 
+    check_outputs(args)
     params, velocity = _curve_params(args)
     if args.points < 2:
         raise UsageError(f"--points must be at least 2, got {args.points}")
@@ -94,7 +103,8 @@ def _run_curve(args):
     if args.output:
         import pandas as pd
 
-        frame = pd.DataFrame({"time_s": time, "slip_m": velocity * time, "force_N": force})
+        frame = pd.DataFrame({"t": time, "slip": velocity * time, "force": force})
+        frame = frame.rename(columns=written_names({"t": "t", "slip": "slip", "force": "force"}))
         frame.to_csv(args.output, index=False, float_format="%.17g")
         print(f"wrote {plural(len(frame), 'point')} to {args.output}")
     else:

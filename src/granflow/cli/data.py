@@ -16,10 +16,12 @@ from granflow.cli._common import (
     UsageError,
     add_command,
     add_geometry_option,
+    check_outputs,
     describe_geometry,
     geometry_choice,
     plural,
     positive_int,
+    quality_text,
     quantity,
 )
 from granflow.errors import FileFormatError, GranflowError
@@ -59,8 +61,12 @@ def load_runs(path, choice):
         return Source(list(table.runs), table.geometry)
     import numpy as np
 
-    try:  # an export, or a CSV with instrument columns: read once
-        runs, failure = granflow.io.read_runs(path, geometry=choice.annulus), None
+    try:  # an export, or a table with instrument or granflow's columns: read once
+        # a table is read strictly: a cell that is not a number is an error naming its line
+        form = granflow.io.detect_file_format(path)
+        options = {"strict": True} if form == "csv" else {}
+        runs = granflow.io.read_runs(path, geometry=choice.annulus, format=form, **options)
+        failure = None
     except FileFormatError as exc:  # perhaps a table whose columns are not instrument data
         runs, failure = [], exc
     if any(np.isfinite(run.force).any() for run in runs):
@@ -156,6 +162,11 @@ def add_convert(subparsers):
     )
     parser.add_argument("files", nargs="*", help="export files")
     parser.add_argument("--manifest", help="a campaign manifest (.yaml or .csv)")
+    parser.add_argument(
+        "--allow-outside",
+        action="store_true",
+        help="read files the manifest names outside its folder (refused by default)",
+    )
     parser.add_argument("-o", "--output", required=True, help="output .csv or .parquet")
     add_geometry_option(parser)
 
@@ -176,10 +187,13 @@ def _run_convert(args):
         raise UsageError(f"-o must end in .csv or .parquet, got {Path(args.output).name!r}")
     if not args.files and not args.manifest:
         raise UsageError("give export files or --manifest")
+    check_outputs(args)
     runs, failures = [], []
     if args.manifest:
         campaign = granflow.Campaign.from_manifest(
-            args.manifest, geometry=choice.annulus if choice.given else None
+            args.manifest,
+            geometry=choice.annulus if choice.given else None,
+            allow_outside=args.allow_outside,
         )
         runs += list(campaign)
         failures += list(campaign.problems)
@@ -352,10 +366,18 @@ def add_fit(subparsers):
     rsf.add_argument(
         "--steps", help="the step times, e.g. 68.6s or 100s,250s (default: found automatically)"
     )
-    rsf.add_argument(
+    noise = rsf.add_mutually_exclusive_group()
+    noise.add_argument(
         "--correlated-noise",
         action="store_true",
-        help="scale the uncertainties by the residuals' correlation time (real records)",
+        help="always scale the uncertainties by the residuals' correlation time (by default "
+        "they are scaled whenever the residuals are correlated, as on real records)",
+    )
+    noise.add_argument(
+        "--white-noise",
+        action="store_true",
+        help="take the noise as white even where the residuals are correlated (the "
+        "intervals are then too narrow on a real record; for simulated records)",
     )
     rsf.add_argument(
         "--periodic",
@@ -374,71 +396,6 @@ def add_fit(subparsers):
         default=2,
         help="harmonics of the ripple (default 2)",
     )
-
-
-def _run_fit_rsf(args):
-    """``granflow fit FILE --model rsf``: a rate-and-state fit of a velocity-step record."""
-    import json
-
-    from granflow import rsf
-
-    steps = None
-    if args.steps:
-        steps = [quantity(item, "time", "--steps") for item in args.steps.split(",")]
-    record = rsf.read_velocity_steps(args.data, step_times=steps)
-    fixed = {}
-    for item in args.fix:
-        name, sep, value = item.partition("=")
-        try:
-            fixed[name] = float(value)
-        except ValueError:
-            sep = ""
-        if not sep:
-            raise UsageError(f"--fix must be NAME=VALUE (SI), e.g. stiffness=2000, got {item!r}")
-    windows = None
-    if args.window:
-        start, sep, stop = args.window.partition(":")
-        if not sep:
-            raise UsageError(f"--window must be START:STOP, got {args.window!r}")
-        windows = [
-            (quantity(start, "time", "--window start"), quantity(stop, "time", "--window stop"))
-        ]
-    periodic = None
-    if args.wavelength:
-        periodic = quantity(args.wavelength, "slip", "--wavelength")
-    elif args.periodic:
-        periodic = True
-    try:
-        result = rsf.fit(
-            record,
-            law=args.law,
-            states=args.states,
-            fixed=fixed,
-            detrend=args.detrend,
-            windows=windows,
-            sigma=float(args.sigma) if args.sigma else None,
-            correlated_noise=args.correlated_noise,
-            periodic=periodic,
-            harmonics=args.harmonics,
-        )
-    except GranflowError as exc:
-        raise type(exc)(f"{args.data}: {exc}") from None
-    if args.json:
-        payload = result.to_dict()
-        payload["record"] = {
-            "source": str(args.data),
-            "step_times": list(record.step_times),
-            "velocities": list(record.velocities),
-            "time_offset": record.time_offset,
-        }
-        print(json.dumps(payload, indent=2))
-    else:
-        speeds = " -> ".join(f"{v * 1e6:.4g}" for v in record.velocities)
-        steps_text = ", ".join(f"{s:.4g}" for s in record.step_times)
-        print(f"fit of {args.data} ({plural(record.t.size, 'point')}; load point {speeds} µm/s,")
-        print(f"  steps at {steps_text} s after the first row, t = {record.time_offset:g} s)")
-        print(result.report())
-    return 0 if result.success else 1
 
 
 def _choose(runs, interval, path):
@@ -498,7 +455,16 @@ def _run_fit(args):
     from granflow._json import json_safe
 
     if args.model == "rsf":
-        return _run_fit_rsf(args)
+        from granflow.cli.fit_rsf import run_fit_rsf
+
+        return run_fit_rsf(args)
+    from granflow.io.velocity_steps import is_velocity_step_file
+
+    if Path(args.data).is_file() and is_velocity_step_file(args.data):
+        raise UsageError(
+            f"{args.data} is a velocity-step record (time, load-point displacement, friction "
+            "coefficient), not a friction curve of Eq. 3: fit it with --model rsf"
+        )
     choice = geometry_choice(args.geometry)
     source = load_runs(args.data, choice)
     if choice.given and source.geometry is None:
@@ -518,6 +484,13 @@ def _run_fit(args):
     if not np.isfinite(run.slip if domain == "slip" else run.t).any():
         column = "a slip (or deflection angle)" if domain == "slip" else "a time"
         raise UsageError(f"--domain {domain} needs {column} column in {label}")
+    slip = run.slip[np.isfinite(run.slip) & np.isfinite(run.force)]
+    if args.domain is None and args.window is None and np.any(np.diff(slip) <= 0):
+        raise UsageError(
+            f"{label}: the slip stands still or goes back (a creep or stress-controlled "
+            "record?), so it cannot be the abscissa: fit the force against time with "
+            "--domain time (and --velocity), or choose the sliding part with --window"
+        )
     options = _fit_options(args, domain)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -549,7 +522,7 @@ def _run_fit(args):
             details.insert(0, f"test {run.meta['test']!r}")
         print(f"fit of {label} ({', '.join(details)})")
         print(f"geometry: {_geometry_text(source.geometry)}")
-        print(_quality_text(problems))
+        print(quality_text(problems))
         print(result.report())
         print(_display_text(result))
     return 0 if result.success else 1
@@ -559,14 +532,6 @@ def _geometry_text(geometry):
     if geometry is None:
         return "not used (the file gives the friction force)"
     return describe_geometry(geometry)
-
-
-def _quality_text(problems):
-    """The data-quality line (and one line per problem)."""
-    if not problems:
-        return "data quality: no problems recorded by the reader"
-    lines = [f"data quality: {plural(len(problems), 'problem')} (kept in --json's 'problems')"]
-    return "\n".join([*lines, *(f"  - {problem}" for problem in problems)])
 
 
 def _display_text(result):

@@ -1,7 +1,7 @@
 """``granflow simulate`` and ``granflow stability-map``: protocols through the model."""
 
 import granflow
-from granflow.cli._common import UsageError, add_command, quantity, write_outputs
+from granflow.cli._common import UsageError, add_command, check_outputs, quantity, write_outputs
 
 __all__ = ["add_simulate", "add_stability_map"]
 
@@ -19,6 +19,17 @@ _EPILOG_MAP = """examples:
       --switch-points 2s:100s:50 --ratios 0.95:1.2:50 --jobs 2 -o map.csv --plot map.png
 A range START:STOP:COUNT is evenly spaced (START and STOP with units); a list is
 comma-separated (each with its unit: 5s,10s,80s)."""
+
+#: The quantity of each column of a stability map's table (its unit goes into the name).
+_MAP_QUANTITIES = {
+    "switch_point": "switch_time",
+    "switch_slip": "slip",
+    "switch_force": "force",
+    "imposed_force": "force",
+    "stop_slip": "slip",
+    "failure_time": "t",
+    "failure_force": "force",
+}
 
 #: The simulator's options that take a quantity (units from the unit table).
 _DYNAMIC_QUANTITIES = ("mass", "damping", "stiffness", "v_fail", "direct_effect")
@@ -73,13 +84,32 @@ def add_simulate(subparsers):
 
 def _run_simulate(args):
     from granflow.plotting import plot_simulation
+    from granflow.simulation.results import ARRAY_QUANTITIES
 
+    check_outputs(args)
     params = granflow.Params.load(args.params)
     protocol = granflow.Protocol.load(args.protocol)
     result = granflow.simulate(params, protocol, **_dynamic_options(args))
     print(result.report())
-    write_outputs(args, result.to_frame, "point", lambda: plot_simulation(result)[0])
+    write_outputs(
+        args,
+        lambda: _record_frame(result),
+        "point",
+        lambda: plot_simulation(result)[0],
+        ARRAY_QUANTITIES,
+    )
     return 0 if result.success else 1
+
+
+def _record_frame(result):
+    """The simulation as a record: one row per instant, and each row's control mode
+    ("rate" or "stress"), which the readers take as the run's."""
+    import numpy as np
+
+    frame = result.to_frame(one_row_per_instant=True)
+    stress = np.array([segment.control == "force" for segment in result.protocol])
+    frame["control"] = np.where(stress[frame["segment"].to_numpy()], "stress", "rate")
+    return frame
 
 
 def _grid(text, name, flag):
@@ -135,6 +165,7 @@ def _run_stability_map(args):
 
     from granflow.plotting import plot_stability_map
 
+    check_outputs(args)
     params = granflow.Params.load(args.params)
     options = _dynamic_options(args)
     stability = granflow.stability_map(
@@ -148,5 +179,7 @@ def _run_stability_map(args):
         **options,
     )
     print(stability.report())
-    write_outputs(args, stability.to_frame, "cell", lambda: plot_stability_map(stability))
+    write_outputs(
+        args, stability.to_frame, "cell", lambda: plot_stability_map(stability), _MAP_QUANTITIES
+    )
     return 1 if np.any(stability.outcome == "error") else 0

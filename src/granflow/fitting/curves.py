@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from granflow import _validate as check
-from granflow.errors import InvalidDataError, InvalidParameterError
+from granflow.errors import FitError, InvalidDataError, InvalidParameterError
 from granflow.model.run import Run
 from granflow.model.special import scaled_ei_diff
 
@@ -30,11 +30,16 @@ __all__ = [
     "noise_level",
     "prepare",
     "real_column",
+    "require_overshoot",
     "start_candidates",
 ]
 
 ABSCISSA = {"slip": ("x", "m"), "time": ("t", "s")}
 MIN_POINTS = 10
+#: The largest magnitude of a force [N] or an abscissa [m or s] a fit takes: least squares
+#: sums squares, and 1e100 squared is still far from float64's 1.8e308 (a value beyond it
+#: is a wrong unit, never a friction force).
+LARGEST = 1e100
 _START_PEAK_SLIPS = (0.9, 0.5, 1.6)  # trial alpha * x_peak for the starts
 
 
@@ -123,6 +128,13 @@ def prepare(data, domain, velocity, window, weights, sigma):
     """The points of ``data`` inside the window, with their weights (see :func:`granflow.fit`)."""
     z, y, run_velocity, name, non_finite = _as_curve_arrays(data, domain)
     abscissa, unit = ABSCISSA[domain]
+    for values, what, what_unit in ((z, abscissa, unit), (y, "force", "N")):
+        if values.size and np.max(np.abs(values)) > LARGEST:
+            index = int(np.argmax(np.abs(values)))
+            raise InvalidDataError(
+                f"{what}[{index}] = {values[index]:.6g} {what_unit} is beyond what a fit can "
+                f"square (|{what}| <= {LARGEST:g} {what_unit}): is the unit right?"
+            )
     steps = np.diff(z)
     if np.any(steps <= 0):
         index = int(np.argmax(steps <= 0))
@@ -194,6 +206,28 @@ def check_mapping(mapping, names, what, domain):
                 f"the parameters are {', '.join(names)}"
             )
     return mapping
+
+
+def require_overshoot(features, fixed, names):
+    """Refuse data without a stress overshoot when a and x0 are to be fitted."""
+    if names[0] in fixed:
+        return
+    overshoot = features["overshoot"]
+    resolution = max(features["resolution"], 1e-6 * abs(features["peak_force"]))
+    if overshoot <= resolution:
+        raise FitError(
+            "the data show no stress overshoot (the smoothed maximum exceeds the final "
+            f"plateau by {overshoot:.3g} N, within the noise allowance {resolution:.3g} N), "
+            "so the aging amplitude a and the initial state cannot be determined; fix them "
+            "(fixed={'a': ...}; on the command line --fix a=VALUE) or compare simpler models "
+            "with granflow.compare_models"
+        )
+    if features["peak_index"] >= 0.95 * features["smooth"].size:
+        raise FitError(
+            "the force still rises at the end of the window: the overshoot and the plateau Fd "
+            "are not in the data; extend the window or fix Fd (fixed={'Fd': ...}; on the "
+            "command line --fix Fd=VALUE)"
+        )
 
 
 # --------------------------------------------------------------------------- starting values

@@ -173,6 +173,12 @@ class Solution:
     hessian: np.ndarray | None = None
 
 
+def _exp(u):
+    """exp(u), +inf past float64's range (a profile walked off to an unbounded end) instead
+    of math.exp's OverflowError."""
+    return math.exp(u) if u < 709.0 else math.inf
+
+
 @dataclass
 class GlobalParameter:
     """One parameter the optimiser sees (a model parameter, or a tie of several)."""
@@ -192,11 +198,11 @@ class GlobalParameter:
         return math.log(value / self.scale) if self.log else value / self.scale
 
     def from_internal(self, u):
-        return self.scale * math.exp(u) if self.log else self.scale * u
+        return self.scale * _exp(u) if self.log else self.scale * u
 
     def derivative(self, u):
         """d value / d u."""
-        return self.scale * math.exp(u) if self.log else self.scale
+        return self.scale * _exp(u) if self.log else self.scale
 
     def internal_bounds(self):
         if self.log:

@@ -44,12 +44,15 @@ from granflow.fitting.statistics import WALD_Z, fit_statistics
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.rsf.model import LAWS
 
-__all__ = ["correlation_time", "fit"]
+__all__ = ["CORRELATED_ABOVE", "correlation_time", "fit"]
 
 _GRID_A = (1.0, 0.5, 2.0)
 _GRID_DC = (1.0, 0.25, 4.0)
 _GRID_K = (1.0, 4.0)
 _STARTS_RUN = 3
+#: With ``correlated_noise="auto"``: residuals correlated over more points than this are
+#: correlated noise (the batch-means estimate of white noise is 1 +- 0.3).
+CORRELATED_ABOVE = 2.0
 _MAX_STEPS = 60  # Levenberg-Marquardt steps from one start
 #: Search ranges of the positive parameters (by their first two letters): a [-], Dc [m],
 #: stiffness [1/m]; wide, but they keep a step in log coordinates from under- or overflowing.
@@ -221,7 +224,7 @@ def fit(
     windows: Sequence[tuple[float, float]] | None = None,
     sigma: float | None = None,
     profile: bool = True,
-    correlated_noise: bool = False,
+    correlated_noise: bool | str = False,
     periodic: bool | float | None = None,
     harmonics: int = 2,
 ) -> RateStateFitResult:
@@ -254,10 +257,15 @@ def fit(
         Known noise of the friction [-]; default: the residual variance.
     profile : bool
         Profile-likelihood 95 % intervals of a, b and Dc (default); Wald otherwise.
-    correlated_noise : bool
+    correlated_noise : bool or "auto"
         Scale the covariance and the profile threshold by the residuals' integrated
         correlation time (:func:`correlation_time`; at least 1): for real records, whose
-        residuals (instrument filters, slow wander) are not white. Default: white noise.
+        residuals (instrument filters, slow wander) are not white. ``"auto"``: scale when
+        the residuals are correlated over more than :data:`CORRELATED_ABOVE` points (what
+        ``granflow fit --model rsf`` does). Default False: white noise, the right choice for
+        simulated records only; on a real record it gives intervals too narrow by the
+        square root of the correlation time (the result's ``correlation_time`` and its
+        message say so).
     periodic : bool or float, optional
         Fit an apparatus ripple periodic in load-point displacement d (a drive screw, a gear)
         jointly with the friction: ``sum_h cos_h cos(2 pi h d / wavelength) + sin_h
@@ -289,6 +297,10 @@ def fit(
     (0.01, 0.015, 20.0)
     """
     t, friction, protocol, meta = _data(t, friction, protocol)
+    if correlated_noise not in (True, False, "auto"):
+        raise InvalidParameterError(
+            f"correlated_noise must be True, False or 'auto', got {correlated_noise!r}"
+        )
     count = int(states)
     if count not in (1, 2):
         raise InvalidParameterError(f"states must be 1 or 2, got {states!r}")
@@ -399,6 +411,8 @@ def fit(
         problem, values, names, sigma_known=sigma is not None, hessian=solution.hessian
     )
     tau = correlation_time(stats.residuals)
+    if correlated_noise == "auto":
+        correlated_noise = tau > CORRELATED_ABOVE
     inflation = max(tau, 1.0) if correlated_noise else 1.0
     stderr = {n: e * math.sqrt(inflation) for n, e in stats.stderr.items()}
     covar = {p: {q: c * inflation for q, c in row.items()} for p, row in stats.covar.items()}
@@ -443,12 +457,18 @@ def fit(
     if loose:
         message += (
             "; the stiffness is poorly determined (the rise after a step is not resolved): "
-            "Wald intervals; consider fixed={'stiffness': ...}"
+            "Wald intervals; consider fixed={'stiffness': ...} (--fix stiffness=VALUE on the "
+            "command line)"
         )
     elif profile_failed:
         message += f"; Wald intervals for {', '.join(profile_failed)} (the profile ran off)"
     if correlated_noise:
         message += f"; covariance scaled by the residuals' correlation time, {tau:.3g} points"
+    elif tau > CORRELATED_ABOVE:
+        message += (
+            f"; the residuals are correlated over {tau:.3g} points but the noise was taken as "
+            "white: the intervals are too narrow (correlated_noise=True or 'auto')"
+        )
     units = {
         n: (
             "1/m"
@@ -489,6 +509,7 @@ def fit(
         source=str(meta.get("source") or ""),
         harmonics=terms,
         periodicity=FrozenMap(periodicity_check(load_point, stats.residuals, harmonics)),
+        correlated_noise=bool(correlated_noise),
     )
     return attach_likelihood(result, problem, values, variance)
 

@@ -67,6 +67,9 @@ class RateStateFitResult(FitOutcome):
         (:func:`granflow.fitting.rsf_periodic.periodicity_check`): ``wavelength`` [m],
         ``amplitude`` [-], ``rms`` [-], ``fraction``, ``false_alarm``, ``significant``;
         empty where the load point moves too little to tell.
+    correlated_noise : bool
+        Whether the covariance and the intervals were scaled by the correlation time
+        (correlated noise); False: the noise was taken as white.
     """
 
     laws: tuple
@@ -87,6 +90,7 @@ class RateStateFitResult(FitOutcome):
     source: str = ""
     harmonics: int = 0
     periodicity: FrozenMap = field(default_factory=lambda: FrozenMap({}))
+    correlated_noise: bool = False
 
     ARRAYS = (
         "t",
@@ -168,6 +172,14 @@ class RateStateFitResult(FitOutcome):
             rows.append(("periodic residual", line))
         return rows
 
+    def _noise_text(self):
+        if self.correlated_noise:
+            return (
+                f"correlated: uncertainties scaled by the correlation time "
+                f"(x{np.sqrt(max(self.correlation_time, 1.0)):.3g} in standard error)"
+            )
+        return "white (uncertainties not scaled)"
+
     def _report_rows(self) -> dict[str, list[tuple[str, object]]]:
         """The rows :meth:`report` and :meth:`_repr_html_` add to the fit statistics."""
         from granflow._format import format_number, format_value_error
@@ -178,6 +190,7 @@ class RateStateFitResult(FitOutcome):
                 ("residual RMS", format_number(self.residual_rms, significant=3)),
                 ("HF scatter", format_number(self.noise, significant=3)),
                 ("correlation time", f"{self.correlation_time:.3g} points"),
+                ("noise", self._noise_text()),
                 ("a - b", format_value_error(self.a_minus_b, self.a_minus_b_stderr)),
                 *self._ripple_rows(),
             ],
@@ -224,6 +237,7 @@ class RateStateFitResult(FitOutcome):
                 "source": self.source,
                 "harmonics": self.harmonics,
                 "periodicity": dict(self.periodicity),
+                "correlated_noise": self.correlated_noise,
                 **statistics(self),
                 **arrays(self, include_arrays),
             }
@@ -247,6 +261,7 @@ class RateStateFitResult(FitOutcome):
             source=d.get("source", ""),
             harmonics=int(d.get("harmonics", 0)),
             periodicity=FrozenMap(d.get("periodicity", {})),
+            correlated_noise=bool(d.get("correlated_noise", False)),
             **read_arrays(cls, d),
         )
 

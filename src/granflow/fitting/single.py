@@ -32,7 +32,6 @@ import numpy as np
 from granflow import _validate as check
 from granflow.errors import (
     ConvergenceWarning,
-    FitError,
     InvalidParameterError,
 )
 from granflow.fitting.curves import (
@@ -40,6 +39,7 @@ from granflow.fitting.curves import (
     check_mapping,
     curve_features,
     prepare,
+    require_overshoot,
     start_candidates,
 )
 from granflow.fitting.curves import noise_level as _noise_level
@@ -71,6 +71,7 @@ from granflow.fitting.statistics import (
     estimates,
     fit_report,
     fit_statistics,
+    not_a_fit,
     statistics,
 )
 from granflow.model.params import Params
@@ -382,26 +383,6 @@ def _requested(params, fixed, bounds, names, domain):
     return held, requested.ranges, requested.starts
 
 
-def _require_overshoot(features, fixed, names):
-    """Refuse data without a stress overshoot when a and x0 are to be fitted."""
-    if names[0] in fixed:
-        return
-    overshoot = features["overshoot"]
-    resolution = max(features["resolution"], 1e-6 * abs(features["peak_force"]))
-    if overshoot <= resolution:
-        raise FitError(
-            "the data show no stress overshoot (the smoothed maximum exceeds the final "
-            f"plateau by {overshoot:.3g} N, within the noise allowance {resolution:.3g} N), "
-            "so the aging amplitude a and the initial state cannot be determined; fix them "
-            "(fixed={'a': ...}) or compare simpler models with granflow.compare_models"
-        )
-    if features["peak_index"] >= 0.95 * features["smooth"].size:
-        raise FitError(
-            "the force still rises at the end of the window: the overshoot and the plateau Fd "
-            "are not in the data; extend the window or fix Fd"
-        )
-
-
 def fit(
     data: Run | tuple[ArrayLike, ArrayLike],
     *,
@@ -480,7 +461,7 @@ def fit(
     z, y = prepared.z, prepared.y
     features = curve_features(z, y)
     slot_fixed = {SLOTS[names.index(n)]: v for n, v in fixed.items()}
-    _require_overshoot(features, slot_fixed, SLOTS)
+    require_overshoot(features, slot_fixed, SLOTS)
     starts = start_candidates(z, y, slot_fixed, features)
     parameters = _global_parameters(names, starts[0], fixed, bounds, z, params is not None)
     if guesses:
@@ -572,6 +553,10 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     bound_names = [n_ for n_, flag in at_bound.items() if flag]
     if bound_names:
         messages.append(f"at a bound of the search range: {', '.join(bound_names)}")
+    verdict = not_a_fit(stats, ci95, bound_names, names, fixed)
+    if verdict:
+        success = False
+        messages.append(verdict)
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(

@@ -295,3 +295,41 @@ def _variable_line(result, name):
     if not math.isfinite(err):
         shown += " +/- nan"
     return f"    {name:<{width}} = {shown}{unit}{rel}  95%: {interval}{method}{flag}"
+
+
+#: A free parameter whose standard error exceeds this many times its value is not
+#: determined by the data (a 95 % interval of +-200 times the value).
+UNDETERMINED = 100.0
+
+
+def not_a_fit(stats, ci95, bound_names, names, fixed):
+    """The sentence that says why a converged optimisation is no fit of the data, or "".
+
+    A fit is no fit when the model describes the data worse than their mean (R-squared
+    below 0), when a free parameter is not determined by the data (a standard error over
+    :data:`UNDETERMINED` times its value, or an interval with an infinite end), or when a
+    parameter ended on a bound of its search range (the optimum lies outside it).
+    """
+    reasons = []
+    if math.isfinite(stats.rsquared) and stats.rsquared < 0:
+        reasons.append(
+            f"R-squared is {stats.rsquared:.3g}: the model describes the data worse than their mean"
+        )
+    loose = []
+    for name in names:
+        if name in fixed:
+            continue
+        value, error = stats.params[name], stats.stderr[name]
+        low, high = ci95[name]
+        if not (math.isfinite(low) and math.isfinite(high)):
+            loose.append(f"{name} (95 % interval [{low:.3g}, {high:.3g}])")
+        elif not abs(error) <= UNDETERMINED * abs(value):
+            share = abs(error / value) * 100 if value else math.inf
+            loose.append(f"{name} (+- {share:.3g} %)")
+    if loose:
+        reasons.append(f"not determined by the data: {', '.join(loose)}")
+    if bound_names:
+        reasons.append("a parameter on a bound of its search range is no optimum")
+    if not reasons:
+        return ""
+    return "not a fit of these data: " + "; ".join(reasons)

@@ -28,6 +28,7 @@ from granflow.fitting.statistics import (
     estimates,
     fit_report,
     fit_statistics,
+    not_a_fit,
     statistics,
 )
 from granflow.model.run import Run
@@ -227,9 +228,14 @@ def solve_joint(spec, prepared, fits, domain, fixed, sigma_known, names_order, r
     messages = [solution.message]
     if not stats.invertible:
         messages.append("the parameters are not all determined by the data (singular J^T J)")
+    success = bool(solution.status > 0 and stats.invertible)
+    verdict = not_a_fit(stats, stats.ci95, [], names_order, fixed)
+    if verdict:
+        success = False
+        messages.append(verdict)
     return dict(
         **stats.summary(),
-        success=bool(solution.status > 0 and stats.invertible),
+        success=success,
         message="; ".join(messages),
         sigma_known=sigma_known,
         domain=domain,

@@ -37,7 +37,7 @@ from granflow._lazy import attach
 __getattr__, __dir__, __all__ = attach(
     __name__,
     {
-        "reader": ["FORMATS", "detect_format", "parse", "read", "read_runs"],
+        "reader": ["FORMATS", "detect_file_format", "detect_format", "parse", "read", "read_runs"],
         "_file": ["Column", "Interval", "ParsedFile"],
         "_runs": ["control_mode"],
         "generic": ["parse_csv", "read_csv"],

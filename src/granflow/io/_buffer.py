@@ -143,6 +143,7 @@ def read_stream(stream, source, size=None):
         codec = "utf-8"
     problems = []
     if codec == "cp1252":
+        _refuse_mixed_encodings(data, source)
         undefined = _CP1252_UNDEFINED.search(data)
         if undefined:
             line = data.count(b"\n", 0, undefined.start()) + 1
@@ -150,6 +151,34 @@ def read_stream(stream, source, size=None):
                 f"line {line}: bytes that are not cp1252 text were replaced by '\ufffd'"
             )
     return Buffer(data, codec, encoding, tuple(problems))
+
+
+#: A character of two to four bytes in UTF-8: text that was written as UTF-8.
+_UTF8_SEQUENCE = re.compile(
+    rb"[\xc2-\xdf][\x80-\xbf]|[\xe0-\xef][\x80-\xbf]{2}|[\xf0-\xf4][\x80-\xbf]{3}"
+)
+
+
+def _refuse_mixed_encodings(data, source):
+    """A file that is not UTF-8 but holds UTF-8 characters mixes two encodings (a line
+    pasted from another file): read as cp1252 its UTF-8 characters would be wrong ('µm'
+    becomes 'Âµm'), so it is an error naming the first line that is not UTF-8."""
+    utf8 = _UTF8_SEQUENCE.search(data)
+    if utf8 is None:
+        return
+    try:
+        bytes(data).decode("utf-8")
+    except UnicodeDecodeError as exc:
+        bad = exc.start
+    else:  # pragma: no cover - only called on data that is not UTF-8
+        return
+    written = data.count(b"\n", 0, utf8.start()) + 1
+    raise fail(
+        source,
+        data.count(b"\n", 0, bad) + 1,
+        f"this line is not UTF-8 text while line {written} is: the file mixes two "
+        "encodings; save it in one (UTF-8) and read it again",
+    )
 
 
 def _newlines(chunk, carry, mac):

@@ -26,15 +26,22 @@ __all__ = [
     "LANGUAGES",
     "MAPPED_ONLY",
     "METADATA",
+    "OWN_QUANTITIES",
     "QUANTITIES",
     "SI_UNITS",
+    "TEXT_QUANTITIES",
+    "column_label",
     "control_from_text",
+    "known_label",
+    "known_unit",
     "label",
     "match_keyword",
     "match_metadata",
     "match_quantity",
     "normalize",
+    "own_column",
     "quantity_from_unit",
+    "refine",
     "si_factor",
 ]
 
@@ -127,15 +134,31 @@ QUANTITIES = {
     },
 }
 
-#: Quantities a column map may name besides the instrument quantities above: the columns of a
-#: tidy table (granflow's own output, a spreadsheet). They have no vendor labels, so they are
-#: never recognised by name alone.
-MAPPED_ONLY = ("slip", "force")
+#: granflow's own quantities (its tables, a spreadsheet), beside the instrument quantities
+#: above: recognised by these labels with a unit of their dimension ("slip [µm]",
+#: "force [mN]", "velocity [m/s]"), by the names granflow writes ("slip_m", "force_N",
+#: "velocity_m_s", see :func:`own_column`), or through a column map. "Velocity" is also a
+#: vendor label of the rotational speed: its unit decides (:func:`refine`).
+OWN_QUANTITIES = {
+    "slip": ("Slip",),
+    "force": ("Force", "Friction Force"),
+    "velocity": ("Sliding Velocity",),
+    "control": ("Control",),
+}
+#: Columns of text, not numbers: an instrument's status, granflow's control mode per row.
+TEXT_QUANTITIES = ("status", "control")
+#: The names granflow writes, before their unit suffix: name -> quantity.
+_OWN_NAMES = {"t": "time", "time": "time", "slip": "slip", "velocity": "velocity", "force": "force"}
+_OWN_NAME = re.compile(r"^(?P<name>[A-Za-z]+)_(?P<unit>[A-Za-zµμ0-9]+(?:_[A-Za-zµμ0-9]+)?)$")
+#: Kept for a column map's quantities: granflow's own, no vendor label.
+MAPPED_ONLY = tuple(OWN_QUANTITIES)
 
 #: The SI unit of each column quantity, from the one unit table
 #: (:data:`granflow.model.units.QUANTITIES`); None: a count or text, no unit.
 SI_UNITS = {
-    name: units.QUANTITIES[name].si if name in units.QUANTITIES else None
+    name: units.QUANTITIES[name].si
+    if name in units.QUANTITIES and name not in TEXT_QUANTITIES
+    else None
     for name in (*QUANTITIES, *MAPPED_ONLY)
 }
 
@@ -317,7 +340,9 @@ def _index(table):
     return index
 
 
-_QUANTITY_INDEX = _index(QUANTITIES)
+_QUANTITY_INDEX = _index(
+    {**QUANTITIES, **{key: {"granflow": labels} for key, labels in OWN_QUANTITIES.items()}}
+)
 _KEYWORD_INDEX = _index(KEYWORDS)
 _METADATA_INDEX = {
     normalize(spelling): key
@@ -329,6 +354,60 @@ _METADATA_INDEX = {
 def match_quantity(name):
     """(quantity, rank) for a column label, or (None, None) when it is not in the table."""
     return _QUANTITY_INDEX.get(normalize(name), (None, None))
+
+
+def own_column(name):
+    """(quantity, unit) of a column named as granflow writes it ("t_s", "slip_m",
+    "velocity_m_s", "force_N"; also "force_mN", "slip_um"), else None.
+
+    Examples
+    --------
+    >>> own_column("velocity_m_s"), own_column("force_mN"), own_column("Step_time")
+    (('velocity', 'm/s'), ('force', 'mN'), None)
+    """
+    match = _OWN_NAME.match(name.strip())
+    if match is None or match["name"].lower() not in _OWN_NAMES:
+        return None
+    return _OWN_NAMES[match["name"].lower()], match["unit"].replace("_", "/")
+
+
+def known_label(name):
+    """Whether a column name is granflow's vocabulary: a label of the table or a name granflow
+    writes. Error messages quote only such names (and units pint knows); any other text of a
+    file is named by its line and column, never copied (:func:`column_label`)."""
+    return match_quantity(name)[0] is not None or own_column(name) is not None
+
+
+def column_label(position, name):
+    """How an error names column ``position`` (0-based) of a header: "column 3 ('Torque')"
+    for a known label, "column 3" for any other text (which is not copied)."""
+    if known_label(name):
+        return f"column {position + 1} ({name.strip()!r})"
+    return f"column {position + 1}"
+
+
+def known_unit(unit):
+    """Whether pint knows ``unit`` (after the instrument spellings are rewritten)."""
+    from granflow.model.units import unit_registry
+
+    text = _pint_unit("torque", unit).replace("μ", "u").replace("µ", "u")
+    try:
+        unit_registry().Unit(text)
+    except Exception:  # pint raises several unrelated types for bad units
+        return False
+    return True
+
+
+def refine(quantity, unit):
+    """The quantity a recognised label measures, given its unit: "Velocity" in m/s (or µm/s)
+    is the sliding velocity, in rad/s or 1/min the rotational speed."""
+    if quantity == "speed" and unit.strip():
+        try:
+            si_factor("velocity", unit)
+        except InvalidParameterError:
+            return quantity
+        return "velocity"
+    return quantity
 
 
 def match_keyword(cell):
@@ -432,10 +511,16 @@ def si_factor(quantity, unit):
     except InvalidParameterError as exc:
         if "unit" in str(exc) and repr(unit) in str(exc):
             raise
-        raise InvalidParameterError(
-            f"unknown or invalid unit {unit!r} for {quantity} (expected one like {target!r})"
-        ) from None
+        raise _unit_error(quantity, unit, target) from None
     except Exception:  # pint raises several unrelated types for bad units
-        raise InvalidParameterError(
-            f"unknown or invalid unit {unit!r} for {quantity} (expected one like {target!r})"
-        ) from None
+        raise _unit_error(quantity, unit, target) from None
+
+
+def _unit_error(quantity, unit, target):
+    """The error of a unit that does not convert: it quotes a unit pint knows ('mm' for a
+    torque), never text that is no unit (a header that is not one is not copied)."""
+    if known_unit(unit):
+        what = f"unit {unit!r} is not a unit of {quantity}"
+    else:
+        what = f"the unit is not one granflow knows for {quantity}"
+    return InvalidParameterError(f"{what} (expected one like {target!r})")

@@ -85,7 +85,7 @@ class Interval:
         """Index of the column that measures ``quantity`` (best-ranked label), or None."""
         best = None
         for index, column in enumerate(self.columns):
-            if column.quantity == quantity and index in self.values:
+            if column.quantity == quantity and (index in self.values or index in self.text):
                 rank = _columns.match_quantity(column.name)[1] or 0
                 if best is None or rank < best[0]:
                     best = (rank, index)
@@ -94,7 +94,7 @@ class Interval:
     def si(self, quantity):
         """The values of ``quantity`` in SI units (a new array), or None if no such column."""
         index = self.find(quantity)
-        if index is None:
+        if index is None or index not in self.values:
             return None
         factor = self.columns[index].factor
         inverse = round(1.0 / factor)
@@ -214,10 +214,10 @@ def make_columns(names, units, meanings, source, line, quantities=None):
     """
     units = [_unit(units[index] if index < len(units) else "") for index in range(len(names))]
     chosen = [
-        _columns.match_quantity(name)[0] if given is None else given or None
-        for name, given in zip(names, quantities or [None] * len(names), strict=True)
+        _columns.refine(_columns.match_quantity(name)[0], unit) if given is None else given or None
+        for name, unit, given in zip(names, units, quantities or [None] * len(names), strict=True)
     ]
-    if quantities is None and not set(chosen) - {None, "point", "status"}:
+    if quantities is None and not set(chosen) - {None, "point", *_columns.TEXT_QUANTITIES}:
         for index, unit in enumerate(units):
             role = _columns.quantity_from_unit(unit) if chosen[index] is None else None
             if role is not None and role not in chosen:
@@ -230,7 +230,8 @@ def make_columns(names, units, meanings, source, line, quantities=None):
             try:
                 factor = _columns.si_factor(quantity, unit)
             except InvalidParameterError as exc:
-                raise fail(source, line, f"column {name.strip()!r}: {exc}") from None
+                label = _columns.column_label(index, name)
+                raise fail(source, line, f"{label}: {exc}") from None
         meaning = meanings[index].strip() if index < len(meanings) else ""
         columns.append(Column(name.strip(), unit, quantity, factor, meaning))
     return tuple(columns)
@@ -245,7 +246,9 @@ def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):
     """Parse the data rows of one block and wrap them with their columns, metadata and
     data-quality problems (missing, invalid or infinite cells, a truncated block, rows
     without a time, time that does not increase, gaps in time)."""
-    text_columns = [i for i, column in enumerate(columns) if column.quantity == "status"]
+    text_columns = [
+        i for i, column in enumerate(columns) if column.quantity in _columns.TEXT_QUANTITIES
+    ]
     block = read_block(
         buffer,
         spec.region,
@@ -259,15 +262,25 @@ def make_interval(spec, columns, buffer, delimiter, numbers, source, metadata):
     )
     for index in list(block.text):
         column = columns[index]
-        if column.quantity not in (None, "status"):
+        if column.quantity not in (None, *_columns.TEXT_QUANTITIES):
+            cells = block.text[index]
+            filled = np.flatnonzero([bool(str(cell).strip()) for cell in cells])
             raise fail(
                 source,
-                spec.region[2],
-                f"column {column.name!r} should hold numbers ({column.quantity}) but holds text "
-                f"such as {block.text[index][0]!r}",
+                spec.region[2] + (int(filled[0]) if filled.size else 0),
+                f"{_columns.column_label(index, column.name)} should hold numbers "
+                f"({column.quantity}) but holds text",
             )
     problems = [(columns[index].quantity or "", sentence) for index, sentence in block.problems]
     _, _, first_line, rows = spec.region
+    if spec.cut_line is not None:
+        problems.append(
+            (
+                None,
+                f"line {spec.cut_line}, the last of the file, has no line end: the file looks "
+                "cut short there, so that row was left out (its last number may be incomplete)",
+            )
+        )
     declared = metadata.get("declared_points")
     if not rows:
         problems.append((None, f"no data rows after the header at line {spec.header_line}"))
@@ -361,6 +374,23 @@ class BlockSpec:
     skip_first: bool = False
     quantities: list | None = None
     strict: bool = False
+    cut_line: int | None = None
+
+
+def without_cut_row(buffer, spec):
+    """``spec`` without the last row of the file when that row has no line end.
+
+    A file whose last line lacks its line end was most likely cut short while it was written
+    or copied, perhaps in the middle of a number ('0.0123' cut to '0.01' still reads as a
+    number): the row is left out and :attr:`BlockSpec.cut_line` names its line.
+    """
+    start, stop, first_line, rows = spec.region
+    data = buffer.data
+    if not rows or stop < len(data) or data[-1:] in (b"\n", b"\r"):
+        return spec
+    last = data.rfind(b"\n", start, stop)
+    region = (start, start if last < 0 else last + 1, first_line, rows - 1)
+    return replace(spec, region=region, cut_line=first_line + rows - 1)
 
 
 def metadata_value(key, cells, numbers):
@@ -431,6 +461,25 @@ def _after_lines(buffer, start, count):
     return position
 
 
+def refuse_interruption(cursor, header_line, delimiter):
+    """A data block ends at a blank line, at the end of the file or at the next keyword
+    line; any other line there cut the rows short (a line damaged, in another encoding or
+    with other separators), and is an error naming it, not the end of the data."""
+    if cursor.done():
+        return
+    line = cursor.peek()
+    cells = line.split(delimiter)
+    if not line.strip(" \t" + delimiter) or _columns.match_keyword(cells[0] if cells else ""):
+        return
+    raise fail(
+        cursor.source,
+        cursor.number,
+        f"this line interrupts the data rows of the interval whose header is on line "
+        f"{header_line}: it is not a data row (a damaged line, another encoding or other "
+        "separators?)",
+    )
+
+
 def finish(source, form, buffer, delimiter, specs, metadata, problems):
     """Sniff the number format from the data rows of every block, then parse each block."""
     from granflow.io._text import sniff_numbers
@@ -441,6 +490,7 @@ def finish(source, form, buffer, delimiter, specs, metadata, problems):
             buffer.line_number(len(buffer.data)),
             f"no data block found in this {form} export",
         )
+    specs = [without_cut_row(buffer, spec) for spec in specs]
     samples = []
     for spec in specs:
         for line, row in _sample(buffer, spec.region, 100):

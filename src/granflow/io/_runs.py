@@ -19,7 +19,17 @@ __all__ = ["control_mode", "interval_to_run", "runs_from_file"]
 _RATE = ("speed", "shear_rate", "angle", "strain")
 _STRESS = ("torque", "shear_stress")
 #: Columns a Run is made of: their problems (and the block's) travel with the run.
-_USED = ("interval_time", "time", "torque", "angle", "speed", "normal_force", "slip", "force")
+_USED = (
+    "interval_time",
+    "time",
+    "torque",
+    "angle",
+    "speed",
+    "normal_force",
+    "slip",
+    "force",
+    "velocity",
+)
 
 
 def _spread(values):
@@ -44,6 +54,13 @@ def control_mode(interval: Interval) -> str:
             mode = _columns.control_from_text(value)
             if mode is not None:
                 return mode
+    written = interval.find("control")  # granflow's own tables: the mode of each row
+    if written is not None:
+        modes = {str(cell).strip().lower() for cell in interval.text[written]}
+        if "stress" in modes:
+            return "stress"
+        if "rate" in modes:
+            return "rate"
     rate = next((q for q in ("speed", "shear_rate") if interval.find(q) is not None), None)
     stress = next((q for q in _STRESS if interval.find(q) is not None), None)
     if rate is None or stress is None:
@@ -63,6 +80,18 @@ def run_problems(interval, source, ordinal, file_problems=()):
     return tuple(sentences)
 
 
+def _found(columns):
+    """ "found 3 columns: 'Torque', 'Status' and 1 not recognised": the labels granflow knows,
+    and how many others (their text is not copied into a message)."""
+    known = [repr(column.name) for column in columns if _columns.known_label(column.name)]
+    others = len(columns) - len(known)
+    parts = [", ".join(known)] if known else []
+    if others:
+        parts.append(f"{others} not recognised" if known else "none of them recognised")
+    noun = "column" if len(columns) == 1 else "columns"
+    return f"found {len(columns)} {noun}: {' and '.join(parts)}"
+
+
 def interval_to_run(interval, geometry, source, ordinal, file_problems=()):
     """One Run from one interval, with the geometry's radii (NaN where a column is absent);
     rows without a time are dropped, and every problem is in ``Run.problems``."""
@@ -70,13 +99,12 @@ def interval_to_run(interval, geometry, source, ordinal, file_problems=()):
     if time is None:
         time = interval.si("time")
     if time is None:
-        names = ", ".join(column.name for column in interval.columns)
         raise fail(
             source,
             interval.line,
-            f"interval {ordinal} has no time column (found: {names}); expected a column "
-            "named like 'Time' or 'Interval Time' in a known language, or one with a unit "
-            "of time under a row of [units]",
+            f"interval {ordinal} has no time column ({_found(interval.columns)}); expected a "
+            "column named like 'Time' or 'Interval Time' in a known language, or one with a "
+            "unit of time under a row of [units]",
         )
     nothing = np.full(time.shape, np.nan)
     angle = interval.si("angle")
@@ -88,7 +116,9 @@ def interval_to_run(interval, geometry, source, ordinal, file_problems=()):
         start = angle[finite[0]] if finite.size else 0.0
         slip = (angle - start) * geometry.mean_radius
     speed = interval.si("speed")
-    velocity = nothing if speed is None else speed * (2.0 * np.pi * geometry.mean_radius)
+    velocity = interval.si("velocity")  # a sliding velocity [m/s] wins over the speed
+    if velocity is None:
+        velocity = nothing if speed is None else speed * (2.0 * np.pi * geometry.mean_radius)
     torque = interval.si("torque")
     force = interval.si("force")  # a column mapped as force [N] wins over the torque
     if force is None:

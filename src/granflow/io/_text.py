@@ -13,10 +13,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow.io import _buffer
+from granflow.io import _buffer, _columns
 from granflow.io._buffer import fail
 
-__all__ = ["MISSING_MARKERS", "NumberFormat", "decode", "fail", "read_block", "sniff_delimiter"]
+__all__ = [
+    "MISSING_MARKERS",
+    "NumberFormat",
+    "count_cells",
+    "decode",
+    "fail",
+    "read_block",
+    "sniff_delimiter",
+]
 
 #: Cells that mean "no value": empty, a single space, asterisks (Rheoplus prints ******).
 MISSING_MARKERS = ("", " ", "******")
@@ -237,6 +245,16 @@ def read_block(
     start, stop, first_line, rows = region
     offset = 1 if skip_first else 0
     count = len(names)
+    most, short = count_cells(buffer.data, start, stop, delimiter, count + offset)
+    if short is not None:
+        cells = _cells_of_line(buffer, start, short, delimiter) - offset
+        raise fail(
+            source,
+            first_line + short,
+            f"{max(cells, 0)} cells where the header has {count} columns (a row cut short, or "
+            "separators that differ from the header's)",
+        )
+    width = max(count + offset, most)
     if not rows:
         empty = np.empty(0, dtype=np.float64)
         return Block(
@@ -255,8 +273,10 @@ def read_block(
                 stream,
                 sep=delimiter,
                 header=None,
-                names=list(range(count + offset)),
-                usecols=list(range(offset, count + offset)),
+                names=list(range(width)),
+                # every cell of a row wider than the header is read, and checked below
+                usecols=list(range(offset, width)) if width == count + offset else None,
+                index_col=False,
                 dtype={offset + i: "category" for i in text_columns},
                 decimal=numbers.decimal,
                 thousands=numbers.thousands,
@@ -279,6 +299,8 @@ def read_block(
         raise fail(source, first_line, f"cannot parse the data rows ({exc})") from None
     if len(frame) != rows:
         raise fail(source, first_line, f"{rows} data lines gave {len(frame)} rows")
+    if width > count + offset:
+        _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, source)
     problems = []
     values, text = {}, {}
     line_numbers = np.arange(first_line, first_line + rows)
@@ -293,6 +315,7 @@ def read_block(
             continue
         array, missing, invalid = parsed
         name = names[position]
+        _refuse_broken_numbers(column, invalid, line_numbers, name, position, source)
         infinite = ~np.isfinite(array) & ~missing & ~invalid
         if missing.any():
             problems.append((position, _cells_problem(name, "missing", missing, line_numbers)))
@@ -303,7 +326,7 @@ def read_block(
                 raise fail(
                     source,
                     int(line_numbers[index]),
-                    f"column {name!r} has a non-numeric value {example}",
+                    f"{_columns.column_label(position, name)} holds a cell that is not a number",
                 )
             problems.append(
                 (position, _cells_problem(name, "invalid", invalid, line_numbers, example))
@@ -316,6 +339,96 @@ def read_block(
             array[infinite] = np.nan
         values[position] = array
     return Block(values=values, text=text, rows=len(frame), problems=problems)
+
+
+#: Bytes of a data block scanned at once when counting its cells.
+_SCAN = 1 << 24
+#: A cell that starts like a number: a sign, then a digit or a decimal mark and a digit.
+_NUMBER_START = re.compile(r"^\s*[-+]?(?:\d|[.,]\d)")
+
+
+def count_cells(data, start, stop, delimiter, needed):
+    """(most cells in a line, 0-based index of the first line with fewer than ``needed``)
+    of the data rows ``data[start:stop]``: delimiters plus one, counted on the bytes a
+    chunk at a time (a quoted delimiter counts too: never fewer cells than pandas sees)."""
+    code = ord(delimiter)
+    most, short, lines, position = 0, None, 0, start
+    while position < stop:
+        end = min(position + _SCAN, stop)
+        if end < stop:
+            newline = data.find(b"\n", end, stop)
+            end = stop if newline < 0 else newline + 1
+        chunk = np.frombuffer(data, dtype=np.uint8, count=end - position, offset=position)
+        delimiters = np.flatnonzero(chunk == code)
+        breaks = np.flatnonzero(chunk == 10)
+        ends = breaks if breaks.size and breaks[-1] == chunk.size - 1 else np.r_[breaks, chunk.size]
+        per_line = np.diff(np.r_[0, np.searchsorted(delimiters, ends)]) + 1
+        if per_line.size:
+            most = max(most, int(per_line.max()))
+            fewer = np.flatnonzero(per_line < needed)
+            if short is None and fewer.size:
+                short = lines + int(fewer[0])
+        lines += per_line.size
+        position = end
+    return most, short
+
+
+def _refuse_wide_rows(frame, buffer, region, delimiter, count, offset, width, source):
+    """A row with more cells than the header is an error naming its line (empty trailing
+    cells excepted): reading only the header's width would silently drop what it holds."""
+    import pandas as pd
+
+    start, _, first_line, _ = region
+    filled = np.zeros(len(frame), dtype=bool)
+    for position in range(count + offset, width):
+        column = frame[position]
+        present = column.notna().to_numpy()
+        if pd.api.types.is_numeric_dtype(column.dtype):
+            filled |= present
+            continue
+        cells = column.astype(object).to_numpy()
+        for index in np.flatnonzero(present):
+            filled[index] |= not _is_marker(cells[index])
+    if not filled.any():
+        return
+    index = int(np.argmax(filled))
+    line = first_line + index
+    cells = _cells_of_line(buffer, start, index, delimiter) - offset
+    hint = ""
+    if delimiter == "," and cells >= 2 * count:
+        hint = (
+            " (numbers with a decimal comma in a comma-separated file? granflow reads decimal "
+            "commas with semicolon or tab separators)"
+        )
+    raise fail(source, line, f"{cells} cells where the header has {count} columns{hint}")
+
+
+def _cells_of_line(buffer, start, index, delimiter):
+    """The cells of line ``index`` (0-based) of the block starting at byte ``start``, empty
+    trailing cells not counted."""
+    position = start
+    for _ in range(index):
+        position = buffer.data.find(b"\n", position) + 1
+    end = buffer.data.find(b"\n", position)
+    text = buffer.text(position, len(buffer.data) if end < 0 else end).rstrip("\r")
+    return len(split(text, delimiter))
+
+
+def _refuse_broken_numbers(column, invalid, line_numbers, name, position, source):
+    """A cell that starts like a number but is not one whole ('12.5.3', '1.2e', '0,5' in a
+    file of decimal dots) is an error naming its line: part of a number is a wrong number.
+    Text cells ('abc', 'n/a') stay invalid values, kept as NaN."""
+    if not invalid.any():
+        return
+    for index in np.flatnonzero(invalid):
+        cell = column.iloc[int(index)]
+        if isinstance(cell, str) and _NUMBER_START.match(cell):
+            raise fail(
+                source,
+                int(line_numbers[index]),
+                f"{_columns.column_label(position, name)} holds a cell that starts like a "
+                "number but is not one",
+            )
 
 
 def _text_cells(column):
@@ -338,7 +451,9 @@ def _numbers(column, numbers):
     import pandas as pd
 
     if pd.api.types.is_numeric_dtype(column.dtype):
-        array = column.to_numpy(dtype=np.float64, na_value=np.nan)
+        # a copy: under copy-on-write (pandas 3) the frame's own buffer is read-only, and
+        # the non-finite cells are set to NaN in place below
+        array = column.to_numpy(dtype=np.float64, na_value=np.nan, copy=True)
         return array, np.isnan(array), np.zeros(array.shape, dtype=bool)
     raw = column.astype(object).tolist()
     missing = np.array([cell is None or _is_marker(cell) or _isnan(cell) for cell in raw])

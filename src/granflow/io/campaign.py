@@ -95,7 +95,7 @@ def _entry_geometry(entry, geometry):
     return annulus, geometry_label(annulus, declared is not None)
 
 
-def manifest_runs(path, geometry=None, *, executor=None):
+def manifest_runs(path, geometry=None, *, executor=None, allow_outside=False):
     """Every entry of a manifest with its runs, reading each file once per geometry.
 
     Parameters
@@ -109,6 +109,9 @@ def manifest_runs(path, geometry=None, *, executor=None):
         Reads the files in parallel on its local processes (each file once, however many
         entries name it); default, and with a Dask scheduler, one after the other in this
         process. The result is the same either way.
+    allow_outside : bool
+        Read files outside the manifest's folder too (see :func:`read_manifest`); default
+        False: such an entry fails, named.
 
     Returns
     -------
@@ -127,7 +130,7 @@ def manifest_runs(path, geometry=None, *, executor=None):
     if geometry is not None:
         geometry = Annulus.from_spec(geometry)
     planned, files = [], {}
-    for entry in read_manifest(path, errors="collect"):
+    for entry in read_manifest(path, errors="collect", allow_outside=allow_outside):
         if isinstance(entry, BadEntry):
             planned.append((entry, None))
             continue
@@ -251,7 +254,12 @@ class Campaign(HtmlReport):
 
     @classmethod
     def from_manifest(
-        cls, path: PathLike, geometry: Any = None, errors: str = "collect"
+        cls,
+        path: PathLike,
+        geometry: Any = None,
+        errors: str = "collect",
+        *,
+        allow_outside: bool = False,
     ) -> Campaign:
         """Read every file a manifest names and attach the manifest's metadata to its runs.
 
@@ -265,11 +273,13 @@ class Campaign(HtmlReport):
         errors : {"collect", "raise"}
             "collect" (default) records a file that fails in ``problems`` and reads the
             rest; "raise" stops at the first failure.
+        allow_outside : bool
+            Read files outside the manifest's folder too (see :func:`read_manifest`).
         """
         if errors not in ("collect", "raise"):
             raise InvalidParameterError(f"errors must be 'collect' or 'raise', got {errors!r}")
         runs, problems = [], []
-        for entry in manifest_runs(path, geometry):
+        for entry in manifest_runs(path, geometry, allow_outside=allow_outside):
             if entry.reason is not None:
                 if errors == "raise":
                     raise FileFormatError(entry.reason)

@@ -31,10 +31,13 @@ _NAME_UNIT = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
 
 
 def _name_and_unit(cell):
+    """(name, unit) of a header cell: "Torque [mN·m]", "t (min)", or the names granflow
+    writes ("force_N": the unit after the underscore, the name kept as written)."""
     match = _NAME_UNIT.match(cell.strip())
     if match:
         return match["name"].strip(), match["unit"].strip()
-    return cell.strip(), ""
+    own = _columns.own_column(cell)
+    return cell.strip(), "" if own is None else own[1]
 
 
 def parse_csv(
@@ -91,6 +94,8 @@ def parse_csv(
         [line for line in [header, *head_lines(buffer, 50)] if line.strip()]
     )
     cells = split(header, delimiter)
+    if not cells:
+        raise fail(source, first, f"the header line holds no column names; expected {EXPECT}")
     names, file_units = zip(*(_name_and_unit(cell) for cell in cells), strict=True)
     names, file_units = list(names), list(file_units)
     below = split(cursor.peek(), delimiter)
@@ -106,7 +111,10 @@ def parse_csv(
         if name in mapped and mapped[name] not in known:
             raise fail(source, first, f"unknown quantity {mapped[name]!r} in the column map")
     unmapped = "" if only_mapped else None
-    quantities = [mapped.get(name, unmapped) for name in names]
+    quantities = [
+        mapped.get(name, unmapped if only_mapped or own is None else own[0])
+        for name, own in zip(names, map(_columns.own_column, names), strict=True)
+    ]
     final_units = [
         units.get(name, file_units[index] if index < len(file_units) else "")
         for index, name in enumerate(names)

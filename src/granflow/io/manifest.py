@@ -22,6 +22,7 @@ message is one line naming the manifest and the entry.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -77,8 +78,15 @@ TEST_KINDS = ("startup", "ramp", "creep", "switch", "velocity_steps")
 RSF_LAWS = ("aging", "slip")
 #: The largest manifest read [bytes] (1 MiB: tens of thousands of entries).
 MAX_MANIFEST_BYTES = 1 << 20
+#: The deepest nesting of YAML collections a manifest may have (it needs four: the
+#: document, its runs, an entry, an entry's geometry); deeper is refused before it is built.
+MAX_DEPTH = 16
 #: Physical quantities: True where the value must be positive, False where it may be zero.
 _QUANTITIES = {"normal_load": True, "velocity": True, "rest_time": False, "switch_time": False}
+#: The largest value of each quantity a laboratory record may have [SI]: a press of 10 MN,
+#: a sliding velocity of 1 km/s, times of 30 years. Beyond is a wrong unit, and the joint
+#: analyses would divide forces by it into numbers float64 cannot hold.
+LARGEST = {"normal_load": 1e7, "velocity": 1e3, "rest_time": 1e9, "switch_time": 1e9}
 _TOP_LEVEL = ("defaults", "runs")
 
 
@@ -118,23 +126,85 @@ class _Refused:
     text: str
 
 
+class _Located(dict):
+    """A YAML mapping that knows its line in the manifest (``line``, 1-based) and the line
+    of each of its keys (``key_lines``)."""
+
+    line = 0
+    key_lines: dict = {}  # noqa: RUF012 - replaced per instance
+
+    def line_of(self, key):
+        """The line of ``key``, else of the mapping."""
+        return self.key_lines.get(key, self.line)
+
+
+class _RefusedError(Exception):
+    """A manifest the loader refuses as a whole: ``lines`` and the reason."""
+
+    def __init__(self, lines, reason):
+        super().__init__(reason)
+        self.lines = lines
+        self.reason = reason
+
+
 def _strict_loader():
     """A ``yaml.SafeLoader`` that replaces every anchored node and every alias by a
     :class:`_Refused` marker while composing, so nothing is ever expanded."""
     import yaml
 
     class StrictLoader(yaml.SafeLoader):
+        depth = 0
+
         def compose_node(self, parent, index):
             event = self.peek_event()
-            if isinstance(event, yaml.AliasEvent):
-                self.get_event()
-                return self._refused(f"*{event.anchor}", event)
-            if getattr(event, "anchor", None) is not None:
-                anchor = event.anchor
-                event.anchor = None
-                super().compose_node(parent, index)
-                return self._refused(f"&{anchor}", event)
-            return super().compose_node(parent, index)
+            self.depth += 1
+            try:
+                if self.depth > MAX_DEPTH:
+                    raise _RefusedError(
+                        (event.start_mark.line + 1,),
+                        f"collections nested more than {MAX_DEPTH} deep (a manifest needs four "
+                        "levels: runs, an entry, its values)",
+                    )
+                if isinstance(event, yaml.AliasEvent):
+                    self.get_event()
+                    return self._refused(f"*{event.anchor}", event)
+                if getattr(event, "anchor", None) is not None:
+                    anchor = event.anchor
+                    event.anchor = None
+                    super().compose_node(parent, index)
+                    return self._refused(f"&{anchor}", event)
+                return super().compose_node(parent, index)
+            finally:
+                self.depth -= 1
+
+        def construct_mapping(self, node, deep=False):
+            # a key given twice: YAML keeps the last one silently, a manifest refuses it
+            if isinstance(node, yaml.MappingNode):
+                self.flatten_mapping(node)
+                seen = {}
+                for key, _ in node.value:
+                    if not isinstance(key, yaml.ScalarNode):
+                        continue
+                    line = key.start_mark.line + 1
+                    if key.value in seen:
+                        raise _RefusedError(
+                            (seen[key.value], line),
+                            f"the key {key.value[:40]!r} is given twice in one mapping "
+                            "(YAML would keep the last silently)",
+                        )
+                    seen[key.value] = line
+            return super().construct_mapping(node, deep=deep)
+
+        def construct_located_mapping(self, node):
+            data = _Located()
+            data.line = node.start_mark.line + 1
+            yield data
+            data.update(self.construct_mapping(node))
+            data.key_lines = {
+                key.value: key.start_mark.line + 1
+                for key, _ in node.value
+                if isinstance(key, yaml.ScalarNode)
+            }
 
         @staticmethod
         def _refused(text, event):
@@ -151,6 +221,7 @@ def _strict_loader():
     StrictLoader.add_constructor(
         "!granflow-refused", lambda loader, node: _Refused(loader.construct_scalar(node))
     )
+    StrictLoader.add_constructor("tag:yaml.org,2002:map", StrictLoader.construct_located_mapping)
     return StrictLoader
 
 
@@ -170,8 +241,13 @@ def _read_text(path):
                 f"{path}: the manifest is larger than the limit of {MAX_MANIFEST_BYTES} bytes"
             )
         return data.decode("utf-8-sig")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{path}: cannot read the manifest ({exc})") from None
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise FileFormatError(
+            f"{path}, line {line}: the manifest is not UTF-8 text (save it as UTF-8)"
+        ) from None
+    except OSError as exc:
+        raise FileFormatError(f"{path}: cannot read the manifest ({exc.strerror})") from None
 
 
 def _load_yaml(text, path):
@@ -179,6 +255,10 @@ def _load_yaml(text, path):
 
     try:
         return yaml.load(text, Loader=_strict_loader())
+    except _RefusedError as exc:
+        lines = " and ".join(str(line) for line in exc.lines)
+        where = f"line{'s' if len(exc.lines) > 1 else ''} {lines}"
+        raise FileFormatError(f"{path}, {where}: {exc.reason}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f", line {mark.line + 1}" if mark is not None else ""
@@ -227,6 +307,11 @@ def _quantity(key, value):
     if number < 0 or (number == 0 and _QUANTITIES[key]):
         sign = "positive" if _QUANTITIES[key] else "zero or positive"
         raise InvalidParameterError(f"{key} must be {sign}, got {value!r}")
+    if number > LARGEST[key]:
+        raise InvalidParameterError(
+            f"{key} {str(value)[:40]!r} is beyond any laboratory record (at most "
+            f"{LARGEST[key]:g} {si_unit(key)}): is the unit right?"
+        )
     return number
 
 
@@ -294,6 +379,12 @@ def _field(key, value):
     return str(value)
 
 
+def _short(value):
+    """``repr(value)``, cut to 60 characters: a message quotes the manifest, not pages of it."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _fields(raw, where, manifest):
     """The checked fields of a mapping (an entry or the defaults); raises on the first error."""
     refused = _refused_in(raw)
@@ -302,7 +393,7 @@ def _fields(raw, where, manifest):
             f"{manifest}, {where}: YAML anchors and aliases are not allowed (found {refused.text})"
         )
     if not isinstance(raw, dict):
-        raise FileFormatError(f"{manifest}, {where}: expected a mapping, got {raw!r}")
+        raise FileFormatError(f"{manifest}, {where}: expected a mapping, got {_short(raw)}")
     entry = {}
     for key, value in raw.items():
         key = str(key).strip()
@@ -345,23 +436,32 @@ def _bad(raw, defaults, where, reason):
 def _yaml_entries(text, path):
     document = _load_yaml(text, path)
     defaults = {}
+    where = f"{path}, line 1"
     if isinstance(document, dict):
         for key in document:
             if isinstance(key, _Refused) or key not in _TOP_LEVEL:
+                shown = str(getattr(key, "text", key))[:40]
+                line = document.line_of(str(getattr(key, "text", key)))
                 raise FileFormatError(
-                    f"{path}: unknown top-level key {getattr(key, 'text', key)!r}; a manifest "
+                    f"{path}, line {line}: unknown top-level key {shown!r}; a manifest "
                     "has 'runs' (a list of entries) and optional 'defaults'"
                 )
         if not _absent(document.get("defaults")):
-            defaults = _fields(document["defaults"], "defaults", path)
+            place = f"defaults (line {document.line_of('defaults')})"
+            defaults = _fields(document["defaults"], place, path)
+        where = f"{path}, line {document.line_of('runs')}"
         document = document.get("runs")
     if isinstance(document, _Refused):
         raise FileFormatError(
-            f"{path}: YAML anchors and aliases are not allowed (found {document.text})"
+            f"{where}: YAML anchors and aliases are not allowed (found {document.text})"
         )
     if not isinstance(document, list):
-        raise FileFormatError(f"{path}: expected a list of runs (or 'runs:' with a list)")
-    return [_entry(raw, defaults, f"entry {i}", path) for i, raw in enumerate(document, start=1)]
+        raise FileFormatError(f"{where}: expected a list of runs (or 'runs:' with a list)")
+    located = []
+    for i, raw in enumerate(document, start=1):
+        line = getattr(raw, "line", None)
+        located.append((_entry(raw, defaults, _where(f"entry {i}", line), path), line))
+    return located
 
 
 def _csv_entries(text, path):
@@ -376,15 +476,71 @@ def _csv_entries(text, path):
     entries = []
     for line, row in enumerate(reader, start=2):
         if None in row:
-            entries.append(
-                _bad(row, {}, f"line {line}", f"{path}, line {line}: more cells than columns")
-            )
+            bad = _bad(row, {}, f"line {line}", f"{path}, line {line}: more cells than columns")
+            entries.append((bad, line))
         else:
-            entries.append(_entry(row, {}, f"line {line}", path))
+            entries.append((_entry(row, {}, f"line {line}", path), line))
     return entries
 
 
-def read_manifest(path: PathLike, errors: str = "raise") -> Any:
+def _where(where, line):
+    """ "entry 3 (line 9)" (YAML) or "line 9" (CSV)."""
+    return where if line is None or where.startswith("line") else f"{where} (line {line})"
+
+
+def _checked_files(located, path, allow_outside):
+    """The entries with each file checked: inside the manifest's folder (unless
+    ``allow_outside``) and named by one entry only. An entry that breaks either rule is a
+    :class:`BadEntry` naming its file, its line and, for a repeat, the line it repeats."""
+    root = os.path.realpath(path.parent)
+    claimed = {}  # real path -> (where the whole file was named, {interval: where})
+    checked = []
+    for position, (entry, line) in enumerate(located, start=1):
+        if isinstance(entry, BadEntry):
+            checked.append(entry)
+            continue
+        yaml_entry = path.suffix.lower() in (".yaml", ".yml")
+        where = _where(f"entry {position}", line) if yaml_entry else f"line {line}"
+        target = os.path.realpath(path.parent / str(entry["file"]))
+        if not allow_outside and os.path.commonpath([root, target]) != root:
+            checked.append(
+                _bad(
+                    entry,
+                    {},
+                    where,
+                    f"{path}, {where}: the file {str(entry['file'])[:200]!r} is outside the "
+                    f"campaign folder {path.parent} (granflow reads the files inside it only; "
+                    "--allow-outside, or allow_outside=True, reads it anyway)",
+                )
+            )
+            continue
+        interval = entry.get("interval")
+        whole, intervals = claimed.setdefault(target, (None, {}))
+        if interval is None:
+            earlier = whole or next(iter(intervals.values()), None)
+        else:
+            earlier = whole or intervals.get(interval)
+        if earlier is not None:
+            what = "the file" if interval is None else f"interval {interval} of the file"
+            checked.append(
+                _bad(
+                    entry,
+                    {},
+                    where,
+                    f"{path}, {where}: {what} {str(entry['file'])[:200]!r} is already named by "
+                    f"{earlier}; a run is analysed once (remove one of the two)",
+                )
+            )
+            continue
+        if interval is None:
+            claimed[target] = (where, intervals)
+        else:
+            intervals[interval] = where
+        checked.append(entry)
+    return checked
+
+
+def read_manifest(path: PathLike, errors: str = "raise", *, allow_outside: bool = False) -> Any:
     """Read a manifest into a list of checked entries (see the module's rules).
 
     Parameters
@@ -395,6 +551,10 @@ def read_manifest(path: PathLike, errors: str = "raise") -> Any:
     errors : {"raise", "collect"}
         "raise" (default): the first bad entry raises; "collect": a bad entry is a
         :class:`BadEntry` in its place.
+    allow_outside : bool
+        Read files outside the manifest's folder too (a path with ``..``, an absolute path,
+        a symbolic link that leads out). Default False: such an entry is a bad entry, so
+        that a manifest someone else wrote reads nothing but the campaign's files.
 
     Returns
     -------
@@ -412,9 +572,12 @@ def read_manifest(path: PathLike, errors: str = "raise") -> Any:
     path = Path(path)
     text = _read_text(path)
     if path.suffix.lower() in (".yaml", ".yml"):
-        entries = _yaml_entries(text, path)
+        located = _yaml_entries(text, path)
     else:
-        entries = _csv_entries(text, path)
+        located = _csv_entries(text, path)
+    if not located:
+        raise FileFormatError(f"{path}, line 1: the manifest lists no runs")
+    entries = _checked_files(located, path, allow_outside)
     if errors == "raise":
         bad = next((entry for entry in entries if isinstance(entry, BadEntry)), None)
         if bad is not None:

@@ -42,6 +42,19 @@ def detect_format(text: str) -> str:
     return "csv"
 
 
+def detect_file_format(path: PathLike, max_bytes: int | None = None) -> str:
+    """The format :func:`read` would find in a file: "rheoplus", "rheocompass", "trios" or
+    "csv" (see :func:`detect_format`).
+
+    Raises
+    ------
+    granflow.FileFormatError
+        The file cannot be read or is over the size limit.
+    """
+    path = Path(path)
+    return detect_format(_buffer.load(path, max_bytes))
+
+
 def parse(
     text: str,
     source: str = "<text>",
@@ -135,7 +148,9 @@ def read_runs(
         ``control`` "rate" or "stress"; ``meta`` with ``source``, ``interval`` (1-based, in
         file order), ``test``, and what the file says (sample, normal_load, ...);
         ``problems``: the data-quality sentences of the interval ("FILE, interval K: ..."),
-        rows without a time dropped.
+        rows without a time dropped. A table granflow wrote (``granflow convert``,
+        :meth:`Campaign.save`: :func:`granflow.io.read_tidy`) gives its runs as written
+        (forces and slips already converted: ``geometry`` does not apply).
 
     Examples
     --------
@@ -147,7 +162,10 @@ def read_runs(
     >>> [round(float(value) * 1e6, 6) for value in run.slip]  # um
     [0.0, 13.7]
     """
+    from granflow.io import tidy
     from granflow.model.geometry import Annulus
 
+    if format is None and not options and tidy.is_tidy_table(path):
+        return list(tidy.read_tidy(path).runs)  # granflow's own table: its runs as written
     parsed = read(path, format=format, max_bytes=max_bytes, **options)
     return runs_from_file(parsed, geometry or Annulus.paper())

@@ -21,7 +21,7 @@ import re
 from typing import TYPE_CHECKING
 
 from granflow.io import _columns
-from granflow.io._file import BlockSpec, parse_blocks, read_with
+from granflow.io._file import BlockSpec, parse_blocks, read_with, refuse_interruption
 from granflow.io._text import fail, line_list, split
 
 if TYPE_CHECKING:
@@ -183,6 +183,7 @@ def _scan(cursor, delimiter, source, problems):
                     skip_first=True,
                 )
             )
+            refuse_interruption(cursor, line_number, delimiter)
             declared, in_interval = None, False
         elif cells and cells[0].strip():
             target = interval_metadata if in_interval else test_metadata

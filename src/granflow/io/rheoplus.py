@@ -12,7 +12,7 @@ import re
 from typing import TYPE_CHECKING
 
 from granflow.io import _columns
-from granflow.io._file import BlockSpec, parse_blocks, read_with
+from granflow.io._file import BlockSpec, parse_blocks, read_with, refuse_interruption
 from granflow.io._text import split
 
 if TYPE_CHECKING:
@@ -74,6 +74,7 @@ def _scan(cursor, delimiter, source, problems):
             specs.append(
                 BlockSpec(test, number or 1, line_number, cells, units, [], region, spec_metadata)
             )
+            refuse_interruption(cursor, line_number, delimiter)
         elif head.endswith(":") or len(cells) > 1:
             key = head.lstrip("- ").rstrip(":").strip()
             value = _joined(cells[1:])

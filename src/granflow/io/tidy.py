@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,6 +38,7 @@ from typing import TYPE_CHECKING, Any
 
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
 from granflow.model.run import Run
+from granflow.model.units import column_name
 
 if TYPE_CHECKING:
     from granflow._typing import PathLike
@@ -66,8 +68,8 @@ COLUMNS = {
 }
 #: The file suffixes a table may have.
 SUFFIXES = (".csv", ".parquet")
-#: Run attribute -> column.
-_SERIES = {"t": "t_s", "slip": "slip_m", "velocity": "velocity_m_s", "force": "force_N"}
+#: Run attribute -> column: the names every table granflow writes gives these quantities.
+_SERIES = {name: column_name(name) for name in ("t", "slip", "velocity", "force")}
 _REQUIRED = ("run", "t_s", "force_N")
 _KEY = "granflow"
 _VERSION = 1
@@ -351,18 +353,67 @@ def _json(text, path):
 
 
 def _read_csv(path, skip=0):
+    """The table as a DataFrame, its rows checked first as every reader checks them: UTF-8
+    text, a last line with its line end (granflow ends every table with one: a file
+    without it was cut short), every row as wide as the header."""
+    import io
+
     import pandas as pd
 
+    from granflow.io import _buffer
+    from granflow.io._text import count_cells
+
+    data = _buffer.load(path).data
     try:
-        return pd.read_csv(
-            path, skiprows=skip, dtype={"source": str, "control": str}, low_memory=False
+        bytes(data).decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise FileFormatError(f"{path}, line {line}: not UTF-8 text") from None
+    if data and data[-1:] not in (b"\n", b"\r"):
+        line = data.count(b"\n") + 1
+        raise FileFormatError(
+            f"{path}, line {line}: the last line has no line end: the table was cut short"
         )
+    start = 0
+    for _ in range(skip + 1):  # past the comment line of an old table and the header
+        start = data.find(b"\n", start) + 1
+    header = data[: start - 1].rsplit(b"\n", 1)[-1].count(b",") + 1
+    most, short = count_cells(data, start, len(data), ",", header)
+    if short is not None and data[start:].strip():
+        raise FileFormatError(
+            f"{path}, line {skip + 2 + short}: a row has fewer cells than the header's {header}"
+        )
+    if most > header:  # more commas than the header's: read the rows with their quotes
+        _refuse_wide_rows(data[start:], header, path, skip + 2)
+    try:
+        with warnings.catch_warnings():  # empty cells after the last column are no data
+            warnings.simplefilter("ignore", pd.errors.ParserWarning)
+            return pd.read_csv(
+                io.BytesIO(data),
+                skiprows=skip,
+                dtype={"source": str, "control": str},
+                low_memory=False,
+                index_col=False,
+            )
     except pd.errors.ParserError as exc:
         line = re.search(r"line (\d+)", str(exc))
         where = f", line {int(line[1]) + skip}" if line else ""
         raise FileFormatError(f"{path}{where}: a row has more cells than the header") from None
-    except UnicodeDecodeError:
-        raise FileFormatError(f"{path}: not a UTF-8 text file") from None
+
+
+def _refuse_wide_rows(rows, header, path, first_line):
+    """A row with more cells than the header (quoted commas are one cell) is an error naming
+    its line; pandas would drop the extra cells of the first row silently."""
+    import csv
+
+    text = bytes(rows).decode("utf-8").splitlines()
+    for number, cells in enumerate(csv.reader(text), start=first_line):
+        while len(cells) > header and not cells[-1].strip():
+            cells.pop()
+        if len(cells) > header:
+            raise FileFormatError(
+                f"{path}, line {number}: a row has {len(cells)} cells where the header has {header}"
+            )
 
 
 def _numbers(frame, column, path, header_line=1):
@@ -377,8 +428,8 @@ def _numbers(frame, column, path, header_line=1):
     if bad.any():
         row = int(np.argmax(bad))
         raise FileFormatError(
-            f"{path}, line {row + header_line + 1}: column {column!r} holds "
-            f"{frame[column].iloc[row]!r}, not a number"
+            f"{path}, line {row + header_line + 1}: column {column!r} holds a cell that is "
+            "not a number"
         )
     return values
 
@@ -396,11 +447,12 @@ def _rows_by_run(numbers, path, header_line=1):
     return {int(values[k]): groups[k] for k in np.argsort(first)}
 
 
-def _run(path, number, columns, rows, **fields):
+def _run(path, number, columns, rows, header_line=1, **fields):
     try:
         return Run(**{name: values[rows] for name, values in columns.items()}, **fields)
     except GranflowError as exc:
-        raise FileFormatError(f"{path}, run {number}: {exc}") from None
+        where = f", line {int(rows[0]) + header_line + 1}" if len(rows) else ""
+        raise FileFormatError(f"{path}{where}: run {number}: {exc}") from None
 
 
 def _fields(entry):
@@ -429,13 +481,17 @@ def _table(frame, metadata, path):
         number = entry.get("run")
         where = rows.pop(number, [])
         if "points" in entry and len(where) != entry["points"]:
+            last = int(where[-1]) + 2 if len(where) else len(frame) + 1
             raise FileFormatError(
-                f"{path}: run {number} has {len(where)} rows, its metadata says "
+                f"{path}, line {last}: run {number} has {len(where)} rows, its metadata says "
                 f"{entry['points']}; the table and its metadata do not belong together"
             )
         runs.append(_run(path, number, columns, where, **_fields(entry)))
     if rows:
-        raise FileFormatError(f"{path}: run {next(iter(rows))} is not in the table's metadata")
+        number, where = next(iter(rows.items()))
+        raise FileFormatError(
+            f"{path}, line {int(where[0]) + 2}: run {number} is not in the table's metadata"
+        )
     return TidyTable(tuple(runs), tuple(metadata.get("problems", ())), metadata.get("geometry"))
 
 
@@ -452,7 +508,7 @@ def _old_table(frame, metadata, path):
     rows = _rows_by_run(_numbers(frame, "run", path, 2), path, 2)
     columns = {name: _numbers(frame, name, path, 2) for name in _SERIES}
     runs = [
-        _run(path, index + 1, columns, rows.get(index, []), **_fields(entry))
+        _run(path, index + 1, columns, rows.get(index, []), 2, **_fields(entry))
         for index, entry in enumerate(metadata.get("runs", []))
     ]
     return TidyTable(tuple(runs), tuple(metadata.get("problems", ())), None)

@@ -117,12 +117,26 @@ def _role(name):
     return None
 
 
+def _first_line(path):
+    """The first line of a file in its own encoding (BOMs, UTF-16 by its NULs, UTF-8, else
+    cp1252), read from its first 64 KiB."""
+    from granflow.io._buffer import _encoding_of
+
+    with open(path, "rb") as handle:
+        head = handle.read(1 << 16)
+    encoding = _encoding_of(head) or "utf-8"
+    if encoding.startswith("utf-16"):
+        head = head[: len(head) - len(head) % 2]
+    text = head.decode(encoding, errors="replace").lstrip("\ufeff")
+    return text.splitlines()[0] if text.strip() else ""
+
+
 def is_velocity_step_file(path):
     """Whether ``path`` is a velocity-step table: a first line naming time, displacement and
-    friction columns (``Time(s)``, ``Displ(microns)``, ``Friction``)."""
+    friction columns (``Time(s)``, ``Displ(microns)``, ``Friction``), in any encoding the
+    readers know."""
     try:
-        with open(path, encoding="utf-8-sig", errors="replace") as handle:
-            header = handle.readline()
+        header = _first_line(path)
     except OSError:
         return False
     delimiter = "\t" if "\t" in header else ("," if "," in header else None)
@@ -163,42 +177,46 @@ def parse_velocity_steps(
     lines = text.splitlines()
     if not lines or not lines[0].strip():
         raise FileFormatError(f"{source}: line 1: expected a header of column names, got nothing")
+    problems = []
+    if not text.endswith(("\n", "\r")) and len(lines) > 1:
+        problems.append(
+            f"line {len(lines)}, the last of the file, has no line end: the file looks cut "
+            "short there, so that row was left out (its last number may be incomplete)"
+        )
+        lines = lines[:-1]
     delimiter = "\t" if "\t" in lines[0] else ("," if "," in lines[0] else None)
     header = [cell.strip() for cell in lines[0].split(delimiter)]
-    columns, units, found = {}, {}, {}
-    for index, cell in enumerate(header):
-        match = _NAME_UNIT.match(cell)
-        name, unit = (match["name"], match["unit"].strip()) if match else (cell, "")
-        role = _role(name)
-        if role is None or role in columns:
-            continue
-        factors = _UNITS[role]
-        factor = factors.get(unit.lower(), factors.get(unit))
-        if factor is None:
-            raise FileFormatError(
-                f"{source}: line 1: column {cell!r}: unknown unit {unit!r} for {role} "
-                f"(known: {', '.join(repr(u) for u in factors)})"
-            )
-        columns[role], units[role], found[role] = index, factor, cell
-    for role in ("time", "displacement", "friction"):
-        if role not in columns:
-            raise FileFormatError(
-                f"{source}: line 1: no {role} column among {header} (expected e.g. 'Time(s)', "
-                "'Displ(microns)', 'Friction')"
-            )
+    columns, units, found = _header_columns(header, source)
     rows = []
     for number, line in enumerate(lines[1:], start=2):
         if not line.strip():
             continue
         cells = line.split(delimiter)
+        while cells and not cells[-1].strip():
+            cells.pop()
+        if len(cells) > len(header):
+            raise FileFormatError(
+                f"{source}: line {number}: {len(cells)} cells where the header has "
+                f"{len(header)} columns"
+            )
         try:
             rows.append([float(cells[columns[role]]) for role in columns])
-        except (ValueError, IndexError):
+        except IndexError:
             raise FileFormatError(
-                f"{source}: line {number}: expected {len(header)} numbers, got {line.strip()!r}"
+                f"{source}: line {number}: {len(cells)} cells where the header has "
+                f"{len(header)} columns"
             ) from None
+        except ValueError:
+            role = next(role for role in columns if not _is_number(cells[columns[role]]))
+            raise FileFormatError(
+                f"{source}: line {number}: column {columns[role] + 1} ({found[role]!r}) holds "
+                "a cell that is not a number"
+            ) from None
+    last = len(lines)  # the file's last line read
     if len(rows) < 10:
-        raise FileFormatError(f"{source}: needs at least 10 rows of data, got {len(rows)}")
+        raise FileFormatError(
+            f"{source}: line {last}: needs at least 10 rows of data, got {len(rows)}"
+        )
     data = np.array(rows) * np.array([units[role] for role in columns])
     values = dict(zip(columns, data.T, strict=True))
     t = values["time"]
@@ -211,9 +229,15 @@ def parse_velocity_steps(
     offset = float(t[0])
     t = t - offset
     displacement = values["displacement"] - values["displacement"][0]
-    breaks, velocities = segment_velocity(
-        t, displacement, step_times=step_times, min_change=min_change
-    )
+    try:
+        breaks, velocities = segment_velocity(
+            t, displacement, step_times=step_times, min_change=min_change
+        )
+    except InvalidDataError as exc:
+        if step_times is not None:  # the caller's step times, not the file
+            raise
+        # too few rows for two pieces: the record ends too soon
+        raise FileFormatError(f"{source}: line {last}: {exc}") from None
     edges = [0.0, *breaks, float(t[-1])]
     protocol = Protocol(
         [
@@ -230,8 +254,45 @@ def parse_velocity_steps(
         step_times=tuple(breaks),
         velocities=tuple(velocities),
         time_offset=offset,
-        meta={"source": source, "columns": found},
+        meta={"source": source, "columns": found, "problems": problems},
     )
+
+
+def _is_number(cell):
+    try:
+        float(cell)
+    except ValueError:
+        return False
+    return True
+
+
+def _header_columns(header, source):
+    """({role: column index}, {role: factor to SI}, {role: header cell}) of a header line;
+    an unknown unit or a missing column is an error that names what granflow recognised and
+    nothing else of the file."""
+    columns, units, found = {}, {}, {}
+    for index, cell in enumerate(header):
+        match = _NAME_UNIT.match(cell)
+        name, unit = (match["name"], match["unit"].strip()) if match else (cell, "")
+        role = _role(name)
+        if role is None or role in columns:
+            continue
+        factors = _UNITS[role]
+        factor = factors.get(unit.lower(), factors.get(unit))
+        if factor is None:
+            raise FileFormatError(
+                f"{source}: line 1: column {index + 1} ({name.strip()!r}): its unit is not one "
+                f"granflow knows for {role} (known: {', '.join(repr(u) for u in factors)})"
+            )
+        columns[role], units[role], found[role] = index, factor, cell
+    for role in ("time", "displacement", "friction"):
+        if role not in columns:
+            recognised = ", ".join(repr(cell) for cell in found.values()) or "none recognised"
+            raise FileFormatError(
+                f"{source}: line 1: no {role} column among its {len(header)} columns "
+                f"({recognised}); expected e.g. 'Time(s)', 'Displ(microns)', 'Friction'"
+            )
+    return columns, units, found
 
 
 def read_velocity_steps(
@@ -241,8 +302,11 @@ def read_velocity_steps(
     min_change: float = 0.2,
 ) -> VelocityStepRecord:
     """Read a velocity-step record file; see :func:`parse_velocity_steps`."""
+    from granflow.io import _buffer
+
     path = Path(path)
-    text = path.read_bytes().decode("utf-8-sig", errors="replace")
+    buffer = _buffer.load(path)
+    text = buffer.text(0, len(buffer.data))
     return parse_velocity_steps(text, str(path), step_times=step_times, min_change=min_change)
 
 

@@ -28,6 +28,7 @@ __all__ = [
     "QUANTITIES",
     "Quantity",
     "as_si",
+    "column_name",
     "display_of_si",
     "display_unit",
     "is_quantity",
@@ -136,6 +137,28 @@ def quantity(name):
         raise InvalidParameterError(
             f"unknown quantity {name!r}; known: {', '.join(sorted(QUANTITIES))}"
         ) from None
+
+
+def column_name(name, quantity_name=None):
+    """The name of a column granflow writes: the name, then its SI unit after an underscore
+    ("t_s", "slip_m", "velocity_m_s", "force_N"); one name per quantity in every table.
+
+    Parameters
+    ----------
+    name : str
+        The column's name in the code ("t", "slip", ...).
+    quantity_name : str, optional
+        The quantity it holds, when not ``name`` (a simulation's "age" is a time).
+
+    Examples
+    --------
+    >>> column_name("velocity"), column_name("age", "time"), column_name("segment", "factor")
+    ('velocity_m_s', 'age_s', 'segment')
+    """
+    unit = si_unit(name if quantity_name is None else quantity_name)
+    if unit in ("", "1"):
+        return name
+    return f"{name}_{unit.replace('/', '_').replace(' ', '')}"
 
 
 def si_unit(name):

@@ -27,13 +27,21 @@ if TYPE_CHECKING:
 
     from granflow.model.run import Run
 
-__all__ = ["ARRAYS", "ORIGINS", "Event", "Origin", "SegmentRecord", "SimulationResult"]
+__all__ = [
+    "ARRAYS",
+    "ARRAY_QUANTITIES",
+    "ORIGINS",
+    "Event",
+    "Origin",
+    "SegmentRecord",
+    "SimulationResult",
+]
 
 #: The recorded arrays of a run, in the order of :meth:`SimulationResult.to_frame`.
 ARRAYS = ("t", "slip", "velocity", "force", "state", "age", "displacement", "segment")
 #: The quantity of :data:`granflow.model.units.QUANTITIES` of each array with a unit (the
 #: result's age is a time since preparation, not the aging coordinate of the model).
-_ARRAY_QUANTITIES = {
+ARRAY_QUANTITIES = {
     "t": "t",
     "slip": "slip",
     "velocity": "velocity",
@@ -290,16 +298,36 @@ class SimulationResult:
         """The events of one kind, in time order."""
         return tuple(event for event in self.events if event.kind == kind)
 
-    def to_frame(self) -> pd.DataFrame:
-        """A pandas DataFrame of the arrays; ``attrs`` holds events, segments and options."""
+    def instants(self) -> np.ndarray:
+        """A mask of the rows that are the last at their time: one row per instant.
+
+        At an event or a segment's end the arrays hold the state before and after the same
+        instant (a switch imposes its force at once; a quasi-static failure sets the
+        velocity to inf), so their time repeats there. A record keeps the state the layer
+        is in from that instant on, as an instrument samples it.
+        """
+        keep = np.ones(self.t.size, dtype=bool)
+        keep[:-1] = self.t[1:] != self.t[:-1]
+        return keep
+
+    def to_frame(self, one_row_per_instant: bool = False) -> pd.DataFrame:
+        """A pandas DataFrame of the arrays; ``attrs`` holds events, segments and options.
+
+        Parameters
+        ----------
+        one_row_per_instant : bool
+            Keep only the last row of each time (:meth:`instants`), so that the time
+            increases strictly, as in a record (``granflow simulate -o`` writes it so).
+        """
         import pandas as pd
 
-        frame = pd.DataFrame({name: getattr(self, name) for name in ARRAYS})
+        rows = self.instants() if one_row_per_instant else slice(None)
+        frame = pd.DataFrame({name: getattr(self, name)[rows] for name in ARRAYS})
         frame.attrs["events"] = [event.to_dict() for event in self.events]
         frame.attrs["segments"] = [record.to_dict() for record in self.segments]
         frame.attrs["options"] = self.to_dict()["options"]
         frame.attrs["units"] = {
-            name: si_unit(quantity) for name, quantity in _ARRAY_QUANTITIES.items()
+            name: si_unit(quantity) for name, quantity in ARRAY_QUANTITIES.items()
         }
         return frame
 
@@ -319,6 +347,8 @@ class SimulationResult:
         Returns
         -------
         Run
+            One row per instant (:meth:`instants`: where an event repeats a time, the state
+            from that instant on), so that its time increases strictly as in a record.
             ``meta`` holds ``source`` ("simulation"), ``method``, ``clock``, ``origin``
             (the :class:`Origin` kind, or "model"), ``model_start`` [s] and ``slip_offset``
             [m] (what to add to the slip to get the model's coordinate), and for a
@@ -346,8 +376,14 @@ class SimulationResult:
             )
             if start.shear_start is not None:
                 meta["shear_start"] = start.shear_start
+        keep = self.instants()
         return Run(
-            t=t, slip=slip, velocity=self.velocity, force=self.force, control=control, meta=meta
+            t=t[keep],
+            slip=slip[keep],
+            velocity=self.velocity[keep],
+            force=self.force[keep],
+            control=control,
+            meta=meta,
         )
 
     def to_dict(self) -> dict[str, Any]:
