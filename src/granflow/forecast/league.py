@@ -52,6 +52,9 @@ class Entry:
         CPU time of the forecast [s].
     message : str
         The forecast's message (or the error it raised).
+    would_cover : bool or None
+        Where the forecast declined: whether the interval it would have given
+        (:func:`~granflow.forecast.discrepancy.unreviewed`) held the truth; None otherwise.
     """
 
     family: str
@@ -67,12 +70,22 @@ class Entry:
     time: float | None = None
     cpu: float = 0.0
     message: str = ""
+    would_cover: bool | None = None
 
 
 def _granflow(record, until):
     from granflow.forecast.failure import forecast_failure
 
     return forecast_failure(record.t, record.slip, record.force, until=until)
+
+
+def _would_cover(record, until):
+    """Whether granflow's forecast, not declined, would have held the truth."""
+    from granflow.forecast.discrepancy import unreviewed
+
+    with unreviewed():
+        low, high = _granflow(record, until).time_interval
+    return bool(low <= record.failure <= high)
 
 
 def _reference(name):
@@ -127,6 +140,8 @@ def one_record(
                           cpu, message)
                 )  # fmt: skip
                 continue
+            declined = bool(getattr(forecast, "declined", False))
+            would = _would_cover(record, until) if declined and method == "granflow" else None
             out.append(
                 Entry(
                     record.family,
@@ -138,10 +153,11 @@ def one_record(
                     float(forecast.level),
                     tuple(float(v) for v in forecast.time_interval),
                     dict(forecast.cdf),
-                    bool(getattr(forecast, "declined", False)),
+                    declined,
                     forecast.time,
                     cpu,
                     forecast.message,
+                    would,
                 )
             )
     return out

@@ -39,7 +39,13 @@ from granflow.forecast.results import BaselineForecast
 if TYPE_CHECKING:
     from granflow._typing import ArrayLike
 
-__all__ = ["block_velocity", "current_rate_forecast", "ffm_forecast", "fukuzono_forecast"]
+__all__ = [
+    "block_velocity",
+    "current_rate_forecast",
+    "ffm_forecast",
+    "fukuzono_forecast",
+    "power_law_rss",
+]
 
 _LEADS = np.geomspace(1e-4, 100.0, 160)  # t_f - until over until
 _POWERS = (0.1, 8.0)  # the range of p
@@ -288,6 +294,14 @@ def _ffm_profile(time, slip, until):
         return np.minimum(rss, floor), np.where(rss <= floor, np.exp(best), np.exp(grid[k]))
 
     return solve
+
+
+def power_law_rss(time, slip, until):
+    """The least residual sum of squares [m^2] of Voight's power law fitted to ``slip`` [m]
+    at ``time`` [s] (before ``until`` [s]), over its four parameters (leads on a coarse grid
+    of 40 from 1e-3 to 100 times ``until``)."""
+    solve = _ffm_profile(time, slip, until)
+    return float(np.min(solve(np.geomspace(1e-3, 100.0, 40) * until)[0]))
 
 
 def ffm_forecast(

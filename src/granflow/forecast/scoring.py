@@ -91,10 +91,15 @@ class TimeDistribution:
         if not issued or not np.any(values > 0):
             return cls(np.array([until, end]), np.array([0.0, 1.0]), until, end, False)
         order = np.argsort(times, kind="stable")
-        times = np.clip(times[order], until, end)
+        times = times[order]
         values = np.maximum.accumulate(np.clip(values[order], 0.0, 1.0))
-        nodes = np.concatenate([[until], times, [end]])
-        probability = np.concatenate([[0.0], values, [1.0]])
+        # the table's CDF at the cut and at the horizon: point masses there
+        at_cut = float(np.interp(until, times, values, left=0.0))
+        at_end = float(np.interp(end, times, values, left=0.0))
+        inside = (times > until) & (times < end)
+        tail = ([end, end], [at_end, 1.0]) if times[-1] >= end else ([end], [1.0])
+        nodes = np.concatenate([[until, until], times[inside], tail[0]])
+        probability = np.concatenate([[0.0, at_cut], values[inside], tail[1]])
         return cls(nodes, probability, until, end, True)
 
     def cdf(self, x: Any) -> Any:
@@ -294,7 +299,7 @@ def score(
         raise InvalidDataError("score needs at least one forecast")
     distributions = [TimeDistribution.of(f, horizon) for f in forecasts]
     quantiles = np.array([d.quantile(_LEVELS) for d in distributions])
-    crps = np.asarray(sr.crps_quantile(truths, quantiles, _LEVELS), dtype=float)
+    crps = np.asarray(sr.crps_quantile(truths, quantiles, _LEVELS), dtype=float).reshape(-1)
     logs, lows, highs, alphas, pit = [], [], [], [], []
     for forecast, distribution, truth in zip(forecasts, distributions, truths, strict=True):
         floor = _DENSITY_FLOOR / (distribution.end - distribution.until)
@@ -304,11 +309,15 @@ def score(
         highs.append(high)
         alphas.append(1.0 - float(forecast.level))
         pit.append(distribution.cdf(truth))
-    interval = np.asarray(
-        sr.interval_score(truths, np.array(lows), np.array(highs), np.array(alphas)), dtype=float
-    )
+    lows, highs, alphas = np.array(lows), np.array(highs), np.array(alphas)
+    interval = np.empty(truths.size)
+    for alpha in np.unique(alphas):  # one call per level (an array of alphas is an axis)
+        chosen = alphas == alpha
+        interval[chosen] = np.asarray(
+            sr.interval_score(truths[chosen], lows[chosen], highs[chosen], float(alpha)),
+            dtype=float,
+        ).reshape(-1)
     issued = np.array([d.issued for d in distributions])
-    lows, highs = np.array(lows), np.array(highs)
     covered = (lows <= truths) & (truths <= highs)
     if issued.any():
         share = float(np.mean(covered[issued]))
