@@ -452,7 +452,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
             f"p = {trend:.2g}): no information on the failure yet"
         )
         forecast = _no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
-        return forecast, Warm(layout, fit.first, values, {}, {})
+        return review(forecast, fit, time, slip_cut), Warm(layout, fit.first, values, {}, {})
 
     def shapes(gap):
         """More starts at a gap (the shape grid, the nuisance at its optimum)."""

@@ -125,11 +125,15 @@ def red_noise(t, sigma, tau, rng):
     return out
 
 
-def planted_drift(record, share=0.5):
-    """``record`` with a slow drift planted in its slip: a straight line rising to ``share``
-    of its slip range by the failure (an apparatus creeping off), the truth unchanged."""
+def planted_drift(record, share=0.5, shape="wave"):
+    """``record`` with a slow apparatus drift planted in its slip, the truth unchanged:
+    ``shape="wave"`` a slow wander, one period of a sine over the time to failure with an
+    amplitude of ``share`` of the slip range (as the sepiolite record wanders); ``"line"``
+    a straight line rising to ``share`` of the slip range by the failure."""
     rise = share * float(np.ptp(record.slip))
-    slip = record.slip + rise * record.t / record.failure
+    phase = record.t / record.failure
+    drift = rise * (np.sin(2.0 * np.pi * phase) if shape == "wave" else phase)
+    slip = record.slip + drift
     return Record(
         record.family,
         record.seed,
@@ -139,7 +143,7 @@ def planted_drift(record, share=0.5):
         record.failure,
         record.noise,
         record.samples,
-        {**record.details, "drift": rise},
+        {**record.details, "drift": (shape, rise)},
     )
 
 
