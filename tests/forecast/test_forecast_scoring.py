@@ -215,9 +215,12 @@ def test_the_rate_and_state_slider_fails_in_finite_time_and_creeps_without_load(
         rate_state_run(1.5, 0.0, -1.0)  # a step down: it slows and heals
 
 
-def test_planted_drift_keeps_the_truth_and_adds_a_line():
+def test_planted_drift_keeps_the_truth_and_adds_a_wave_or_a_line():
     record = family_record(2, "model")
-    drifted = planted_drift(record, share=0.5)
-    assert drifted.failure == record.failure
-    rise = drifted.slip - record.slip
+    line = planted_drift(record, share=0.5, shape="line")
+    assert line.failure == record.failure
+    rise = line.slip - record.slip
     assert rise[-1] == pytest.approx(0.5 * np.ptp(record.slip) * record.t[-1] / record.failure)
+    wave = planted_drift(record, share=0.5).slip - record.slip
+    quarter = np.argmin(np.abs(record.t - 0.25 * record.failure))
+    assert wave[quarter] == pytest.approx(0.5 * np.ptp(record.slip), rel=0.02)
