@@ -16,7 +16,10 @@ steps [SEEDS] [PROCESSES] [FIRST_SEED]`` runs the quasi-static staircases alone,
 between two levels ("steps"), anywhere in its step ("steps anywhere"), and with step heights
 scattered by 25 % ("steps irregular"): the coverage of
 the interval of whole steps, the probability its steps claim, and the randomised PIT of the
-step probabilities.
+step probabilities. ``python benchmarks/bench_forecast.py league [SEEDS] [PROCESSES]
+[FIRST_SEED]`` runs the forecast league of issue 29 (``benchmarks/bench_league.py``): every
+method on every family of records, scored as forecasts are scored (``league --from FILE``
+redraws its table and figures from saved entries).
 """
 
 import os
@@ -24,19 +27,18 @@ import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 
-from granflow.forecast.calibration import (
-    LEADS,
-    METHODS,
-    calibrate,
-    creep_study,
-    peak_study,
-    step_summary,
-    summarise,
-)
+
+def _calibration():
+    """The calibration study's names, imported when a study runs (the league does not need
+    them)."""
+    from granflow.forecast import calibration
+
+    return calibration
 
 
 def _table(outcomes, seeds, elapsed, processes):
-    table = summarise(outcomes)
+    METHODS = _calibration().METHODS
+    table = _calibration().summarise(outcomes)
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     print(
         f"{seeds} seeds, {len(outcomes)} forecasts in {elapsed:.0f} s ({processes} processes, "
@@ -64,7 +66,7 @@ def main(seeds=200, processes=1, first=1000, chunk=20):
     with ProcessPoolExecutor(processes) as pool:
         for start in range(first, first + seeds, chunk):
             stop = min(start + chunk, first + seeds)
-            outcomes += calibrate(range(start, stop), executor=pool)
+            outcomes += _calibration().calibrate(range(start, stop), executor=pool)
             _table(outcomes, stop - first, time.perf_counter() - started, processes)
 
 
@@ -72,7 +74,7 @@ def peak(seeds=200, processes=1, first=2000):
     """The peak study over seeds ``first, ..., first + seeds - 1``."""
     started = time.perf_counter()
     with ProcessPoolExecutor(processes) as pool:
-        table = peak_study(range(first, first + seeds), executor=pool)
+        table = _calibration().peak_study(range(first, first + seeds), executor=pool)
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     elapsed = time.perf_counter() - started
     print(f"{seeds} start-ups in {elapsed:.0f} s ({processes} processes, load average {load})")
@@ -88,7 +90,7 @@ def creep(seeds=200, processes=1, first=5000, chunk=20):
     with ProcessPoolExecutor(processes) as pool:
         for start in range(first, first + seeds, chunk):
             stop = min(start + chunk, first + seeds)
-            outcomes += creep_study(range(start, stop), executor=pool)
+            outcomes += _calibration().creep_study(range(start, stop), executor=pool)
             elapsed = time.perf_counter() - started
             load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
             print(
@@ -98,8 +100,9 @@ def creep(seeds=200, processes=1, first=5000, chunk=20):
             print(
                 "| protocol | lead | median error | t_f coverage | F_peak coverage | open above |"
             )
-            table = summarise(outcomes)
-            for protocol, lead in ((p, lead) for p in ("ramp", "steps") for lead in LEADS):
+            table = _calibration().summarise(outcomes)
+            leads = _calibration().LEADS
+            for protocol, lead in ((p, lead) for p in ("ramp", "steps") for lead in leads):
                 error, coverage, _, force, opened = table[(protocol, lead, "model (creep)")]
                 print(
                     f"| {protocol} | {lead:.0%} | {error:.3g} s | {coverage:.0%} | {force:.0%} "
@@ -113,7 +116,9 @@ def steps(seeds=300, processes=1, first=9000):
     started = time.perf_counter()
     protocols = ("steps", "steps anywhere", "steps irregular")
     with ProcessPoolExecutor(processes) as pool:
-        outcomes = calibrate(range(first, first + seeds), protocols=protocols, executor=pool)
+        outcomes = _calibration().calibrate(
+            range(first, first + seeds), protocols=protocols, executor=pool
+        )
     load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
     elapsed = time.perf_counter() - started
     print(f"{seeds} seeds in {elapsed:.0f} s ({processes} processes, load average {load})")
@@ -121,9 +126,10 @@ def steps(seeds=300, processes=1, first=9000):
         "| staircase | lead | t_f covered | its steps claim | PIT in the central 90 % | "
         "F_peak covered | median error |"
     )
-    table = summarise(outcomes)
+    table = _calibration().summarise(outcomes)
     for protocol in protocols:
-        for lead, (covered, claimed, pit, count) in step_summary(outcomes, 0.9, protocol).items():
+        summary = _calibration().step_summary(outcomes, 0.9, protocol)
+        for lead, (covered, claimed, pit, count) in summary.items():
             error, _, _, force, _ = table[(protocol, lead, "model")]
             print(
                 f"| {protocol} | {lead:.0%} | {covered:.1%} | {claimed:.1%} | {pit:.1%} "
@@ -133,7 +139,15 @@ def steps(seeds=300, processes=1, first=9000):
 
 
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["steps"]:
+    if sys.argv[1:2] == ["league"]:
+        sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+        import bench_league
+
+        if sys.argv[2:3] == ["--from"]:
+            bench_league.redraw(sys.argv[3])
+        else:
+            bench_league.main(*(int(arg) for arg in sys.argv[2:5]))
+    elif sys.argv[1:2] == ["steps"]:
         steps(*(int(arg) for arg in sys.argv[2:5]))
     elif sys.argv[1:2] == ["creep"]:
         creep(*(int(arg) for arg in sys.argv[2:5]))

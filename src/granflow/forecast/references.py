@@ -5,7 +5,7 @@ Each method has a likelihood with the failure time t_f among its parameters, and
 distribution is that likelihood's confidence distribution, built as granflow's own
 (:class:`~granflow.forecast.distribution.Distribution`): the signed root of the profile's
 chi-square in t_f, Student's t with the fit's degrees of freedom (the noise estimated from
-the residuals), tabulated on the same quantiles. The profile is read on a grid of 160 leads
+the residuals), tabulated on the same quantiles. The profile is read on a grid of 120 leads
 ``t_f - until`` from 1e-4 to 100 times the cut time (log-spaced); where it has not risen to
 3.1 at the grid's far end the rest of the probability lies beyond (the record does not bound
 the failure); probability before the cut is held at the cut.
@@ -47,7 +47,7 @@ __all__ = [
     "power_law_rss",
 ]
 
-_LEADS = np.geomspace(1e-4, 100.0, 160)  # t_f - until over until
+_LEADS = np.geomspace(1e-4, 100.0, 120)  # t_f - until over until
 _POWERS = (0.1, 8.0)  # the range of p
 _REACH = 3.1  # the signed root the table's quantiles span (Distribution.table)
 _CURRENT = 4  # velocity windows of the current-rate reference
@@ -281,7 +281,7 @@ def _ffm_profile(time, slip, until):
         k = np.argmin(values, axis=0)
         lo = grid[np.maximum(k - 1, 0)]
         hi = grid[np.minimum(k + 1, grid.size - 1)]
-        for _ in range(22):
+        for _ in range(18):
             x1 = hi - golden * (hi - lo)
             x2 = lo + golden * (hi - lo)
             f1 = _ffm_rss(time, slip, until, leads, np.exp(x1))
