@@ -214,16 +214,19 @@ def report(entries, elapsed=None, processes=None):
     figures(cells)
 
 
-def main(seeds=500, processes=2, first=29000):
-    """The league over seeds ``first, ..., first + seeds - 1`` of every family."""
+def main(seeds=500, processes=2, first=29000, chunk=25):
+    """The league over seeds ``first, ..., first + seeds - 1`` of every family, in rounds of
+    ``chunk`` seeds of every family (the entries saved after each, so that a run cut short
+    leaves every family with as many records as it reached)."""
     started, wall = time.process_time(), time.perf_counter()
     entries = []
     with ProcessPoolExecutor(processes) as pool:
-        for family in FAMILIES:
-            entries += league(range(first, first + seeds), (family,), executor=pool)
+        for start in range(first, first + seeds, chunk):
+            stop = min(start + chunk, first + seeds)
+            entries += league(range(start, stop), FAMILIES, executor=pool)
             with open(ENTRIES, "wb") as handle:
                 pickle.dump(entries, handle)
-            print(f"{family}: done after {time.perf_counter() - wall:.0f} s", flush=True)
+            print(f"{stop - first} seeds: {time.perf_counter() - wall:.0f} s", flush=True)
     cpu = sum(e.cpu for e in entries)
     print(
         f"CPU time of the forecasts {cpu:.0f} s; this process {time.process_time() - started:.0f} s"

@@ -1,7 +1,7 @@
 """Records that granflow's model did not make, beside its own: the fleet of the forecast
 league (:mod:`granflow.forecast.league`).
 
-Every record is a force-controlled layer from t = 0 to its failure, sampled 200 to 500
+Every record is a force-controlled layer from t = 0 to its failure, sampled 200 to 300
 times to failure (log-uniform: the low end of the calibration study's design, which is what
 a live forecast sees), its slip with white Gaussian noise of 0.1 % to 3 % of its slip range
 (log-uniform; the range is the slip to failure, or to 90 % of the time to failure where the
@@ -70,7 +70,7 @@ JITTER = 0.063
 CENTRE = (3.31e-3, 4.19e4, 10e-3, 0.198e-6)  # SPEC §4's blue set
 FACTOR = 3.0
 SLIP_NOISE = (1e-3, 3e-2)  # of the slip range
-SAMPLES = (200, 500)  # to failure
+SAMPLES = (200, 300)  # to failure
 FORCE_NOISE = (3e-4, 1e-2)  # of the force at failure
 DURATION = (100.0, 1000.0)  # s to failure
 _FAILURE_SPEED = 1e8  # the rate-and-state slider's failure: its velocity over the initial one
