@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from granflow.forecast.branch import branch_slip
+from granflow.forecast.calibration import CENTRE, FACTOR, FORCE_NOISE, SLIP_NOISE
 from granflow.model.friction import peak
 from granflow.model.params import Params
 
@@ -67,12 +68,8 @@ SPECTRA = {
 #: over the median (``tools/noise_spectra.py``).
 JITTER = 0.063
 
-CENTRE = (3.31e-3, 4.19e4, 10e-3, 0.198e-6)  # SPEC §4's blue set
-FACTOR = 3.0
-SLIP_NOISE = (1e-3, 3e-2)  # of the slip range
-SAMPLES = (200, 300)  # to failure
-FORCE_NOISE = (3e-4, 1e-2)  # of the force at failure
-DURATION = (100.0, 1000.0)  # s to failure
+SAMPLES = (200, 300)  # to failure: the low end of the calibration study's
+DURATION = (100.0, 1000.0)  # s to failure, as the calibration study's
 _FAILURE_SPEED = 1e8  # the rate-and-state slider's failure: its velocity over the initial one
 
 
