@@ -17,6 +17,7 @@ import math
 import time as clock
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from granflow.forecast.families import FAMILIES, Record, family_record
 
@@ -173,7 +174,7 @@ def league(
     families: Sequence[str] = FAMILIES,
     leads: Sequence[float] = LEADS,
     methods: Sequence[str] = METHODS,
-    executor=None,
+    executor: Any = None,
 ) -> list[Entry]:
     """The :class:`Entry` s of every method on each seed's record of every family, at every
     lead (a process pool's ``map`` when ``executor`` is given)."""
@@ -183,7 +184,7 @@ def league(
     return [entry for rows in mapper(_one, work, **options) for entry in rows]
 
 
-def table(entries: Sequence[Entry], **options) -> dict:
+def table(entries: Sequence[Entry], **options: Any) -> dict:
     """``{(family, lead, method): Scores}`` of the entries (keyword ``options`` go to
     :func:`~granflow.forecast.score`), each cell's records in seed order (so that two
     methods' cells pair record by record)."""

@@ -339,15 +339,15 @@ def ffm_forecast(
     (100.0, 3.0)
     """
     method = "ffm"
-    time, slip, until = _record(t, slip, until)
-    half = time >= 0.5 * (time[0] + time[-1])
-    time, slip = time[half], slip[half]
+    whole, moved, until = _record(t, slip, until)
+    half = whole >= 0.5 * (whole[0] + whole[-1])
+    time, late = whole[half], moved[half]
     if time.size < 8:
         return _declined(method, until, level, time.size, "too few points")
-    solve = _ffm_profile(time, slip, until)
+    solve = _ffm_profile(time, late, until)
     dof = time.size - 4
     u, rss = _zoomed(lambda leads: solve(leads)[0], until, dof)
-    spread = float(np.sum((slip - slip.mean()) ** 2))
+    spread = float(np.sum((late - late.mean()) ** 2))
     least = max(float(np.min(rss)), 1e-24 * spread, 1e-300)
     power = float(solve(np.exp(u[[int(np.argmin(rss))]]))[1][0])
     alpha = 1.0 + 1.0 / power

@@ -300,16 +300,14 @@ def score(
     distributions = [TimeDistribution.of(f, horizon) for f in forecasts]
     quantiles = np.array([d.quantile(_LEVELS) for d in distributions])
     crps = np.asarray(sr.crps_quantile(truths, quantiles, _LEVELS), dtype=float).reshape(-1)
-    logs, lows, highs, alphas, pit = [], [], [], [], []
+    logs, ends, transforms = [], [], []
     for forecast, distribution, truth in zip(forecasts, distributions, truths, strict=True):
         floor = _DENSITY_FLOOR / (distribution.end - distribution.until)
         logs.append(-math.log(max(distribution.density(truth), floor)))
-        low, high = _interval(forecast, distribution)
-        lows.append(low)
-        highs.append(high)
-        alphas.append(1.0 - float(forecast.level))
-        pit.append(distribution.cdf(truth))
-    lows, highs, alphas = np.array(lows), np.array(highs), np.array(alphas)
+        ends.append(_interval(forecast, distribution))
+        transforms.append(distribution.cdf(truth))
+    lows, highs = np.array(ends).T
+    alphas = np.array([1.0 - float(f.level) for f in forecasts])
     interval = np.empty(truths.size)
     for alpha in np.unique(alphas):  # one call per level (an array of alphas is an axis)
         chosen = alphas == alpha
@@ -325,7 +323,7 @@ def score(
         sharpness = float(np.median((highs - lows)[issued]))
     else:
         share = share_se = sharpness = math.nan
-    pit = np.array(pit)
+    pit = np.array(transforms)
     histogram = np.histogram(pit[issued], bins=10, range=(0.0, 1.0))[0]
     levels = {float(f.level) for f in forecasts}
     return Scores(
