@@ -36,8 +36,8 @@ def _pm(value, se, digits=3):
 def markdown(cells):
     """The league's table: one row per family, lead and method."""
     lines = [
-        "| family | lead | method | n | declined or no date | 90 % coverage | CRPS [s] | log score | "
-        "interval score [s] | sharpness [s] | CRPS skill vs inverse velocity |",
+        "| family | lead | method | n | declined or no date | 90 % coverage | CRPS [s] | "
+        "log score | interval score [s] | sharpness [s] | CRPS skill vs inverse velocity |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for family in FAMILIES:
