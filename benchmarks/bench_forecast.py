@@ -22,6 +22,10 @@ Run from the repository root:
 * ``python benchmarks/bench_forecast.py tables OUT [OUT ...]``: the tables of saved
   outcomes: coverage with its binomial standard error per cell and lead, split by thirds of
   the noise and of the sample count, and the reliability of ``probability_within``.
+* ``python benchmarks/bench_forecast.py league [SEEDS] [PROCESSES] [FIRST_SEED]``: the
+  forecast league of issue 29 (``benchmarks/bench_league.py``): every method on every
+  family of records, scored as forecasts are scored (``league --from FILE`` redraws its
+  table and figures from saved entries).
 """
 
 import math
@@ -304,6 +308,17 @@ def tables(paths):
         print(f"| {predicted:.3f} | {observed:.3f} | {count} |")
 
 
+def league(rest):
+    """The forecast league (``benchmarks/bench_league.py``), or its redrawing ``--from FILE``."""
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import bench_league
+
+    if rest[:1] == ["--from"]:
+        bench_league.redraw(rest[1])
+    else:
+        bench_league.main(*(int(arg) for arg in rest[:3]))
+
+
 if __name__ == "__main__":
     command, rest = (sys.argv[1], sys.argv[2:]) if len(sys.argv) > 1 else ("speed", [])
     {
@@ -312,4 +327,5 @@ if __name__ == "__main__":
         "running": running,
         "study": run_study,
         "tables": tables,
+        "league": league,
     }[command](rest)

@@ -8,6 +8,11 @@ fit with F_peak as a parameter and its profile), ``branch`` (slip on the rising 
 a force), ``loading`` (the force history and its continuation), ``prior`` (constraints from
 the campaign), ``baselines`` (inverse velocity, Voight's law), ``running`` (the forecast at a
 sequence of cut times), ``synthetic`` (records for the calibration study) and ``results``.
+Judged as forecasts are judged: ``scoring`` (:func:`score`: CRPS, logarithmic and interval
+scores, coverage, PIT, reliability, skill), ``references`` (the field's methods as
+distributions), ``families`` (records the model did not make), ``discrepancy`` (the
+residuals' verdict on the model: wider intervals, or a declined forecast) and ``league``
+(every method on every family).
 Stands on :mod:`granflow.model`, :mod:`granflow.fitting` and :mod:`granflow.simulation`.
 """
 
@@ -20,6 +25,8 @@ __getattr__, __dir__, __all__ = attach(
         "peak": ["forecast_peak"],
         "prior": ["Prior"],
         "baselines": ["inverse_velocity_forecast", "voight_forecast"],
+        "references": ["current_rate_forecast", "ffm_forecast", "fukuzono_forecast"],
+        "scoring": ["Scores", "score", "skill"],
         "running": ["RunningForecast", "running_forecast"],
         "results": ["BaselineForecast", "FailureForecast", "ForecastSeries", "PeakForecast"],
     },

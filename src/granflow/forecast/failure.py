@@ -23,6 +23,7 @@ from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
 from granflow.forecast.branch import branch_values
 from granflow.forecast.coordinates import natural
+from granflow.forecast.discrepancy import review
 from granflow.forecast.inference import data_chisqr, estimate, scan
 from granflow.forecast.loading import fit_loading
 from granflow.forecast.models import Continuation, branch_problem, group_points, projects
@@ -457,7 +458,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
             f"p = {trend:.2g}): no information on the failure yet"
         )
         forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
-        return forecast, Warm(layout, fit.first, values, {}, {})
+        return review(forecast, fit, time, slip_cut), Warm(layout, fit.first, values, {}, {})
 
     def shapes(gap):
         """More starts at a gap (the shape grid, the nuisance at its optimum)."""
@@ -543,7 +544,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         _absolute(force_profile, floor),
         _absolute(time_profile, floor),
     )
-    return forecast, left
+    return review(forecast, fit, time, slip_cut), left
 
 
 def _absolute(profile, floor):

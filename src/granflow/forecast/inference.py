@@ -11,7 +11,7 @@ their own prior), and the problem is solved again from that optimum at the estim
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.special import ndtri, stdtrit
@@ -19,6 +19,7 @@ from scipy.special import ndtri, stdtrit
 from granflow.errors import FitError
 from granflow.fitting.engine import multistart
 from granflow.fitting.profile import profile_scan
+from granflow.forecast.discrepancy import Check, check_fit
 from granflow.forecast.distribution import Distribution
 
 __all__ = ["Estimate", "estimate", "heights", "scan"]
@@ -53,6 +54,9 @@ class Estimate:
         Passes over the data.
     first : numpy.ndarray
         The first stage's optimum (the nuisance held at 0), for a warm start.
+    check : Check
+        The residuals' verdict on the model (:mod:`granflow.forecast.discrepancy`): its
+        inflation is in ``sigma`` already.
     """
 
     problem: object
@@ -63,6 +67,7 @@ class Estimate:
     hessian: np.ndarray
     nfev: int
     first: np.ndarray
+    check: Check = field(default_factory=Check)
 
 
 def data_chisqr(problem, values):
@@ -159,6 +164,9 @@ def estimate(
         dof = max(size - _SHAPE, 1)
         squares = data_chisqr(problem, first_values) * first**2 + within
         sigma = max(math.sqrt(squares / dof), 1e-300)
+    # the residuals' verdict (granflow.forecast.discrepancy): correlated ones widen the noise
+    check = check_fit(problem, first_values, first, size, within, rough)
+    sigma *= math.sqrt(check.inflation)
     start = first_values if warm is None else np.asarray(warm[1], dtype=float)
     problem = build(sigma, start)
     values, chisqr, _, steps = _solve_at(problem, start, rtol)
@@ -178,7 +186,9 @@ def estimate(
         values = problem.values(u)
         problem = build(sigma, values)
     chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
-    return Estimate(problem, values, float(chisqr), sigma, dof, hessian, nfev + steps, first_values)
+    return Estimate(
+        problem, values, float(chisqr), sigma, dof, hessian, nfev + steps, first_values, check
+    )
 
 
 def _diverse(problem, starts, branch):

@@ -344,7 +344,10 @@ def fit_loading(t, force):
     -------
     Loading
     """
-    jumps = np.abs(np.diff(force))
+    # a jump is a step only beyond what a ramp's rate explains over its interval (a gap in
+    # a ramp's sampling is no step): the median point-to-point rate, 0 on flat levels
+    rate = float(np.median(np.diff(force) / np.diff(t))) if t.size > 1 else 0.0
+    jumps = np.abs(np.diff(force) - rate * np.diff(t))
     noise = _noise(force)
     big = np.flatnonzero(jumps > max(_JUMP_FACTOR * noise, 1e-12 * np.max(np.abs(force))))
     if 1 <= big.size <= t.size // 4:

@@ -521,6 +521,11 @@ class BaselineForecast(_Codec):
         Whether 1/v falls towards zero.
     message : str
         Why there is no date; "" otherwise.
+    cdf : dict
+        The distribution of the failure time where the method gives one (the references of
+        :mod:`granflow.forecast.references`): "time" [s] and "probability" [-], its CDF
+        there, below 1 at the last time where the record does not bound the failure; empty
+        otherwise. Read by :meth:`probability_within` and :func:`granflow.forecast.score`.
     """
 
     method: str
@@ -532,6 +537,12 @@ class BaselineForecast(_Codec):
     n_points: int
     approaching: bool
     message: str = ""
+    cdf: dict = dataclasses.field(default_factory=lambda: {"time": [], "probability": []})
+
+    def probability_within(self, seconds: float) -> float:
+        """The probability [-] that failure comes within ``seconds`` [s] after the cut, from
+        ``cdf`` (0 where the method gives no distribution)."""
+        return _within(self.cdf, self.until, seconds)
 
     def _repr_html_(self) -> str:
         """An HTML card built from the fields (Jupyter)."""

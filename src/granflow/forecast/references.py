@@ -1,0 +1,354 @@
+"""The field's reference methods as distributions of the failure time, so that they are
+scored as granflow's forecasts are (:func:`granflow.forecast.score`).
+
+Each method has a likelihood with the failure time t_f among its parameters, and its
+distribution is that likelihood's confidence distribution, built as granflow's own
+(:class:`~granflow.forecast.distribution.Distribution`): the signed root of the profile's
+chi-square in t_f, Student's t with the fit's degrees of freedom (the noise estimated from
+the residuals), tabulated on the same quantiles. The profile is read on a grid of 120 leads
+``t_f - until`` from 1e-4 to 100 times the cut time (log-spaced); where it has not risen to
+3.1 at the grid's far end the rest of the probability lies beyond (the record does not bound
+the failure); probability before the cut is held at the cut.
+
+* :func:`fukuzono_forecast`, the inverse-velocity method (Fukuzono 1985): 1/v falls on a
+  straight line to zero at t_f. The velocities are the slopes of the slip over
+  non-overlapping windows (independent estimates), 1/v regressed over the record's second
+  half; the profile of the line's root (the likelihood-ratio form of Fieller's interval).
+* :func:`ffm_forecast`, the failure forecast method with its exponent fitted by maximum
+  likelihood (Voight 1988; Bell, Naylor & Main 2013): ``v = k (t_f - t)^(-p)``, Voight's
+  ``alpha = 1 + 1/p`` free, fitted to the slip itself (its integral, Gaussian slip noise)
+  over the record's second half. At each (t_f, p) the slip is linear in its offset and k, so
+  those are closed-form least squares; p is profiled over 0.1 to 8 (a grid of 10, then a
+  golden-section search about its least).
+* :func:`current_rate_forecast`, the naive reference: the inverse velocity's current rate of
+  fall extrapolated (``t_f - until = v / (dv/dt)`` at the cut, Voight's alpha = 2 locally),
+  from the last four velocity windows only.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from granflow.forecast import _inputs
+from granflow.forecast.distribution import Distribution
+from granflow.forecast.results import BaselineForecast
+
+if TYPE_CHECKING:
+    from granflow._typing import ArrayLike
+
+__all__ = [
+    "block_velocity",
+    "current_rate_forecast",
+    "ffm_forecast",
+    "fukuzono_forecast",
+    "power_law_rss",
+]
+
+_LEADS = np.geomspace(1e-4, 100.0, 120)  # t_f - until over until
+_POWERS = (0.1, 8.0)  # the range of p
+_REACH = 3.1  # the signed root the table's quantiles span (Distribution.table)
+_CURRENT = 4  # velocity windows of the current-rate reference
+
+
+def block_velocity(t, slip, window):
+    """Slip rate [m/s] over non-overlapping windows of ``window`` points (the last window
+    ends at the last sample; a short first remainder is dropped): each window's least-squares
+    slope of slip against time. Returns ``(t_centre, velocity)``."""
+    width = max(int(window), 2)
+    count = t.size // width
+    start = t.size - count * width
+    tw = t[start:].reshape(count, width)
+    sw = slip[start:].reshape(count, width)
+    dt = tw - tw.mean(axis=1, keepdims=True)
+    ds = sw - sw.mean(axis=1, keepdims=True)
+    return tw.mean(axis=1), np.sum(dt * ds, axis=1) / np.sum(dt * dt, axis=1)
+
+
+def _zoomed(profile, until, dof):
+    """(u, chi-square) of a profile of the lead: ``profile(leads)`` [s] gives the residual
+    sum of squares at each lead; read on the coarse grid, then again on as many points
+    where it lies within 5 (signed root) of its least, so that a sharp profile is read
+    finely. The noise's variance is the least's over ``dof`` (applied by the caller)."""
+    leads = _LEADS * until
+    rss = profile(leads)
+    low = float(np.min(rss))
+    near = np.flatnonzero(rss <= low * (1.0 + 25.0 / dof) + 1e-300)  # the root within 5
+    lo, hi = max(int(near[0]) - 1, 0), min(int(near[-1]) + 1, leads.size - 1)
+    fine = np.geomspace(leads[lo], leads[hi], _LEADS.size)
+    u = np.log(np.concatenate([leads, fine]))
+    order = np.argsort(u)
+    return u[order], np.concatenate([rss, profile(fine)])[order]
+
+
+def _forecast(method, until, level, exponent, count, u, chisqr, dof, message=""):
+    """A BaselineForecast from a profile: ``chisqr`` [-] (the residual sum of squares over the
+    noise's estimate) at the leads ``exp(u)`` [s], minimised over the rest."""
+    best = int(np.argmin(chisqr))
+    least, u_best = float(chisqr[best]), float(u[best])
+    if 0 < best < u.size - 1:  # the least between the grid's nodes: a parabola in u
+        left, mid, right = chisqr[best - 1 : best + 2]
+        h1, h2 = u[best] - u[best - 1], u[best + 1] - u[best]
+        if h1 > 0 and h2 > 0:
+            slope1, slope2 = (mid - left) / h1, (right - mid) / h2
+            curvature = (slope2 - slope1) / (0.5 * (h1 + h2))
+            if curvature > 0:
+                slope = slope1 + 0.5 * curvature * h1  # at u[best]
+                shift = float(np.clip(-slope / curvature, -h1, h2))
+                u_best += shift
+                least = min(least, max(mid + slope * shift + 0.5 * curvature * shift**2, 0.0))
+    deltas = np.maximum(chisqr - least, 0.0)
+    root = np.sqrt(deltas) * np.where(u < u_best, -1.0, 1.0)
+    keep = u != u_best
+    u, root = u[keep], root[keep]
+    at = int(np.searchsorted(u, u_best))
+    u, root = np.insert(u, at, u_best), np.insert(root, at, 0.0)
+    root = np.maximum.accumulate(root)  # one minimum: the profile's monotone envelope
+    distribution = Distribution(
+        u=u,
+        r=root,
+        offset=until,
+        scale=1.0,
+        log=True,
+        dof=dof,
+        open_below=bool(root[0] > -_REACH),
+        open_above=bool(root[-1] < _REACH),
+        low_end=float(u[0]),
+        high_end=float(u[-1]),
+    )
+    with np.errstate(over="ignore"):  # quantiles far beyond the grid
+        times, probability = distribution.table()
+        median = distribution.median()
+        interval = distribution.interval(level)
+    approaching = math.isfinite(median)
+    if not approaching:
+        message = message or "the record does not bound the failure: no date"
+    return BaselineForecast(
+        method=method,
+        time=median if approaching else None,
+        time_interval=interval,
+        until=until,
+        level=level,
+        exponent=exponent,
+        n_points=count,
+        approaching=approaching,
+        message=message,
+        cdf={"time": [float(v) for v in times], "probability": [float(v) for v in probability]},
+    )
+
+
+def _declined(method, until, level, count, message):
+    return BaselineForecast(
+        method=method,
+        time=None,
+        time_interval=(math.nan, math.nan),
+        until=until,
+        level=level,
+        exponent=math.nan,
+        n_points=count,
+        approaching=False,
+        message=message,
+    )
+
+
+def _record(t, slip, until):
+    time, cut, until = _inputs.record(t, {"slip": (slip, "m")}, until)
+    return time, cut["slip"], until
+
+
+def _line_root_profile(centres, inverse, until):
+    """(rss(leads), degrees of freedom, least rss): the residual sum of squares of a straight
+    line through (centres, 1/v) forced through zero at ``until + lead``, the unforced
+    line's."""
+    design = np.column_stack([np.ones_like(centres), centres])
+    coef, *_ = np.linalg.lstsq(design, inverse, rcond=None)
+    best = float(np.sum((inverse - design @ coef) ** 2))
+
+    def rss(leads):
+        remaining = (until + leads)[:, None] - centres[None, :]
+        slope = (remaining @ inverse) / np.sum(remaining * remaining, axis=1)
+        return np.sum((inverse[None, :] - slope[:, None] * remaining) ** 2, axis=1)
+
+    return rss, centres.size - 2, max(best, 1e-24 * float(inverse @ inverse), 1e-300)
+
+
+def _velocity_forecast(method, t, slip, until, level, window, last):
+    time, slip, until = _record(t, slip, until)
+    width = window or max(5, time.size // 20)
+    centres, rates = block_velocity(time, slip, width)
+    if last is None:
+        chosen = centres >= centres[0] + 0.5 * (centres[-1] - centres[0])
+    else:
+        chosen = np.arange(centres.size) >= centres.size - last
+    centres, rates = centres[chosen], rates[chosen]
+    if centres.size < 4 or not np.all(rates > 0):
+        text = "too few velocity windows" if centres.size < 4 else "the slip does not advance"
+        return _declined(method, until, level, centres.size, text)
+    rss, dof, least = _line_root_profile(centres, 1.0 / rates, until)
+    u, values = _zoomed(rss, until, dof)
+    return _forecast(method, until, level, 2.0, centres.size, u, values / (least / dof), dof)
+
+
+def fukuzono_forecast(
+    t: ArrayLike,
+    slip: ArrayLike,
+    until: float | None = None,
+    *,
+    level: float = 0.9,
+    window: int | None = None,
+) -> BaselineForecast:
+    """The inverse-velocity method (Fukuzono 1985) as a distribution of the failure time.
+
+    Parameters
+    ----------
+    t : array_like
+        Record time [s], strictly increasing, 0 at the start of loading.
+    slip : array_like
+        Record slip [m].
+    until : float, optional
+        The cut [s]; default the whole record.
+    level : float
+        Level of the interval [-].
+    window : int, optional
+        Points per velocity window; default a twentieth of the record (at least 5).
+
+    Returns
+    -------
+    BaselineForecast
+        With ``cdf`` and ``probability_within``; ``time`` None where the record does not
+        bound the failure.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from granflow.forecast.references import fukuzono_forecast
+    >>> t = np.linspace(0.0, 90.0, 400)
+    >>> slip = -1e-6 * np.log(1.0 - t / 100.0)  # v = 1e-6 / (100 - t): 1/v a line to 100 s
+    >>> bool(abs(fukuzono_forecast(t, slip).time - 100.0) < 0.2)  # windows' slopes: 99.9 s
+    True
+    """
+    return _velocity_forecast("inverse velocity", t, slip, until, level, window, None)
+
+
+def current_rate_forecast(
+    t: ArrayLike,
+    slip: ArrayLike,
+    until: float | None = None,
+    *,
+    level: float = 0.9,
+    window: int | None = None,
+) -> BaselineForecast:
+    """The naive reference: 1/v's current rate of fall extrapolated to zero, from the last
+    four velocity windows (parameters and return as :func:`fukuzono_forecast`)."""
+    return _velocity_forecast("current rate", t, slip, until, level, window, _CURRENT)
+
+
+def _ffm_rss(time, slip, until, leads, powers):
+    """The residual sum of squares of the slip's power law at each (lead, p) pair [m^2],
+    offset and amplitude (non-negative) in closed form."""
+    centred = slip - slip.mean()
+    remaining = (until + leads)[:, None] - time[None, :]
+    log_ratio = np.log(remaining / until)
+    exponent = (1.0 - powers)[:, None]
+    near = np.abs(exponent) < 0.1
+    with np.errstate(over="ignore"):
+        basis = np.where(near, np.expm1(exponent * log_ratio), np.exp(exponent * log_ratio))
+    # (tau / T)^(1 - p) / (p - 1): the slip of v = (tau / T)^(-p) / T up to a constant, which
+    # the offset takes; near p = 1 with the constant -1 / (p - 1) kept (expm1), whose digits
+    # the varying part would lose; -ln(tau / T) at p = 1
+    basis = basis / np.where(np.abs(exponent) < 1e-9, 1.0, -exponent)
+    basis = np.where(np.abs(exponent) < 1e-9, -log_ratio, basis)
+    basis = basis - basis.mean(axis=1, keepdims=True)
+    norm = np.sum(basis * basis, axis=1)
+    projection = basis @ centred
+    ok = (projection > 0) & np.isfinite(norm) & (norm > 0)
+    gain = np.where(ok, projection**2 / np.where(ok, norm, 1.0), 0.0)
+    return np.maximum(float(centred @ centred) - gain, 0.0)
+
+
+def _ffm_profile(time, slip, until):
+    """rss(leads): the power law's least residual sum of squares over p at each lead, p on
+    a grid of 10 from 0.1 to 8 and then by golden section in ln p about the grid's least;
+    and the p of each (a function of the leads too)."""
+    grid = np.log(np.geomspace(_POWERS[0], _POWERS[-1], 10))
+    golden = 0.5 * (math.sqrt(5.0) - 1.0)
+
+    def solve(leads):
+        values = np.array([_ffm_rss(time, slip, until, leads, np.full(leads.size, math.exp(g)))
+                           for g in grid])  # fmt: skip
+        k = np.argmin(values, axis=0)
+        lo = grid[np.maximum(k - 1, 0)]
+        hi = grid[np.minimum(k + 1, grid.size - 1)]
+        for _ in range(18):
+            x1 = hi - golden * (hi - lo)
+            x2 = lo + golden * (hi - lo)
+            f1 = _ffm_rss(time, slip, until, leads, np.exp(x1))
+            f2 = _ffm_rss(time, slip, until, leads, np.exp(x2))
+            hi = np.where(f1 < f2, x2, hi)
+            lo = np.where(f1 < f2, lo, x1)
+        best = 0.5 * (lo + hi)
+        rss = _ffm_rss(time, slip, until, leads, np.exp(best))
+        floor = values[k, np.arange(leads.size)]
+        return np.minimum(rss, floor), np.where(rss <= floor, np.exp(best), np.exp(grid[k]))
+
+    return solve
+
+
+def power_law_rss(time, slip, until):
+    """The least residual sum of squares [m^2] of Voight's power law fitted to ``slip`` [m]
+    at ``time`` [s] (before ``until`` [s]), over its four parameters (leads on a coarse grid
+    of 40 from 1e-3 to 100 times ``until``)."""
+    solve = _ffm_profile(time, slip, until)
+    return float(np.min(solve(np.geomspace(1e-3, 100.0, 40) * until)[0]))
+
+
+def ffm_forecast(
+    t: ArrayLike,
+    slip: ArrayLike,
+    until: float | None = None,
+    *,
+    level: float = 0.9,
+) -> BaselineForecast:
+    """The failure forecast method with its exponent fitted by maximum likelihood (Voight
+    1988; Bell, Naylor & Main 2013), as a distribution of the failure time.
+
+    ``v = k (t_f - t)^(-p)`` integrated, ``slip = c + k T h_p(t_f - t)``, fitted to the slip of
+    the record's second half with Gaussian noise (its level estimated, n - 4 degrees of
+    freedom); t_f's distribution from its profile likelihood, p and the rest profiled out.
+
+    Parameters
+    ----------
+    t, slip, until, level
+        As :func:`fukuzono_forecast`.
+
+    Returns
+    -------
+    BaselineForecast
+        ``exponent`` is Voight's alpha = 1 + 1/p at the best fit [-].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from granflow.forecast.references import ffm_forecast
+    >>> t = np.linspace(0.0, 80.0, 400)
+    >>> slip = 2e-6 * (1.0 - np.sqrt(1.0 - t / 100.0))  # p = 1/2: Voight's alpha = 3
+    >>> ff = ffm_forecast(t, slip)
+    >>> round(ff.time, 1), round(ff.exponent, 1)
+    (100.0, 3.0)
+    """
+    method = "ffm"
+    whole, moved, until = _record(t, slip, until)
+    half = whole >= 0.5 * (whole[0] + whole[-1])
+    time, late = whole[half], moved[half]
+    if time.size < 8:
+        return _declined(method, until, level, time.size, "too few points")
+    solve = _ffm_profile(time, late, until)
+    dof = time.size - 4
+    u, rss = _zoomed(lambda leads: solve(leads)[0], until, dof)
+    spread = float(np.sum((late - late.mean()) ** 2))
+    least = max(float(np.min(rss)), 1e-24 * spread, 1e-300)
+    power = float(solve(np.exp(u[[int(np.argmin(rss))]]))[1][0])
+    alpha = 1.0 + 1.0 / power
+    return _forecast(method, until, level, alpha, time.size, u, rss / (least / dof), dof)
