@@ -57,6 +57,10 @@ class RunningForecast:
         an update costs the same however long the record (a watch that runs all day).
         Default None: every sample kept. The forecast is then the one-shot forecast of the
         pooled record (``t``, ``slip``, ``force``).
+    warm_start : bool
+        Start each quasi-static update from the previous optimum and profile ends (default).
+        False: each update is the one-shot forecast of the record so far, from cold starts
+        (as fast on records of a few thousand points; the live watch uses it).
 
     Examples
     --------
@@ -82,6 +86,7 @@ class RunningForecast:
         sigma: float | None = None,
         direct_effect: Any = None,
         max_points: int | None = None,
+        warm_start: bool = True,
     ) -> None:
         from granflow import _validate as check
         from granflow.forecast.failure import check_level, check_prior
@@ -105,6 +110,7 @@ class RunningForecast:
 
             names = ("t", "force") if kind == "peak" else ("t", "slip", "force")
             self._pool = Pool(names, max_points)
+        self.warm_start = bool(warm_start)
         self._last = -math.inf
         self._size = 0
         self._warm = None
@@ -216,7 +222,7 @@ class RunningForecast:
             prior=self.prior,
             level=self.level,
             sigma=self.sigma,
-            warm=self._warm,
+            warm=self._warm if self.warm_start else None,
         )
         return forecast
 

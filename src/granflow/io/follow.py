@@ -173,6 +173,7 @@ class Follower:
         self._decoder = None
         self._encoding = None  # (name for the readers, codec of the partial line)
         self._partial = ""  # text after the last line end
+        self._undecoded = b""  # the first bytes, before the encoding is told
         self._lines = 0  # complete lines read
         self._pending = []  # complete lines not yet given (the block's rows, or a change)
         self._given = {}  # interval ordinal -> rows given
@@ -196,15 +197,15 @@ class Follower:
                 head = stream.read(_HEAD)
                 changed = self._identity is not None and identity != self._identity
                 rewritten = self._head and not head.startswith(self._head[: len(head)])
-                if changed or rewritten:
-                    events.append(self._restart("replaced", "the file was replaced"))
-                elif status.st_size < self._offset:
+                if status.st_size < self._offset:
                     events.append(
                         self._restart(
                             "truncated",
                             f"the file was truncated ({self._offset} -> {status.st_size} bytes)",
                         )
                     )
+                elif changed or rewritten:
+                    events.append(self._restart("replaced", "the file was replaced"))
                 if self._identity is None:
                     self._identity = identity
                     events.append(Notice(self.source, "opened", f"following {self.source}"))
@@ -226,8 +227,15 @@ class Follower:
         return Notice(self.source, kind, f"{message}: read again from its start")
 
     def _take(self, data):
-        """Decode new bytes; complete lines go to the pending list."""
+        """Decode new bytes; complete lines go to the pending list. The encoding is told
+        from the first line end or the first 64 bytes, whichever comes first (a BOM or
+        UTF-16's NULs need a few bytes to be seen)."""
         if self._decoder is None:
+            data = self._undecoded + data
+            if len(data) < 64 and b"\n" not in data:
+                self._undecoded = data
+                return
+            self._undecoded = b""
             self._start_decoding(data)
         try:
             text = self._decoder.decode(data)
@@ -266,6 +274,8 @@ class Follower:
 
     def _complete_bytes(self):
         """Bytes of the file up to the end of its last complete line."""
+        if self._decoder is None:
+            return 0
         held = len(self._decoder.getstate()[0])
         partial = len(self._partial.encode(self._encoding[1])) if self._partial else 0
         return self._offset - held - partial
@@ -273,7 +283,7 @@ class Follower:
     def _read_lines(self):
         """The pending lines as rows of the block being written, or a full parse."""
         events = []
-        if not self._pending:
+        if not self._pending or self._decoder is None:
             return events
         if self._block is not None:
             count = self._data_rows()
@@ -408,7 +418,13 @@ class Follower:
                 )
             given = self._given[ordinal]
             self._given[ordinal] = len(run.t)
-            problems = [p for p in run.problems if "declares" not in p]
+            # a growing file's last block is incomplete: not a problem of the data
+            growing = ordinal == len(parsed.intervals)
+            problems = [
+                p
+                for p in run.problems
+                if not (growing and ("declares" in p or "no data rows after the header" in p))
+            ]
             events += self._emit(
                 block,
                 run.t[given:],
