@@ -7,7 +7,7 @@ The fleet (each record its own seed and point of the design): stress **ramps**, 
 (F_peak anywhere in its step) and **creeping ramps** (the direct effect, simulated by
 granflow.simulate) that fail; **held** creeping layers, ramped to 85-97 % of F_peak and held
 there, that never fail; rate-controlled **start-ups**. Parameters a, alpha, Fd, x0 each a
-factor 1/3 to 3 about SPEC §4's blue set, 200-1000 s to failure, sampled at 1, 2 or 5 Hz, slip
+factor 1/3 to 3 about SPEC §4's blue set, 200-1000 s to failure, sampled at 1 or 2 Hz, slip
 noise 0.1-3 % of the slip to failure, force noise 0.03-1 % of F_peak (log-uniform).
 
 The watch forecasts every ``CADENCE`` seconds of record, or a hundredth of the record where
@@ -50,7 +50,7 @@ THRESHOLD = 0.5
 CADENCE = 10.0  # s of record between forecasts
 KINDS = ("ramp", "staircase", "creep ramp", "held", "start-up")
 CENTRE = (3.31e-3, 4.19e4, 10e-3, 0.198e-6)  # a [N], alpha [1/m], Fd [N], x0 [m]
-RATES = (1.0, 2.0, 5.0)  # Hz
+RATES = (1.0, 2.0)  # Hz
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -224,6 +224,7 @@ def replay(record):
                 iv_time,
                 entry.get("force_interval"),
                 entry.get("peak_time_interval"),
+                entry["rows"],
             )
         )
     return {

@@ -176,11 +176,7 @@ def _loop(source, watch, panel, server, command, options, wake, stop):
         panel.show(view)
         if server is not None:
             server.publish(view)
-        if (
-            options.until_end
-            and source.finished
-            and not any(s.fresh for s in watch.streams.values())
-        ):
+        if options.until_end and source.finished:
             return "end", "the end of the record: the watch stops (--until-end)"
         if stop.flag.is_set():
             return "stopped", "stopped by a signal (Ctrl-C): the log is complete"
