@@ -257,12 +257,14 @@ def episodes(flags_and_times):
     return raises
 
 
-def model_flags(forecasts, threshold=THRESHOLD, confirm=1):
-    """(t, alarm on) of the watch's alarm rule on a record's forecasts."""
+def model_flags(forecasts, threshold=THRESHOLD, confirm=1, min_rows=0):
+    """(t, alarm on) of the watch's alarm rule on a record's forecasts: raised when P reaches
+    the threshold on ``confirm`` forecasts in a row of at least ``min_rows`` rows each."""
     out, run, on = [], 0, False
-    for t, p, *_ in forecasts:
+    for t, p, *rest in forecasts:
         p = 0.0 if p is None else p
-        run = run + 1 if p >= threshold else 0
+        rows = rest[-1]
+        run = run + 1 if p >= threshold and rows >= min_rows else 0
         on = (run >= confirm) if not on else p >= threshold
         out.append((t, on))
     return out
@@ -315,7 +317,7 @@ def iv_setting(results, most=0.05):
     return best
 
 
-def table(results, confirm):
+def table(results, confirm, min_rows=0):
     lines = []
     kinds = [k for k in KINDS if any(r["kind"] == k for r in results)]
     header = (
@@ -330,8 +332,8 @@ def table(results, confirm):
             continue
         for name, flags in (
             (
-                f"watch (P >= {THRESHOLD}, {confirm} in a row)",
-                lambda f: model_flags(f, THRESHOLD, confirm),
+                f"watch (P >= {THRESHOLD})",
+                lambda f: model_flags(f, THRESHOLD, confirm, min_rows),
             ),
             (
                 f"inverse velocity (theta {theta})",
@@ -388,7 +390,39 @@ def figure(results, path):
     fig.savefig(path, dpi=120)
 
 
+def policies(results):
+    """The watch's alarm on the fleet under other rules (a look, not a tuning)."""
+    lines = [
+        f"{'threshold':>9} {'confirm':>8} {'min rows':>9} {'in time':>8} {'lead':>6} "
+        f"{'false/alarms':>13} {'records w/ false':>17}"
+    ]
+    for threshold in (0.3, 0.5, 0.7):
+        for confirm in (1, 2):
+            for min_rows in (0, 30, 60):
+                s = score(
+                    results, lambda f, a=threshold, c=confirm, m=min_rows: model_flags(f, a, c, m)
+                )
+                lines.append(
+                    f"{threshold:>9} {confirm:>8} {min_rows:>9} {s['in_time']:>8.1%} "
+                    f"{s['median_lead']:>6.0f} {s['false_ratio']:>13.1%} "
+                    f"{s['false_records']:>17.1%}"
+                )
+    return "\n".join(lines)
+
+
+def rescore(argv):
+    """``bench_watch.py score [CONFIRM] [MIN_ROWS]``: the table of the saved fleet."""
+    results = json.loads((ROOT / "benchmarks" / "results" / "watch_fleet.json").read_text())
+    confirm = int(argv[2]) if len(argv) > 2 else 1
+    min_rows = int(argv[3]) if len(argv) > 3 else 0
+    print(table(results, confirm, min_rows)[0])
+    print(policies(results))
+    figure(results, ROOT / "docs" / "_static" / "watch_fleet.png")
+
+
 def main(argv):
+    if len(argv) > 1 and argv[1] == "score":
+        return rescore(argv)
     scale = float(argv[1]) if len(argv) > 1 else 1.0
     processes = int(argv[2]) if len(argv) > 2 else 2
     first = int(argv[3]) if len(argv) > 3 else 0

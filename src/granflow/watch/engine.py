@@ -391,8 +391,10 @@ class Watch:
         self.streams = {}
         self.current = None  # the stream that last received rows
         self.notices = []  # the last notices, for the panel and the page
+        self.changes = 0  # counts rows taken and records made: the view is redrawn on change
 
     def _say(self, record):
+        self.changes += 1
         self.emit(record)
         if record["event"] != "forecast":
             self.notices = ([*self.notices, record])[-12:]
@@ -428,6 +430,7 @@ class Watch:
                 stream = Stream(event.source, event.interval, self.settings.test, self.settings)
                 self.streams[key] = stream
             self.current = stream
+            self.changes += 1
             left = stream.take(event)
             if left:
                 self._say(stream.record("left out", left))

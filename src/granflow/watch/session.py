@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import signal
 import threading
-import time as clock
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -165,6 +164,7 @@ def warm_up():
 
 def _loop(source, watch, panel, server, command, options, wake, stop):
     """Poll, forecast, show, until the end or a stop; returns (event, message)."""
+    shown = None
     while True:
         watch.take(source.poll())
         if stop.flag.is_set():
@@ -172,17 +172,18 @@ def _loop(source, watch, panel, server, command, options, wake, stop):
         watch.forecast()
         if command is not None:
             command.reap()
-        view = watch.view()
-        panel.show(view)
-        if server is not None:
-            server.publish(view)
+        if watch.changes != shown:  # the view only when something happened
+            shown = watch.changes
+            view = watch.view()
+            panel.show(view)
+            if server is not None:
+                server.publish(view)
         if options.until_end and source.finished:
             return "end", "the end of the record: the watch stops (--until-end)"
         if stop.flag.is_set():
             return "stopped", "stopped by a signal (Ctrl-C): the log is complete"
         timeout = POLL
-        if options.replay:
+        if options.replay and not source.finished:
             timeout = min(max(source.wait(), 0.02), POLL)
         wake.wait(timeout)
         wake.clear()
-        clock.sleep(0)
