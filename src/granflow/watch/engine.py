@@ -15,7 +15,8 @@ first rows hold steadier): force control gets the failure forecast, rate control
 
 The alarm: ``P(failure within horizon)`` from the forecast's own distribution
 (:meth:`~granflow.forecast.results.FailureForecast.probability_within`) reaching the
-threshold raises it; falling below clears it. Where the force stops rising during a ramp
+threshold raises it (once the record holds ``min_rows`` samples); falling below clears it.
+Where the force stops rising during a ramp
 (held), the quasi-static layer cannot fail while it is held: the probability is 0 and the
 record says why. Rows with missing or damaged values are never fitted: they are left out,
 and the notice that names them is in the log.
@@ -73,6 +74,10 @@ class Settings:
         Points of the pooled record each forecast fits (:class:`~granflow.forecast.pooling.Pool`).
     prior : optional
         The campaign's :class:`~granflow.forecast.Prior`.
+    min_rows : int
+        Samples a forecast needs before it may raise the alarm (default 100): the forecasts
+        are calibrated on records of 100 samples and more (the calibration study's smallest,
+        200 samples to failure cut at half); on a dozen samples they can be far too sure.
     warm_start : bool
         Warm-start each update from the last (:class:`~granflow.RunningForecast`); off by
         default: on a growing ramp the warm-started forecast was seen to stay on an open,
@@ -86,6 +91,7 @@ class Settings:
     max_points: int = 2048
     prior: Any = None
     warm_start: bool = False
+    min_rows: int = 100
 
     def __post_init__(self):
         if not (math.isfinite(self.horizon) and self.horizon > 0):
@@ -474,7 +480,11 @@ class Watch:
         record = stream.record("forecast")
         self._say(record)
         if stream.kind == "failure":
-            raised = stream.probability is not None and stream.probability >= self.settings.alarm
+            raised = (
+                stream.probability is not None
+                and stream.probability >= self.settings.alarm
+                and stream.rows >= self.settings.min_rows
+            )
             if raised and not stream.alarm and stream.failed is None:
                 stream.alarm = True
                 alarm = stream.record(

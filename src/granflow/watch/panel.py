@@ -112,13 +112,6 @@ class Panel:
         if self._live is not None:
             self._live.update(render(view))
 
-    def say(self, text):
-        """A line of the watch itself (where it serves, how it ended)."""
-        if self._live is not None:
-            self._live.console.print(text, markup=False, highlight=False)
-        else:
-            print(text, file=self.stream, flush=True)
-
 
 def render(view):
     """The panel as a rich renderable."""

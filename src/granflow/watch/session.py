@@ -129,7 +129,6 @@ def run(options, settings):
             from granflow.watch.server import Server, parse_address
 
             server = Server(*parse_address(options.serve))
-            panel.say(f"serving the live page at {server.url}")
             watch.notice(str(path), "serving", f"the live page is at {server.url}")
         watch.notice(
             str(path),
