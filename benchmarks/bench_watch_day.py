@@ -16,7 +16,8 @@ Part 2, two processes: a writer appends the day's export (RheoCompass, UTF-16 wi
 the first forecast and at their peaks.
 
 Run from the repository root: ``nice -n 10 python benchmarks/bench_watch_day.py [SECONDS]``
-(SECONDS: how long the writer takes for the day; default 240).
+(SECONDS: how long the writer takes for the day; default 240); ``... 240 follow`` runs part 2
+alone, keeping part 1's saved figures.
 """
 
 from __future__ import annotations
@@ -151,13 +152,16 @@ def part_two(export, seconds):
             cpu = process.cpu_times()
         except psutil.NoSuchProcess:
             break
-        samples.append((time.monotonic() - began, info.rss, info.uss, cpu.user + cpu.system))
+        forecasting = b'"event":"forecast"' in log.read_bytes()
+        samples.append(
+            (time.monotonic() - began, info.rss, info.uss, cpu.user + cpu.system, forecasting)
+        )
         time.sleep(0.5)
     writer.wait()
     wall = time.monotonic() - began
     entries = [json.loads(line) for line in log.read_text().splitlines()]
     forecasts = [e for e in entries if e["event"] == "forecast"]
-    first = next((s for s in samples if s[0] > 0), samples[0])
+    first = next((s for s in samples if s[4]), samples[-1])  # at the first forecast
     peak_rss = max(s[1] for s in samples)
     peak_uss = max(s[2] for s in samples)
     mib = 2**20
@@ -166,7 +170,10 @@ def part_two(export, seconds):
         f"read) as it was written in {wall:.0f} s:"
     )
     print(f"  forecasts: {len(forecasts)}, the last at t = {forecasts[-1]['t']:.0f} s")
-    print(f"  memory at the start: RSS {first[1] / mib:.0f} MiB, USS {first[2] / mib:.0f} MiB")
+    print(
+        f"  memory at the first forecast: RSS {first[1] / mib:.0f} MiB, "
+        f"USS {first[2] / mib:.0f} MiB"
+    )
     print(f"  memory at its peak:  RSS {peak_rss / mib:.0f} MiB, USS {peak_uss / mib:.0f} MiB")
     print(f"  the watch's CPU time: {samples[-1][3]:.0f} s over {wall:.0f} s of wall time")
     return {
@@ -185,11 +192,13 @@ def part_two(export, seconds):
 def main(argv):
     seconds = float(argv[1]) if len(argv) > 1 else 240.0
     wall, cpu = time.time(), time.process_time()
-    costs = part_one()
+    out = ROOT / "benchmarks" / "results" / "watch_day.json"
+    saved = json.loads(out.read_text()) if out.exists() else {}
+    only_follow = len(argv) > 2 and argv[2] == "follow"
+    costs = saved.get("update_cost") if only_follow else part_one()
     export = Path(tempfile.mkdtemp()) / "day.txt"
     write_day(export, *ramp(SIZES[-1], SIZES[-1] / RATE / (DAY + 60.0)))
     follow = part_two(export, seconds)
-    out = ROOT / "benchmarks" / "results" / "watch_day.json"
     out.parent.mkdir(exist_ok=True)
     out.write_text(json.dumps({"update_cost": costs, "follow": follow}, indent=1))
     print(

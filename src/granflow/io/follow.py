@@ -47,8 +47,9 @@ if TYPE_CHECKING:
 
 __all__ = ["Follower", "Notice", "Rows"]
 
-#: Most bytes read in one poll (the rest at the next).
-READ_CHUNK = 1 << 24
+#: Bytes read and parsed at a time: a file that grew by more (a watch started late) is read
+#: in such steps, each parsed before the next is read, so memory stays bounded.
+READ_CHUNK = 1 << 20
 #: Bytes compared at the file's start to tell an appended file from a rewritten one.
 _HEAD = 256
 _BOMS = (
@@ -210,16 +211,16 @@ class Follower:
                     self._identity = identity
                     events.append(Notice(self.source, "opened", f"following {self.source}"))
                 stream.seek(self._offset)
-                data = stream.read(READ_CHUNK)
+                while data := stream.read(READ_CHUNK):
+                    if len(self._head) < _HEAD:
+                        self._head = (self._head + data)[:_HEAD]
+                    self._offset += len(data)
+                    self._take(data)
+                    events += self._read_lines()
         except FileNotFoundError:
             return events
         except OSError as exc:
             raise FileFormatError(f"{self.source}: cannot read the file ({exc.strerror})") from None
-        self._head = (self._head + data)[:_HEAD] if len(self._head) < _HEAD else self._head
-        if data:
-            self._offset += len(data)
-            self._take(data)
-        events += self._read_lines()
         return events
 
     def _restart(self, kind, message):
