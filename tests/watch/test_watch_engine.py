@@ -168,3 +168,26 @@ def test_a_replay_gives_the_rows_as_their_time_comes(tmp_path):
     assert [g[0] for g in got][:1] == [1] and got[-1][0] == 2
     assert got[0] == (1, 0.0, 0.0) and got[1] == (1, 1.0, 5.0)  # 5 s of record a step
     assert math.isclose(sum(g[2] - g[1] + 1 for g in got), 100)
+
+
+def test_the_prior_from_a_campaign_is_taken_at_the_record_s_load(tmp_path):
+    from granflow.forecast.prior import Prior
+    from granflow.watch.prior import MaterialPrior, prior_for, read_prior
+
+    results = tmp_path / "results.json"
+    material = {
+        name: {"value": value, "stderr": 0.01 * value}
+        for name, value in (("mu_a", 0.06), ("mu_d", 0.2), ("alpha", 5e4))
+    }
+    results.write_text(json.dumps({"material": {**material, "source": "amontons joint fit"}}))
+    prior = read_prior(results)
+    assert isinstance(prior, MaterialPrior)
+    at_load, why = prior_for(prior, {"normal_load": 0.05})
+    assert why is None and at_load.a == pytest.approx((0.003, 3e-5))
+    assert prior_for(prior, {})[1].startswith("no prior")
+    mapping = tmp_path / "prior.json"
+    mapping.write_text(json.dumps({"Fd": [0.011, 0.0002]}))
+    assert isinstance(read_prior(mapping), Prior)
+    mapping.write_text(json.dumps({"material": {"source": None, "reason": "no start-ups"}}))
+    with pytest.raises(InvalidParameterError, match="no start-ups"):
+        read_prior(mapping)
