@@ -147,9 +147,13 @@ def test_a_record_held_below_the_peak_raises_no_alarm(tmp_path):
 
 def test_a_file_truncated_damaged_and_given_a_new_interval(tmp_path):
     """The file's own events, each said in the log in the order they happened."""
-    first, second = tmp_path / "a.txt", tmp_path / "b.txt"
+    first, second, third = tmp_path / "a.txt", tmp_path / "b.txt", tmp_path / "c.txt"
     record(first, duration=60.0, dt=1.0)
     record(second, held_at=0.5, duration=60.0, dt=1.0, seed=4)
+    record(third, held_at=0.5, duration=40.0, dt=1.0, seed=6)
+    # written again: a file of two intervals (the second begins in the same file)
+    runs = [gf.read_runs(second)[0], gf.read_runs(third)[0]]
+    write_rheocompass(second, runs, test="stress ramp", encoding="utf-16")
     live, log = tmp_path / "live.txt", tmp_path / "watch.jsonl"
     steps, _, _ = export_steps(first, live, speed=40.0, split_every=5, trailer=False)
     end = steps[-1][0]
@@ -170,8 +174,12 @@ def test_a_file_truncated_damaged_and_given_a_new_interval(tmp_path):
     assert "damaged" in events and "truncated" in events, events
     assert events.index("damaged") < events.index("truncated")
     assert "invalid" in entries[events.index("damaged")]["message"]
-    after = events[events.index("truncated") :]
-    assert "interval" in after and "forecast" in after
+    after = entries[events.index("truncated") :]
+    begun = [entry["interval"] for entry in after if entry["event"] == "interval"]
+    assert begun == [1, 2]  # the file read again, then its second interval
+    forecast_intervals = [entry["interval"] for entry in after if entry["event"] == "forecast"]
+    assert forecast_intervals[0] == 1 and forecast_intervals[-1] == 2
+    assert forecast_intervals == sorted(forecast_intervals)
 
 
 def test_a_folder_in_which_exports_appear(tmp_path):
