@@ -82,8 +82,6 @@ __all__ = [
 EXPORTS_FOLDER = "exports"
 #: Name of the manifest inside :data:`EXPORTS_FOLDER`.
 MANIFEST_FILE = "manifest.yaml"
-#: A stress ramp to failure, outside the campaign, to replay with ``granflow watch``.
-WATCH_RECORD = "watch/ramp.txt"
 
 #: Material constants of the synthetic PMMA layer: a = MU_A F_N, Fd = MU_D F_N [-].
 MU_A = 0.06
@@ -595,14 +593,8 @@ def make_demo_campaign(directory: PathLike, *, seed: int = 0) -> Path:
     }
     text = json.dumps(json_safe(truth), indent=2, ensure_ascii=False) + "\n"
     truth_path.write_text(text, encoding="utf-8")
-    _write_watch_record(directory / WATCH_RECORD, seed)
+    # a ramp to failure (not in the manifest) for granflow watch --replay
+    ramp = _stress_ramp(_params(_FIG_LOAD, 3e-7), np.random.default_rng([seed, 30]), {})[0]
+    (directory / "watch").mkdir(exist_ok=True)
+    write_rheocompass(directory / "watch" / "ramp.txt", ramp, project=_PROJECT, test="ramp")
     return manifest
-
-
-def _write_watch_record(path, seed):
-    """A stress ramp at the figures' load that fails after about 200 s (its flow after it),
-    at 1 point/s: the record ``granflow watch --replay`` plays (not in the manifest)."""
-    params = _params(_FIG_LOAD, 0.3e-6)
-    run, _ = _stress_ramp(params, np.random.default_rng([seed, 30]), _meta(_FIG_LOAD, "demo"))
-    path.parent.mkdir(exist_ok=True)
-    write_rheocompass(path, run, project=_PROJECT, test="stress ramp to failure (replay me)")
