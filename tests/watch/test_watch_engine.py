@@ -191,3 +191,22 @@ def test_the_prior_from_a_campaign_is_taken_at_the_record_s_load(tmp_path):
     mapping.write_text(json.dumps({"material": {"source": None, "reason": "no start-ups"}}))
     with pytest.raises(InvalidParameterError, match="no start-ups"):
         read_prior(mapping)
+
+
+def test_a_start_up_gets_the_peak_forecast_and_no_alarm():
+    from granflow.model.friction import friction_time
+
+    velocity = 0.86e-6
+    params = gf.Params.from_time_domain(a=3.31e-3, k=0.036, t0=0.23, Fd=10e-3, velocity=velocity)
+    t = np.arange(1.0, 20.0, 0.25)
+    force = friction_time(t, params, velocity)
+    force = force + 2e-5 * np.random.default_rng(0).standard_normal(t.size)
+    log = []
+    watch = Watch(Settings(), log.append)
+    rows = Rows("s.txt", 1, "start-up", "rate", t, velocity * t, np.full(t.size, velocity), force)
+    watch.take([rows])
+    watch.forecast()
+    forecasts = [entry for entry in log if entry["event"] == "forecast"]
+    assert forecasts and forecasts[-1]["kind"] == "peak"
+    assert "time_interval" not in forecasts[-1]  # the contract: absent for a peak
+    assert forecasts[-1]["peak_force"] is not None and not forecasts[-1]["alarm"]
