@@ -13,10 +13,12 @@ waits for its end. Two ways to read what arrived:
   decimal mark, columns and units; missing, invalid and non-finite cells flagged) and
   turned into SI as :func:`granflow.read_runs` does (torque to force, angle to slip from the
   interval's first angle). The cost is that of the new rows.
-* **anything else** (a header, a blank line, a row the fast path cannot read): the complete
-  lines so far are parsed as a whole (:func:`granflow.io.reader.parse`), and what was not
-  yet given is given. This is how a new interval or test is found, and it costs the file's
-  size, once per such change.
+* **anything else** (a header, a row the fast path cannot read) after the blank lines that
+  close a block: the complete lines so far are parsed as a whole
+  (:func:`granflow.io.reader.parse`), and what was not yet given is given. This is how a
+  new interval or test is found, and it costs the file's size in time and memory (about
+  three times the size of a UTF-16 file's text), once per such change; blank lines alone
+  cost nothing.
 
 :meth:`Follower.poll` returns what happened since the last poll, in order: :class:`Rows`
 (new samples of one interval, with their data-quality sentences as in ``Run.problems``) and
@@ -298,6 +300,13 @@ class Follower:
                     self._pending = lines + self._pending  # the full parse will read them
             if not self._pending:
                 return events
+        if not any(line.strip() for line in self._pending):
+            # blank lines close the block; what follows them (a new interval) is parsed
+            # with the whole file, but the blank lines alone are no reason to
+            self._lines += len(self._pending)
+            self._pending = []
+            self._block = None
+            return events
         events += self._parse_all()
         return events
 
