@@ -178,7 +178,8 @@ def replay(record):
     Rows arrive in batches of CADENCE seconds of record. The inverse-velocity forecast (cheap)
     is made at every cut, on the record so far. The watch forecasts at every cut while it or
     the baseline sees failure coming (its last P at least 0.1, or the baseline's date within
-    two horizons), and every twentieth of the record otherwise (an alarm at P >= 0.5 is
+    two horizons) and the record holds the samples an alarm needs, and every twentieth of
+    the record otherwise (an alarm at P >= 0.5 is
     then at most one such step late: the cost falls on the watch, not on the baseline).
 
     Returns the record's truth and ``forecasts``: (t, P, time, alarm, kind, None,
@@ -224,7 +225,8 @@ def replay(record):
                 last_iv = None
             baseline.append((now, last_iv))
         interested = last_p >= 0.1 or (last_iv is not None and last_iv - now < 2 * HORIZON)
-        if not (interested or index % coarse == 0 or stop == t.size):
+        fine = interested and stop >= MIN_ROWS  # before, no alarm can be raised
+        if not (fine or index % coarse == 0 or stop == t.size):
             continue
         before = len(log)
         watch.forecast()
