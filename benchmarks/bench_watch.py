@@ -275,14 +275,16 @@ def episodes(flags_and_times):
     return raises
 
 
-def model_flags(forecasts, threshold=THRESHOLD, confirm=1, min_rows=0):
+def model_flags(forecasts, threshold=THRESHOLD, confirm=1, min_rows=0, bounded=True):
     """(t, alarm on) of the watch's alarm rule on a record's forecasts: raised when P reaches
-    the threshold on ``confirm`` forecasts in a row of at least ``min_rows`` rows each."""
+    the threshold on ``confirm`` forecasts in a row of at least ``min_rows`` rows each whose
+    F_peak interval is bounded above (``bounded``; as the watch's engine does)."""
     out, run, on = [], 0, False
     for t, p, *rest in forecasts:
         p = 0.0 if p is None else p
-        rows = rest[-1]
-        run = run + 1 if p >= threshold and rows >= min_rows else 0
+        rows, force_interval = rest[-1], rest[4]
+        closed = bool(force_interval) and force_interval[1] is not None
+        run = run + 1 if p >= threshold and rows >= min_rows and (closed or not bounded) else 0
         on = (run >= confirm) if not on else p >= threshold
         out.append((t, on))
     return out
@@ -409,21 +411,21 @@ def figure(results, path):
 def policies(results):
     """The watch's alarm on the fleet under other rules (a look, not a tuning)."""
     lines = [
-        f"{'threshold':>9} {'confirm':>8} {'min rows':>9} {'in time':>8} {'lead':>6} "
-        f"{'false/alarms':>13} {'records w/ false':>17}"
+        f"{'threshold':>9} {'confirm':>8} {'min rows':>9} {'bounded':>8} {'in time':>8} "
+        f"{'lead':>6} {'false/alarms':>13} {'records w/ false':>17}"
     ]
-    for threshold in (0.3, 0.5, 0.7):
+    for threshold in (0.5, 0.7, 0.9):
         for confirm in (1, 2):
-            for min_rows in (0, 30, 60):
+            for min_rows, bounded in ((0, False), (MIN_ROWS, False), (MIN_ROWS, True)):
                 s = score(
                     results,
-                    lambda r, a=threshold, c=confirm, m=min_rows: model_flags(
-                        r["forecasts"], a, c, m
+                    lambda r, a=threshold, c=confirm, m=min_rows, b=bounded: model_flags(
+                        r["forecasts"], a, c, m, b
                     ),
                 )
                 lines.append(
-                    f"{threshold:>9} {confirm:>8} {min_rows:>9} {s['in_time']:>8.1%} "
-                    f"{s['median_lead']:>6.0f} {s['false_ratio']:>13.1%} "
+                    f"{threshold:>9} {confirm:>8} {min_rows:>9} {bounded!s:>8} "
+                    f"{s['in_time']:>8.1%} {s['median_lead']:>6.0f} {s['false_ratio']:>13.1%} "
                     f"{s['false_records']:>17.1%}"
                 )
     return "\n".join(lines)

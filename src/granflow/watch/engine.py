@@ -15,11 +15,11 @@ first rows hold steadier): force control gets the failure forecast, rate control
 
 The alarm: ``P(failure within horizon)`` from the forecast's own distribution
 (:meth:`~granflow.forecast.results.FailureForecast.probability_within`) reaching the
-threshold raises it (once the record holds ``min_rows`` samples); falling below clears it.
-Where the force stops rising during a ramp
-(held), the quasi-static layer cannot fail while it is held: the probability is 0 and the
-record says why. Rows with missing or damaged values are never fitted: they are left out,
-and the notice that names them is in the log.
+threshold raises it, once the record holds ``min_rows`` samples and the forecast bounds the
+failure (an interval open above is no ground for an alarm); falling below clears it. Where
+the force stops rising during a ramp (held), the quasi-static layer cannot fail while it is
+held: the probability is 0 and the record says why. Rows with missing or damaged values are
+never fitted: they are left out, and the notice that names them is in the log.
 """
 
 from __future__ import annotations
@@ -226,6 +226,15 @@ class Stream:
     def fresh(self):
         """Whether samples arrived since the last forecast."""
         return self._fresh
+
+    def bounded(self):
+        """Whether the last forecast bounds the failure: F_peak's interval (and so the
+        failure time's) has an upper end. An open one puts half its probability at no
+        date, and what is left near its lower end: its probability within the horizon is no
+        ground for an alarm."""
+        if self.forecast is None:
+            return False
+        return math.isfinite(self.forecast.force_interval[1])
 
     def slip_rate(self):
         """The slip rate over the last rows [m/s] (a fitted line), NaN with fewer than 3."""
@@ -484,6 +493,7 @@ class Watch:
                 stream.probability is not None
                 and stream.probability >= self.settings.alarm
                 and stream.rows >= self.settings.min_rows
+                and stream.bounded()
             )
             if raised and not stream.alarm and stream.failed is None:
                 stream.alarm = True
