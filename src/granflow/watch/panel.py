@@ -85,8 +85,14 @@ class Panel:
 
     def __enter__(self):
         if self.live:
-            from rich.console import Console
-            from rich.live import Live
+            try:
+                from rich.console import Console
+                from rich.live import Live
+            except ImportError:
+                raise ImportError(
+                    "the live panel needs rich: pip install 'granflow[watch]' (or pipe the "
+                    "output, for plain lines)"
+                ) from None
 
             console = Console(file=self.stream)
             self._live = Live(console=console, refresh_per_second=4, transient=False)
