@@ -339,7 +339,7 @@ def table(results, confirm, min_rows=0):
     lines = []
     kinds = [k for k in KINDS if any(r["kind"] == k for r in results)]
     header = (
-        f"{'records':<12}{'n':>4}  {'alarm':<22}{'in time':>8}{'lead (med.)':>12}"
+        f"{'records':<12}{'n':>4}  {'alarm':<30}{'in time':>8}{'lead (med.)':>12}"
         f"{'false/alarms':>14}{'records w/ false':>18}"
     )
     lines.append(header)
@@ -354,7 +354,7 @@ def table(results, confirm, min_rows=0):
                 lambda r: model_flags(r["forecasts"], THRESHOLD, confirm, min_rows),
             ),
             (
-                f"inverse velocity (theta {theta})",
+                f"inverse velocity (theta {theta if theta is not None else '-'})",
                 lambda f: iv_flags(f, theta if theta is not None else 0.0),
             ),
         ):
@@ -362,7 +362,7 @@ def table(results, confirm, min_rows=0):
             lead = "-" if math.isnan(s["median_lead"]) else f"{s['median_lead']:.0f} s"
             timely = "-" if not s["failing"] else f"{s['in_time']:.1%}"
             lines.append(
-                f"{kind:<12}{len(subset):>4}  {name:<22}{timely:>8}{lead:>12}"
+                f"{kind:<12}{len(subset):>4}  {name:<30}{timely:>8}{lead:>12}"
                 f"{s['false_ratio']:>13.1%} {s['false_records']:>17.1%}"
             )
     startups = [r for r in results if r["kind"] == "start-up"]
@@ -400,7 +400,7 @@ def figure(results, path):
     ax.axvline(HORIZON, color="k", ls="--", lw=0.8)
     ax.axhline(THRESHOLD, color="#c62828", ls=":", lw=0.8)
     ax.set_xscale("log")
-    ax.invert_xaxis()
+    ax.set_xlim(3000.0, 1.0)
     ax.set_xlabel("time to failure [s] (held records, red: time to the record's end)")
     ax.set_ylabel(f"P(failure within {HORIZON:g} s)")
     ax.set_title("the watch's probability as failure approaches")
