@@ -34,6 +34,7 @@ FORBIDDEN = {
     "io": ("forecast", "analysis", "cli", "plotting"),
     "forecast": ("io", "analysis", "cli", "plotting"),
     "analysis": ("cli", "plotting"),
+    "watch": ("analysis", "cli", "plotting"),
 }
 
 #: Modules that may exceed the limit: generated tables.

@@ -207,7 +207,7 @@ def test_same_seed_same_bytes_other_seed_other_data(tmp_path):
     make_demo_campaign(again, seed=7)
     make_demo_campaign(other, seed=8)
     written = files_of(first)
-    assert len(written) == 12  # ten exports, the manifest and the truth
+    assert len(written) == 13  # ten exports, the manifest, the truth and the record to watch
     assert written == files_of(again)
     different = files_of(other)
     assert set(different) == set(written)

@@ -593,4 +593,8 @@ def make_demo_campaign(directory: PathLike, *, seed: int = 0) -> Path:
     }
     text = json.dumps(json_safe(truth), indent=2, ensure_ascii=False) + "\n"
     truth_path.write_text(text, encoding="utf-8")
+    # a ramp to failure (not in the manifest) for granflow watch --replay
+    ramp = _stress_ramp(_params(_FIG_LOAD, 3e-7), np.random.default_rng([seed, 30]), {})[0]
+    (directory / "watch").mkdir(exist_ok=True)
+    write_rheocompass(directory / "watch" / "ramp.txt", ramp, project=_PROJECT, test="ramp")
     return manifest

@@ -21,6 +21,7 @@ from granflow.cli.curve import add_curve
 from granflow.cli.data import add_convert, add_fit, add_inspect
 from granflow.cli.forecast import add_forecast
 from granflow.cli.simulation import add_simulate, add_stability_map
+from granflow.cli.watch import add_watch
 from granflow.errors import GranflowError
 
 __all__ = ["PIPE_CLOSED", "build_parser", "main"]
@@ -37,6 +38,7 @@ _EPILOG = f"""examples:
   granflow stability-map --params blue.yaml --switch-points 2s:100s:50 --ratios 0.95:1.2:50
   granflow analyze campaign/ -o results    (your campaign: a folder with a manifest)
   granflow demo -o demo                    (a synthetic campaign, analysed)
+  granflow watch run.txt --log run.jsonl   (the forecast, live, while the file grows)
 Run 'granflow COMMAND --help' for a command's options and examples.
 {UNITS_RULE}
 Exit codes: 0 success, 1 some runs failed, 2 bad arguments or input, {PIPE_CLOSED} the output pipe
@@ -67,6 +69,7 @@ def build_parser():
         add_analyze,
         add_demo,
         add_forecast,
+        add_watch,
     ):
         add(subparsers)
     return parser

@@ -214,4 +214,10 @@ def _run_demo(args):
     manifest = make_demo_campaign(args.output, seed=args.seed)
     if not args.quiet:
         print(f"wrote a synthetic campaign (seed {args.seed}): {manifest}", file=sys.stderr)
+        record = Path(args.output) / "watch" / "ramp.txt"
+        print(
+            f"a record to watch live: granflow watch --replay {record} --speed 20 "
+            f"--log {record.with_suffix('.jsonl')}",
+            file=sys.stderr,
+        )
     return _analyze_and_report(args, manifest)

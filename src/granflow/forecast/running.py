@@ -51,6 +51,16 @@ class RunningForecast:
     direct_effect : optional
         As :func:`~granflow.forecast_failure` takes it (the creep forecast, re-fitted at each
         update).
+    max_points : int, optional
+        Hold the record pooled in at most this many points (:class:`~granflow.forecast.
+        pooling.Pool`: equal runs of samples averaged, merged in pairs as it grows), so that
+        an update costs the same however long the record (a watch that runs all day).
+        Default None: every sample kept. The forecast is then the one-shot forecast of the
+        pooled record (``t``, ``slip``, ``force``).
+    warm_start : bool
+        Start each quasi-static update from the previous optimum and profile ends (default).
+        False: each update is the one-shot forecast of the record so far, from cold starts
+        (as fast on records of a few thousand points; the live watch uses it).
 
     Examples
     --------
@@ -75,6 +85,8 @@ class RunningForecast:
         prior: Any = None,
         sigma: float | None = None,
         direct_effect: Any = None,
+        max_points: int | None = None,
+        warm_start: bool = True,
     ) -> None:
         from granflow import _validate as check
         from granflow.forecast.failure import check_level, check_prior
@@ -92,6 +104,14 @@ class RunningForecast:
         self.sigma = sigma
         self.direct_effect = direct_effect
         self._columns = {"t": [], "slip": [], "force": []}
+        self._pool = None
+        if max_points is not None:
+            from granflow.forecast.pooling import Pool
+
+            names = ("t", "force") if kind == "peak" else ("t", "slip", "force")
+            self._pool = Pool(names, max_points)
+        self.warm_start = bool(warm_start)
+        self._last = -math.inf
         self._size = 0
         self._warm = None
         self.forecast: FailureForecast | PeakForecast | None = None
@@ -112,6 +132,8 @@ class RunningForecast:
         return self._joined("force")
 
     def _joined(self, name):
+        if self._pool is not None:
+            return self._pool.column(name) if name in self._pool.names else np.empty(0)
         parts = self._columns[name]
         if len(parts) > 1:
             self._columns[name] = [np.concatenate(parts)]
@@ -147,7 +169,7 @@ class RunningForecast:
         if slip is not None:
             new["slip"] = column(slip, "slip", "m", time.size)
         if time.size:
-            last = self.t[-1] if self._size else -math.inf
+            last = self._last
             steps = np.diff(np.concatenate([[last], time]))
             if np.any(steps <= 0):
                 where = int(np.flatnonzero(steps <= 0)[0])
@@ -155,9 +177,14 @@ class RunningForecast:
                     f"t must increase strictly across updates: {time[where]:g} s follows "
                     f"{(last if where == 0 else time[where - 1]):g} s"
                 )
-        for name, values in new.items():
-            self._columns[name].append(values)
-        self._size += time.size
+            self._last = float(time[-1])
+        if self._pool is not None:
+            self._pool.add(new)
+            self._size = self._pool.size
+        else:
+            for name, values in new.items():
+                self._columns[name].append(values)
+            self._size += time.size
         if self._size < _inputs.MIN_POINTS:
             return None
         if self.forecast is not None and getattr(self.forecast, "observed_failure", None):
@@ -195,7 +222,7 @@ class RunningForecast:
             prior=self.prior,
             level=self.level,
             sigma=self.sigma,
-            warm=self._warm,
+            warm=self._warm if self.warm_start else None,
         )
         return forecast
 
