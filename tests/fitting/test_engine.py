@@ -7,7 +7,8 @@ import pytest
 from scipy.optimize import curve_fit
 
 from granflow.fitting.creep import fit_curve
-from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem, multistart
+from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
+from granflow.fitting.multistart import multistart
 from granflow.fitting.statistics import WALD_Z, fit_statistics
 
 

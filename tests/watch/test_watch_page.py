@@ -25,8 +25,12 @@ def _serving(log):
 
 
 def _shown(driver, element):
-    found = driver.find_elements("id", element)
-    return found[0].text if found else ""
+    """The text of the element with this id, read in one step in the page (the page rebuilds
+    its elements as it updates, so a handle found first may be stale when read)."""
+    text = driver.execute_script(
+        "const e = document.getElementById(arguments[0]); return e ? e.innerText : '';", element
+    )
+    return text or ""
 
 
 def test_the_page_updates_as_the_file_grows(tmp_path, browser):  # noqa: F811

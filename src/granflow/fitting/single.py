@@ -50,8 +50,8 @@ from granflow.fitting.engine import (
     GlobalParameter,
     Problem,
     model_only,
-    multistart,
 )
+from granflow.fitting.multistart import multistart
 from granflow.fitting.parameters import split
 from granflow.fitting.profile import profile_interval
 from granflow.fitting.results import (

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.stats import norm
 
-from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem, multistart
+from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
+from granflow.fitting.multistart import multistart
 from granflow.forecast import _inputs
 from granflow.forecast.results import BaselineForecast
 

@@ -295,7 +295,7 @@ def forecast_failure(
     >>> bool(ff.time_interval[0] <= truth <= ff.time_interval[1])
     True
     """
-    from granflow.forecast.creeping import creep_amplitude
+    from granflow.forecast.creep_model import creep_amplitude
 
     amplitude = None if direct_effect is None else creep_amplitude(direct_effect)
     level = check_level(level)
@@ -312,7 +312,7 @@ def forecast_failure(
         return forecast_creep(
             time, slip_cut, loading, until, level, amplitude, prior, sigma, observed, message
         )
-    return quasi_static(*record[:4], level, prior, sigma, observed, message)[0]
+    return quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, message)[0]
 
 
 def _prepared(t, slip, force, until):

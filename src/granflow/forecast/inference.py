@@ -1,5 +1,5 @@
 """Fit a forecast's problem and scan its profiles: the engine's multistart Levenberg-Marquardt
-(:func:`granflow.fitting.engine.multistart`) and profile scan
+(:func:`granflow.fitting.multistart.multistart`) and profile scan
 (:func:`granflow.fitting.profile.profile_scan`), with the noise estimated from the residuals.
 
 The data's weights are ``sqrt(count) / sigma``, so chi-square is standardised and the
@@ -17,7 +17,7 @@ import numpy as np
 from scipy.special import ndtri, stdtrit
 
 from granflow.errors import FitError
-from granflow.fitting.engine import multistart
+from granflow.fitting.multistart import multistart
 from granflow.fitting.profile import profile_scan
 from granflow.forecast.discrepancy import Check, check_fit
 from granflow.forecast.distribution import Distribution
@@ -122,7 +122,7 @@ def estimate(
     nuisance : int, optional
         The first nuisance slot.
     tries : int, optional
-        At most this many starts solved (:func:`~granflow.fitting.engine.multistart`).
+        At most this many starts solved (:func:`~granflow.fitting.multistart.multistart`).
     warm : tuple, optional
         ``(first, values)``: a previous estimate's two optima (of the same record before it
         grew), where the two stages start instead of the grid.

@@ -159,7 +159,7 @@ def forecast_peak(
     _, reach = scan(fit, 3, level)
     best = fit.values
     transform = np.empty((4, 4))
-    a, alpha, fd, x0, _ = natural(*best[:4], transform)
+    a, alpha, fd, x0, _ = natural(best[0], best[1], best[2], best[3], transform)
     force_interval = strength.interval(level)
     slip_interval = reach.interval(level)
     message = ""

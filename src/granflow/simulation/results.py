@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
@@ -19,6 +19,14 @@ import numpy as np
 
 from granflow.model.params import Params
 from granflow.model.units import si_unit
+from granflow.simulation.events import (
+    ORIGINS,
+    Event,
+    Origin,
+    SegmentRecord,
+    json_number,
+    number_or,
+)
 from granflow.simulation.options import DirectEffect, check_choice
 from granflow.simulation.protocol import Protocol
 
@@ -50,163 +58,6 @@ ARRAY_QUANTITIES = {
     "age": "time",
     "displacement": "displacement",
 }
-
-
-#: The kinds of :class:`Origin`: how the record's clock and displacement relate to the model.
-ORIGINS = {
-    "shear": "a start-up of the prepared layer: t and displacement count from the start of the "
-    "protocol; the model takes over once the layer has slipped x0 since the start of shear",
-    "rest": "the prepared layer loaded from rest: t and displacement count from the start of "
-    "the protocol; the model's slip coordinate is x0 + displacement",
-}
-
-
-def _json_number(value):
-    return float(value) if math.isfinite(value) else None
-
-
-def _number(value, missing=math.nan):
-    """Inverse of _json_number: None is the non-finite ``missing``."""
-    return missing if value is None else float(value)
-
-
-def _fields_of(instance):
-    return {item.name: getattr(instance, item.name) for item in fields(instance)}
-
-
-@dataclass(frozen=True, slots=True)
-class Event:
-    """Something that happened during a run.
-
-    Attributes
-    ----------
-    kind : str
-        ``"failure"`` (runaway: no stable state ahead, or v above v_fail; ends the run),
-        ``"stop"`` (the layer sticks again under an imposed force), ``"slide"`` (it starts to
-        slide), ``"peak"`` (a maximum of the friction under an imposed velocity: the
-        overshoot) or ``"reset"`` (the sample is re-prepared).
-    time : float
-        Time [s] since the start of the protocol (the record's clock, as ``t``).
-    slip : float
-        Aging coordinate x [m] at the event.
-    force : float
-        Force [N] the drive exerts at the event: the imposed force under force control.
-    state : float
-        Friction state F [N] of Eq. 2 (the strength) at the event.
-    segment : int
-        Index of the protocol segment (from 0).
-    message : str
-        A short explanation.
-    """
-
-    kind: str
-    time: float
-    slip: float
-    force: float
-    state: float
-    segment: int
-    message: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        return _fields_of(self)
-
-    @classmethod
-    def from_dict(cls, mapping: Mapping[str, Any]) -> Event:
-        """Inverse of :meth:`to_dict` (and of the JSON form in a result's ``to_dict``)."""
-        return cls(
-            kind=mapping["kind"],
-            time=_number(mapping["time"]),
-            slip=_number(mapping["slip"]),
-            force=_number(mapping["force"]),
-            state=_number(mapping["state"]),
-            segment=int(mapping["segment"]),
-            message=mapping.get("message", ""),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class Origin:
-    """Where a result's clock and displacement start, and where the model takes over.
-
-    Times are always the record's time, 0 when the protocol starts; displacements the slip
-    since then. Until a re-preparation (a ``reset`` event) the model's coordinates follow:
-    its time t (Eq. 3) is ``t - shear_start`` and its slip ``displacement + slip_offset``.
-
-    Attributes
-    ----------
-    kind : {"shear", "rest"}
-        ``"shear"``: a start-up of the prepared layer at velocity v, which the model
-        describes from ``t = shear_start + x0 / v`` on, at displacement x0 (the paper's
-        clock: with ``shear_start = 0`` the record's time is the model's t and the
-        displacement its slip x; ``fit`` reads such a record as it is). ``"rest"``: the
-        prepared layer loaded from rest (a force, a drive accelerating from 0, a rest that
-        ages it), which the model describes from ``model_start`` on, at the slip
-        coordinate x0 + displacement and (time clock) the age t0 + t - model_start.
-    shear_start : float or None
-        Record time when shearing started [s] (``"shear"``; 0 unless the protocol begins
-        with a rest); None for ``"rest"``.
-    model_start : float
-        Record time where the model takes over [s].
-    slip_offset : float
-        The model's slip coordinate minus the displacement [m]: 0 for ``"shear"``, x0 for
-        ``"rest"``.
-    """
-
-    kind: str
-    shear_start: float | None
-    model_start: float
-    slip_offset: float
-
-    def describe(self):
-        """One line: where t and the displacement start and where the model takes over."""
-        if self.kind == "shear":
-            return (
-                f"start of shear at t = {self.shear_start:.6g} s; the model takes over at "
-                f"t = {self.model_start:.6g} s (model time = t - {self.shear_start:.6g} s, "
-                f"slip = displacement + {self.slip_offset * 1e6:.6g} µm)"
-            )
-        return (
-            f"rest at t = {self.model_start:.6g} s; the model describes the layer from there "
-            f"(slip = displacement + {self.slip_offset * 1e6:.6g} µm)"
-        )
-
-    def to_dict(self):
-        return _fields_of(self)
-
-    @classmethod
-    def from_dict(cls, mapping):
-        """Inverse of :meth:`to_dict`."""
-        shear = mapping["shear_start"]
-        return cls(
-            kind=mapping["kind"],
-            shear_start=None if shear is None else float(shear),
-            model_start=float(mapping["model_start"]),
-            slip_offset=float(mapping["slip_offset"]),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class SegmentRecord:
-    """Bookkeeping of one protocol segment in a run (times [s], slips [m], forces [N])."""
-
-    index: int
-    kind: str
-    control: str
-    start_time: float
-    end_time: float
-    start_slip: float
-    end_slip: float
-    start_force: float
-    end_force: float
-    outcome: str
-
-    def to_dict(self):
-        return _fields_of(self)
-
-    @classmethod
-    def from_dict(cls, mapping):
-        """Inverse of :meth:`to_dict`."""
-        return cls(**{item.name: mapping[item.name] for item in fields(cls)})
 
 
 @dataclass(frozen=True, eq=False)
@@ -392,7 +243,7 @@ class SimulationResult:
         for key, value in self.options.items():
             options[key] = value.to_dict() if isinstance(value, DirectEffect) else value
         arrays = {
-            name: [_json_number(v) for v in getattr(self, name).tolist()]
+            name: [json_number(v) for v in getattr(self, name).tolist()]
             for name in ARRAYS
             if name != "segment"
         }
@@ -406,10 +257,7 @@ class SimulationResult:
             "message": self.message,
             "failure": None if self.failure is None else self.failure.to_dict(),
             "events": [
-                {
-                    k: (_json_number(v) if isinstance(v, float) else v)
-                    for k, v in e.to_dict().items()
-                }
+                {k: (json_number(v) if isinstance(v, float) else v) for k, v in e.to_dict().items()}
                 for e in self.events
             ],
             "segments": [record.to_dict() for record in self.segments],
@@ -430,7 +278,7 @@ class SimulationResult:
             options["direct_effect"] = DirectEffect.from_dict(options["direct_effect"])
         arrays = {
             name: np.array(
-                [_number(v, math.inf if name == "velocity" else math.nan) for v in mapping[name]],
+                [number_or(v, math.inf if name == "velocity" else math.nan) for v in mapping[name]],
                 dtype=float,
             )
             for name in ARRAYS
