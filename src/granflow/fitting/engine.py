@@ -164,13 +164,15 @@ EQ3 = Model(
 @dataclass
 class Solution:
     """Where the optimiser stopped: internal coordinates x of the free parameters, status
-    (> 0 converged), message, model evaluations and J^T J in internal coordinates when known."""
+    (> 0 converged), message, model evaluations and J^T J in internal coordinates when known;
+    ``optima``, every start's optimum as ``(x, chi-square)`` (a multistart's other minima)."""
 
     x: np.ndarray
     status: int
     message: str
     nfev: int
     hessian: np.ndarray | None = None
+    optima: tuple = ()
 
 
 def _exp(u):

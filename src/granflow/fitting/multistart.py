@@ -43,7 +43,7 @@ def multistart(
     Returns
     -------
     Solution
-        If LM does not converge, scipy's least_squares (trust-region reflective) takes over.
+        Its ``optima``: each solved start's optimum. If LM does not converge, scipy's least_squares (trust-region reflective) takes over.
     """
     ranked = []
     for start in starts:
@@ -53,10 +53,11 @@ def multistart(
     ranked.sort(key=lambda item: item[0])
     dof = max(problem.ndata - len(problem.free), 1)
     expected = 2.0 * noise**2 * dof
-    best, nfev = None, len(starts)
+    best, nfev, optima = None, len(starts), []
     for count, (_, u_start) in enumerate(ranked, start=1):
         u, cost, converged, steps, hessian = problem.lm(u_start, max_iter=200, rtol=rtol)
         nfev += steps
+        optima.append((u, cost))
         if best is None or cost < best[1]:
             best = (u, cost, converged, count, hessian)
         if noise > 0 and best[1] <= expected and count >= least:
@@ -83,7 +84,7 @@ def multistart(
                 u, cost, converged, hessian = u_new, cost_new, converged_new, hessian_new
     if converged:
         message = f"converged (Levenberg-Marquardt, {tried} of {len(starts)} starts)"
-        return Solution(u, 1, message, nfev, hessian)
+        return Solution(u, 1, message, nfev, hessian, tuple(optima))
     try:
         solution = problem.solve(u)
     except ValueError as exc:  # e.g. residuals that are not finite at the start

@@ -373,13 +373,16 @@ def _trend_test(fit, groups):
 class Warm:
     """What a quasi-static forecast leaves for the forecast of the same record grown (a
     :class:`~granflow.forecast.running.RunningForecast`'s next update): its two optima and
-    its profiles' ends, valid while the slots stay the same (``layout``)."""
+    its profiles' ends, valid while the slots stay the same (``layout``), and the
+    likelihood's other minima within reach (followed too: the best of them is the
+    optimum)."""
 
     layout: tuple
     first: np.ndarray
     values: np.ndarray
     force_ends: dict
     time_ends: dict
+    others: tuple = ()
 
 
 def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
@@ -415,7 +418,7 @@ def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
         rough=_inputs.rough_noise(slip_cut),
         nuisance=shape,
         tries=tries,
-        warm=None if warm is None else (warm.first, warm.values),
+        warm=None if warm is None else (warm.first, warm.values, warm.others),
         branch=1,
     )
     return fit, build, groups, floor, continuation, shape
@@ -458,7 +461,9 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
             f"p = {trend:.2g}): no information on the failure yet"
         )
         forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
-        return review(forecast, fit, time, slip_cut), Warm(layout, fit.first, values, {}, {})
+        return review(forecast, fit, time, slip_cut), Warm(
+            layout, fit.first, values, {}, {}, fit.others
+        )
 
     def shapes(gap):
         """More starts at a gap (the shape grid, the nuisance at its optimum)."""
@@ -471,10 +476,15 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     force_profile, strength = scan(
         fit, 0, level, offset=floor, starts=shapes, hints=None if warm is None else warm.force_ends
     )
+
     # the time: the same likelihood with P (the fitted history's force at failure) for F_peak
-    timed = values.copy()
-    level_p = continuation.level(floor + values[0], values[shape:])
-    timed[0] = max(level_p - floor, 1e-9 * floor) if math.isfinite(level_p) else 99.0 * floor
+    def timed_slots(slots):
+        out = np.array(slots, dtype=float)
+        level_p = continuation.level(floor + slots[0], slots[shape:])
+        out[0] = max(level_p - floor, 1e-9 * floor) if math.isfinite(level_p) else 99.0 * floor
+        return out
+
+    timed = timed_slots(values)
     time_problem = build(fit.sigma, timed, timed=True)[0]
     time_profile, timing = scan(
         fit,
@@ -485,6 +495,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         values=timed,
         starts=shapes,
         hints=None if warm is None else warm.time_ends,
+        others=[timed_slots(other) for other in fit.others],
     )
     force_interval = strength.interval(level)
     level_interval = timing.interval(level)
@@ -543,6 +554,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         values,
         _absolute(force_profile, floor),
         _absolute(time_profile, floor),
+        fit.others,
     )
     return review(forecast, fit, time, slip_cut), left
 

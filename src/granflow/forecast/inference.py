@@ -10,6 +10,7 @@ not depend on it without a penalty), then the noise is the residuals' root mean 
 their own prior), and the problem is solved again from that optimum at the estimate.
 """
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -30,6 +31,9 @@ _ROOT_PRECISION = 1e-4  # of a profile end's signed root
 #: Starts always solved: the curve's branches (a deep overshoot or a shallow one, F_peak
 #: near Fd) can each fit a record to its noise, the better by tens of chi-square.
 _LEAST = 4
+#: Other minima kept beside the best: those within this chi-square of it [variance units]
+#: (beyond the profiles' highest target, 2.58 squared, with room for the polish to move).
+_REACH = 12.0
 
 
 @dataclass(frozen=True)
@@ -57,6 +61,10 @@ class Estimate:
     check : Check
         The residuals' verdict on the model (:mod:`granflow.forecast.discrepancy`): its
         inflation is in ``sigma`` already.
+    others : tuple of numpy.ndarray
+        The other minima of the likelihood within reach of the best (chi-square less than
+        12 above it): a record early in its loading can be fitted nearly as well by a far
+        other failure, and a profile must reach that valley too (:func:`scan`).
     """
 
     problem: object
@@ -68,6 +76,7 @@ class Estimate:
     nfev: int
     first: np.ndarray
     check: Check = field(default_factory=Check)
+    others: tuple = ()
 
 
 def data_chisqr(problem, values):
@@ -124,8 +133,9 @@ def estimate(
     tries : int, optional
         At most this many starts solved (:func:`~granflow.fitting.multistart.multistart`).
     warm : tuple, optional
-        ``(first, values)``: a previous estimate's two optima (of the same record before it
-        grew), where the two stages start instead of the grid.
+        ``(first, values[, others])``: a previous estimate's two optima (of the same record
+        before it grew), where the two stages start instead of the grid, and its other
+        minima, followed too (the best of them all is the optimum).
     branch : int, optional
         A slot that tells the likelihood's branches apart (the curve's Fd / F_peak): the
         best start of each of its values is solved, and the lowest optimum kept.
@@ -151,10 +161,12 @@ def estimate(
         cost = problem.chisqr(problem.values(solution.x))
         if not cost <= 2.0 * max(size - _SHAPE, 1):
             solution = None
+    candidates = [] if warm is None or len(warm) < 3 else [(v, None) for v in warm[2]]
     if solution is None:
         chosen = starts if branch is None else _diverse(problem, starts, branch)
         least = _LEAST if branch is None else len(chosen)
         solution = multistart(problem, chosen, 1.0, rtol=rtol, tries=tries, least=least)
+        candidates = [(problem.values(u), cost) for u, cost in solution.optima]
     first_values = problem.values(solution.x)
     nfev = solution.nfev
     if not np.all(np.isfinite(first_values)):
@@ -186,9 +198,60 @@ def estimate(
         values = problem.values(u)
         problem = build(sigma, values)
     chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
+    # the first stage's other optima, by their chi-square at the first noise level: those
+    # near enough to the best to matter, polished in the whole problem
+    scale = (first / sigma) ** 2
+    lowest = min((cost for _, cost in candidates if cost is not None), default=0.0)
+    near = [v for v, cost in candidates if cost is None or (cost - lowest) * scale < 2 * _REACH]
+    minima, more = _other_minima(problem, values, float(chisqr), near, rtol)
+    steps += more
+    if minima[0][1] < chisqr:
+        values = minima[0][0]
+        problem = build(sigma, values)
+        chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
+    others = tuple(v for v, c in minima[1:] if c - chisqr < _REACH)
     return Estimate(
-        problem, values, float(chisqr), sigma, dof, hessian, nfev + steps, first_values, check
+        problem,
+        values,
+        float(chisqr),
+        sigma,
+        dof,
+        hessian,
+        nfev + steps,
+        first_values,
+        check,
+        others,
     )
+
+
+def _other_minima(problem, values, chisqr, candidates, rtol):
+    """``([(values, chisqr)] sorted, passes)``: the best fit and the distinct minima reached
+    by Levenberg-Marquardt from ``candidates`` (other starts' optima, or a previous
+    estimate's other minima) in ``problem``. Distinct: apart by more than 1e-4 relative in
+    some slot."""
+    minima = [(np.asarray(values, dtype=float), float(chisqr))]
+    steps = 0
+    for candidate in candidates:
+        candidate = np.asarray(candidate, dtype=float)
+        if not np.all(np.isfinite(candidate)) or _same(candidate, values):
+            continue
+        found, cost, _, more = _solve_at(problem, candidate, rtol)
+        steps += more
+        if not (math.isfinite(cost) and np.all(np.isfinite(found))):
+            continue
+        if any(_same(found, kept) for kept, _ in minima):
+            continue
+        minima.append((found, float(cost)))
+    minima.sort(key=lambda item: item[1])
+    return minima, steps
+
+
+def _same(one, other):
+    """Whether two slot vectors are the same minimum: within 1e-4 relative in every slot
+    (1e-4 absolute in a slot below 1 in size, as the nuisance coordinates)."""
+    one, other = np.asarray(one, dtype=float), np.asarray(other, dtype=float)
+    size = np.maximum(np.maximum(np.abs(one), np.abs(other)), 1.0)
+    return bool(np.all(np.abs(one - other) <= 1e-4 * size))
 
 
 def _diverse(problem, starts, branch):
@@ -226,6 +289,7 @@ def scan(
     starts=None,
     hints=None,
     precision=None,
+    others=None,
 ):
     """The profile of slot ``index`` of ``fit`` (or of ``problem`` at ``values``, the same
     likelihood in other coordinates) and its :class:`Distribution` (q = ``offset`` +
@@ -233,7 +297,13 @@ def scan(
     ``hints`` (a previous scan's ends, as values of q) where each end is sought first (see
     :func:`~granflow.fitting.profile.profile_scan`). The ends are found to ``precision`` of
     the signed root (default 1e-4, so that a scan warm-started from a previous one's ends
-    reaches the same ends as one from nothing)."""
+    reaches the same ends as one from nothing).
+
+    ``others`` (default the fit's :attr:`Estimate.others`, in ``problem``'s slots): the
+    likelihood's other minima. A scan follows one valley, so each other minimum that lies
+    beyond the best one's Wald width gets a scan of its own valley, and its points join
+    the profile (the profile is the lower envelope of the valleys; its ends the outermost
+    on each side)."""
     precision = _ROOT_PRECISION if precision is None else precision
     problem = fit.problem if problem is None else problem
     values = fit.values if values is None else values
@@ -271,6 +341,32 @@ def scan(
         hints=internal_hints,
         damped=True,
     )
+    if others is None:
+        others = fit.others if problem is fit.problem else ()
+    for other in others:
+        u_other = _internal(parameter, float(other[index]))
+        if not abs(u_other - profile.optimum.u) > halfwidth:
+            continue
+        try:
+            _, _, other_hessian = problem.state(problem.internal(other), problem.free)
+            valley = profile_scan(
+                problem,
+                other,
+                index,
+                fit.chisqr,
+                targets,
+                halfwidth,
+                variance=1.0,
+                internal_hessian=other_hessian,
+                check=True,
+                tolerance=precision,
+                starts=starts,
+                precision=precision,
+                damped=True,
+            )
+        except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+            continue
+        profile = _joined(profile, valley, problem.chisqr(other) - fit.chisqr)
     u, r = profile.signed_roots()
     low_end, high_end = parameter.internal_bounds()
     distribution = Distribution(
@@ -286,6 +382,22 @@ def scan(
         high_end=float(high_end),
     )
     return profile, distribution
+
+
+def _joined(profile, valley, delta):
+    """``profile`` with the points of another minimum's ``valley`` (chi-square ``delta``
+    above the best at its bottom) and, on that minimum's side, the outer of the two ends
+    per target."""
+    bottom = dataclasses.replace(valley.optimum, delta=max(float(delta), 0.0))
+    points = tuple(sorted((*profile.points, bottom, *valley.points), key=lambda p: p.u))
+    side = 1 if valley.optimum.u > profile.optimum.u else -1
+    ends = {key: list(value) for key, value in profile.ends.items()}
+    reached = {key: list(value) for key, value in profile.reached.items()}
+    for k, (mine, theirs) in enumerate(zip(ends[side], valley.ends[side], strict=False)):
+        if (theirs - mine) * side > 0 or not math.isfinite(mine):
+            ends[side][k] = theirs
+            reached[side][k] = valley.reached[side][k]
+    return dataclasses.replace(profile, points=points, ends=ends, reached=reached)
 
 
 def _internal(parameter, value):
