@@ -58,8 +58,10 @@ IRREGULAR = 0.25  # the scatter of an irregular staircase's step heights over th
 AMPLITUDE = (3e-3, 3e-2)  # the direct effect's A over F_peak
 REFERENCE_VELOCITY = (1e-8, 1e-6)  # m/s
 STARTUP_VELOCITY = (0.3e-6, 3e-6)  # m/s
-#: ``probability_within`` is read at these horizons, as fractions of the cut time.
-HORIZONS = (0.05, 0.1, 0.2, 0.4, 0.8)
+#: ``probability_within`` is read at these horizons, as fractions of the cut time: from well
+#: inside the time left at 10 % lead (0.11 of the cut) to beyond it at 50 % lead (1.0), so
+#: that at every lead some horizons hold the failure and some do not.
+HORIZONS = (0.05, 0.1, 0.2, 0.4, 0.8, 1.2, 1.6)
 
 
 def _log_uniform(rng, low, high):
