@@ -10,9 +10,10 @@ Run from the repository root:
   time), forecast by this checkout and by ``PATH/src`` (a checkout of the code at the start
   of issue 27, e.g. ``git worktree add /tmp/granflow-old f4a6afb``), each in its own
   process on the same saved records; the ratio printed.
-* ``python benchmarks/bench_forecast.py agree [SEEDS] [--old PATH]``: the two codes'
-  intervals on SEEDS records of each design at leads 50, 25 and 10 %: how often their ends
-  lie within 2 % of the interval's width, and each record where they do not.
+* ``python benchmarks/bench_forecast.py agree [SEEDS] [--old PATH] [--designs A,B]``: the
+  two codes' intervals on SEEDS records of each design (or of those named) at leads 50, 25
+  and 10 %: how often their ends lie within 2 % of the interval's width, and how often each
+  code's interval holds the truth.
 * ``python benchmarks/bench_forecast.py running``: the CPU time of each
   :class:`granflow.RunningForecast` update as a 10 Hz ramp arrives a second at a time.
 * ``python benchmarks/bench_forecast.py study CELLS SEEDS PROCESSES FIRST [OUT]``: the
@@ -159,13 +160,20 @@ def speed(arguments):
         )
 
 
+def _designs(arguments):
+    """The designs named by ``--designs a,b,...`` (default all)."""
+    if "--designs" in arguments:
+        return tuple(arguments[arguments.index("--designs") + 1].split(","))
+    return DESIGNS
+
+
 def agree(arguments):
     seeds = int(arguments[0]) if arguments and arguments[0].isdigit() else 100
     old = _old(arguments)
     print(f"{seeds} records a design and lead; load average {_load()}")
     print("| record | lead | both ends within 2 % of the width | old covers | new covers |")
     print("|---|---|---|---|---|")
-    for design in DESIGNS:
+    for design in _designs(arguments):
         for lead in LEADS:
             records = [record(2000 + seed, design, lead) for seed in range(seeds)]
             before, after = _side(records, old), _side(records, ROOT / "src")

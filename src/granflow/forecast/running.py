@@ -34,6 +34,11 @@ class RunningForecast:
     the one-shot call on the record so far (:func:`~granflow.forecast_failure`,
     :func:`~granflow.forecast_peak`): the optimum is polished to convergence and the
     profiles' ends are found to 1e-4 of their signed root whichever way they are reached.
+    The likelihood's other minima within reach are followed too, and the lowest is the
+    optimum; a minimum that first appears while the record grows, far from every one
+    followed, is found by the one-shot call's starts and not by the update (early in a
+    record two failures can fit nearly equally well: the intervals then hold both, but the
+    point forecast may sit in the other one's valley).
 
     Parameters
     ----------
