@@ -321,3 +321,34 @@ def test_the_report_modules_import_no_circle_even_inside_functions():
     # the report reads the typed result; it does not reach back into the engine
     for module in report:
         assert "granflow.analysis.engine" not in _all_imports(module), module
+
+
+def _private_names_imported(path):
+    """``(line, module, name)`` of every ``from granflow... import _name`` in a file, at any
+    depth (inside functions too): a private name taken from another module."""
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("granflow"):
+            for alias in node.names:
+                if alias.name.startswith("_") and not alias.name.startswith("__"):
+                    target = f"{node.module}.{alias.name}"
+                    if target not in MODULES:  # a private module is a file, not a name
+                        found.append((node.lineno, node.module, alias.name))
+    return found
+
+
+def test_no_module_imports_another_modules_private_names():
+    """Where two modules need a helper, it is public inside the package (issue 27)."""
+    crossing = {
+        _module_name(path): found
+        for path in MODULES.values()
+        if (found := _private_names_imported(path))
+    }
+    assert crossing == {}
+
+
+def test_the_private_name_rule_finds_one(tmp_path):
+    path = tmp_path / "module.py"
+    path.write_text("def f():\n    from granflow.forecast.failure import _helper\n")
+    assert _private_names_imported(path) == [(2, "granflow.forecast.failure", "_helper")]

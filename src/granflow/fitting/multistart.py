@@ -43,7 +43,8 @@ def multistart(
     Returns
     -------
     Solution
-        Its ``optima``: each solved start's optimum. If LM does not converge, scipy's least_squares (trust-region reflective) takes over.
+        Its ``optima``: each solved start's optimum. If LM does not converge, scipy's
+        least_squares (trust-region reflective) takes over.
     """
     ranked = []
     for start in starts:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from granflow.errors import FileFormatError
 
-__all__ = ["MAX_BYTES", "Buffer", "Cursor", "from_text", "load", "size_limit"]
+__all__ = ["MAX_BYTES", "Buffer", "Cursor", "encoding_of", "from_text", "load", "size_limit"]
 
 #: Default largest file the readers accept [bytes]: 2 GiB. Override per call with
 #: ``max_bytes=`` or for a session with the ``GRANFLOW_MAX_BYTES`` environment variable.
@@ -121,7 +121,7 @@ def load(path, max_bytes=None):
         raise FileFormatError(f"{source}: cannot read the file ({exc.strerror})") from None
 
 
-def _encoding_of(head):
+def encoding_of(head):
     for bom, name in _BOMS:
         if head.startswith(bom):
             return name
@@ -134,7 +134,7 @@ def _encoding_of(head):
 def read_stream(stream, source, size=None):
     """A :class:`Buffer` from a binary stream (``size``: its length in bytes, if known)."""
     head = stream.read(_CHUNK)
-    encoding = _encoding_of(head)
+    encoding = encoding_of(head)
     if encoding in (None, "utf-8-sig"):
         data, encoding = _read_bytes(stream, head, encoding, source)
         codec = "cp1252" if encoding == "cp1252" else "utf-8"

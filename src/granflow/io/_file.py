@@ -431,10 +431,10 @@ def metadata_value(key, cells, numbers):
 def header_number(text, numbers):
     """A header value as a float when it is one number (thousands separators allowed, as in
     Rheoplus's ``9,945.692``), else the text unchanged."""
-    from granflow.io._text import _vote
+    from granflow.io._text import decimal_vote
 
     number = numbers.parse(text) if text else None
-    if number is None and numbers.decimal == "." and _vote(text) == "dot,":
+    if number is None and numbers.decimal == "." and decimal_vote(text) == "dot,":
         number = float(text.replace(",", ""))
     return text if number is None else number
 

@@ -20,6 +20,7 @@ __all__ = [
     "MISSING_MARKERS",
     "NumberFormat",
     "count_cells",
+    "decimal_vote",
     "decode",
     "fail",
     "read_block",
@@ -91,7 +92,7 @@ _COMMA_GROUPS = re.compile(r"^[-+]?\d{1,3}(,\d{3})+(\.\d+)?$")
 _DOT_GROUPS = re.compile(r"^[-+]?\d{1,3}(\.\d{3})+(,\d+)?$")
 
 
-def _vote(cell):
+def decimal_vote(cell):
     """Evidence from one cell: 'dot', 'comma', 'dot,' (dot decimal, comma thousands),
     'comma.' (comma decimal, dot thousands) or None (no evidence)."""
     if "," in cell and "." in cell:
@@ -129,7 +130,7 @@ def sniff_numbers(rows, delimiter, source):
     seen = {}
     for line, cells in rows:
         for cell in cells:
-            vote = _vote(cell.strip())
+            vote = decimal_vote(cell.strip())
             if vote is not None and vote not in seen:
                 seen[vote] = line
     comma_decimal = {vote: line for vote, line in seen.items() if vote.startswith("comma")}

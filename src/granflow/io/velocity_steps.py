@@ -120,11 +120,11 @@ def _role(name):
 def _first_line(path):
     """The first line of a file in its own encoding (BOMs, UTF-16 by its NULs, UTF-8, else
     cp1252), read from its first 64 KiB."""
-    from granflow.io._buffer import _encoding_of
+    from granflow.io._buffer import encoding_of
 
     with open(path, "rb") as handle:
         head = handle.read(1 << 16)
-    encoding = _encoding_of(head) or "utf-8"
+    encoding = encoding_of(head) or "utf-8"
     if encoding.startswith("utf-16"):
         head = head[: len(head) - len(head) % 2]
     text = head.decode(encoding, errors="replace").lstrip("\ufeff")
