@@ -160,7 +160,10 @@ def test_a_header_followed_by_junk_is_refused(tmp_path):
         granflow.read_runs(junk)
     prose = tmp_path / "prose.txt"
     prose.write_text(header + "no data here\n" * 20_000, encoding="utf-8")
-    with pytest.raises(granflow.FileFormatError, match="expected RheoCompass header lines"):
+    # prose where the data rows should be: the first such line is named, and why
+    with pytest.raises(
+        granflow.FileFormatError, match=r"prose.txt, line \d+: this line interrupts the data rows"
+    ):
         granflow.read_runs(prose)
 
 
