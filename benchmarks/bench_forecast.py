@@ -20,9 +20,10 @@ Run from the repository root:
   calibration study (:mod:`granflow.forecast.calibration`) of the cells (comma separated,
   or ``all``) over seeds FIRST .. FIRST + SEEDS - 1 on PROCESSES processes; prints the
   table and saves the outcomes to OUT (a pickle) for :func:`tables`.
-* ``python benchmarks/bench_forecast.py tables OUT [OUT ...]``: the tables of saved
-  outcomes: coverage with its binomial standard error per cell and lead, split by thirds of
-  the noise and of the sample count, and the reliability of ``probability_within``.
+* ``python benchmarks/bench_forecast.py tables OUT [OUT ...] [--figure PNG]``: the tables
+  of saved outcomes: coverage with its binomial standard error per cell and lead, split by
+  thirds of the noise and of the sample count (t_f, F_peak and the step PIT), and the
+  reliability of ``probability_within`` (all leads and each lead; ``--figure`` draws it).
 * ``python benchmarks/bench_forecast.py league [SEEDS] [PROCESSES] [FIRST_SEED]``: the
   forecast league of issue 29 (``benchmarks/bench_league.py``): every method on every
   family of records, scored as forecasts are scored (``league --from FILE`` redraws its
@@ -262,7 +263,13 @@ def _row(chosen, key):
     return f"{share:.1%} ± {error:.1%} ({count})"
 
 
-def tables(paths):
+def tables(arguments):
+    flags = [a for a in arguments]
+    paths = [
+        a
+        for k, a in enumerate(arguments)
+        if not a.startswith("--") and (k == 0 or arguments[k - 1] != "--figure")
+    ]
     outcomes = []
     for path in paths:
         with open(path, "rb") as handle:
@@ -289,31 +296,88 @@ def tables(paths):
                 f"{len(chosen) - len(issued)} | {errors} | {cpu * 1e3:.0f} ms |"
             )
     print()
-    print("By thirds of the slip noise (of x_peak - x0) and of the samples to failure, t_f:")
-    print("| cell | lead | noise low / mid / high | samples low / mid / high |")
-    print("|---|---|---|---|")
+    print(
+        "By thirds of the slip noise (of x_peak - x0) and of the samples to failure "
+        "(issued forecasts; t_f, F_peak, and a staircase's step PIT):"
+    )
+    print("| cell | lead | outcome | noise low / mid / high | samples low / mid / high |")
+    print("|---|---|---|---|---|")
     for cell in cells:
+        keys = ["time_covered", "force_covered"]
+        if "steps" in cell and "creep" not in cell:
+            keys.append("pit")
         for lead in LEADS:
             chosen = [o for o in outcomes if o.cell == cell and o.lead == lead and o.issued]
             if not chosen:
                 continue
-            parts = []
-            for key in ("noise", "samples"):
-                values = np.array([getattr(o, key) for o in chosen])
-                edges = np.quantile(values, [1 / 3, 2 / 3])
-                thirds = [
-                    [o for o, v in zip(chosen, values, strict=True) if v <= edges[0]],
-                    [o for o, v in zip(chosen, values, strict=True) if edges[0] < v <= edges[1]],
-                    [o for o, v in zip(chosen, values, strict=True) if v > edges[1]],
-                ]
-                parts.append(" / ".join(_row(part, "time_covered") for part in thirds))
-            print(f"| {cell} | {lead:.0%} | {parts[0]} | {parts[1]} |")
+            for key in keys:
+                parts = []
+                for by in ("noise", "samples"):
+                    values = np.array([getattr(o, by) for o in chosen])
+                    edges = np.quantile(values, [1 / 3, 2 / 3])
+                    thirds = [
+                        [o for o, v in zip(chosen, values, strict=True) if v <= edges[0]],
+                        [
+                            o
+                            for o, v in zip(chosen, values, strict=True)
+                            if edges[0] < v <= edges[1]
+                        ],
+                        [o for o, v in zip(chosen, values, strict=True) if v > edges[1]],
+                    ]
+                    parts.append(" / ".join(_row(part, key) for part in thirds))
+                name = {"time_covered": "t_f", "force_covered": "F_peak", "pit": "step PIT"}[key]
+                print(f"| {cell} | {lead:.0%} | {name} | {parts[0]} | {parts[1]} |")
+    issued = [o for o in outcomes if o.issued]
     print()
-    print("Reliability of probability_within (all cells, leads and horizons):")
-    print("| predicted (bin mean) | observed | forecasts |")
-    print("|---|---|---|")
-    for predicted, observed, count in reliability([o for o in outcomes if o.issued]):
-        print(f"| {predicted:.3f} | {observed:.3f} | {count} |")
+    print("Reliability of probability_within (issued forecasts, all cells, leads and horizons):")
+    _reliability_table(reliability(issued))
+    for lead in LEADS:
+        print()
+        print(f"At {lead:.0%} lead alone:")
+        _reliability_table(reliability([o for o in issued if o.lead == lead]))
+    if "--figure" in flags:
+        _reliability_figure(issued, flags[flags.index("--figure") + 1])
+
+
+def _reliability_table(rows):
+    print("| predicted (bin mean) | observed ± standard error | forecasts | within 5 points |")
+    print("|---|---|---|---|")
+    for predicted, observed, count in rows:
+        error = math.sqrt(max(observed * (1 - observed), 1e-12) / count)
+        verdict = "yes" if abs(observed - predicted) <= 0.05 else "no"
+        if count < 50:
+            verdict = "(fewer than 50)"
+        print(f"| {predicted:.3f} | {observed:.3f} ± {error:.3f} | {count} | {verdict} |")
+
+
+def _reliability_figure(issued, path):
+    """The reliability diagram (all leads, and each lead) to ``path``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(4.6, 4.2), layout="constrained")
+    ax.plot([0, 1], [0, 1], color="0.6", lw=1, label="perfect")
+    ax.fill_between([0, 1], [-0.05, 0.95], [0.05, 1.05], color="0.9", label="within 5 points")
+    styles = [("all leads", issued, "k", "o")] + [
+        (f"{lead:.0%} lead", [o for o in issued if o.lead == lead], colour, "s")
+        for lead, colour in zip(LEADS, ("tab:blue", "tab:orange", "tab:green"), strict=True)
+    ]
+    for label, chosen, colour, marker in styles:
+        rows = [row for row in reliability(chosen) if row[2] >= 50]
+        if rows:
+            predicted, observed, _ = np.array(rows).T
+            ax.plot(predicted, observed, marker=marker, color=colour, label=label, ms=4, lw=1)
+    ax.set(
+        xlabel="predicted probability of failure within the horizon",
+        ylabel="observed frequency",
+        xlim=(0, 1),
+        ylim=(0, 1),
+    )
+    ax.legend(fontsize=7, loc="upper left")
+    fig.savefig(path, dpi=150)
+    print(f"figure: {path}")
 
 
 def league(rest):

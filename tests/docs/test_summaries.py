@@ -22,10 +22,17 @@ def _documented_names():
     names = []
     for page in sorted((DOCS / "api").glob("*.rst")):
         text = page.read_text(encoding="utf-8")
-        module = re.search(r"currentmodule:: (\S+)", text)
-        module = module.group(1) if module else "granflow"
-        for block in re.findall(r"autosummary::\n(?:   :[^\n]*\n)*\n((?:   \S[^\n]*\n)+)", text):
-            names += [f"{module}.{line.strip()}" for line in block.splitlines()]
+        # each block's names live in the module of the last currentmodule before it
+        module = "granflow"
+        for part in re.split(r"(\.\. currentmodule:: \S+)", text):
+            found = re.match(r"\.\. currentmodule:: (\S+)", part)
+            if found:
+                module = found.group(1)
+                continue
+            for block in re.findall(
+                r"autosummary::\n(?:   :[^\n]*\n)*\n((?:   \S[^\n]*\n)+)", part
+            ):
+                names += [f"{module}.{line.strip()}" for line in block.splitlines()]
     return names
 
 

@@ -6,6 +6,7 @@ interval and ``probability_within``, the live ``RunningForecast``, a record that
 own failure, the fits' vocabulary."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -384,3 +385,18 @@ def test_the_old_names_warn_and_name_the_new_ones():
 def test_an_empty_record_is_an_error_not_a_crash():
     with pytest.raises(InvalidDataError, match="too short: 0 points"):
         gf.forecast_failure([], [], [])
+
+
+@pytest.mark.parametrize("offset", [2e-6, 20e-6])
+def test_a_slip_that_does_not_start_at_zero_is_told_so(offset):
+    """A record whose slip column starts off zero (an export that does not reset the
+    deflection) does not follow the model, whose slip clock starts at 0 with the loading: the
+    code before issue 27 dated such a ramp at 162 s with the truth at 211 s and an interval
+    open above from 161.8 s. It is declined, and the message says where the slip starts and
+    what to do."""
+    t, slip, force, failure = ramp(SETS[1], 3, noise=0.001)
+    shifted = gf.forecast_failure(t, slip + offset, force, until=0.75 * failure)
+    assert shifted.declined and shifted.time is None
+    start = re.search(r"its slip starts at ([\d.]+) µm, not at 0", shifted.message)
+    assert start and float(start.group(1)) == pytest.approx(offset * 1e6, abs=0.1)
+    assert "subtract the slip there" in shifted.message

@@ -74,7 +74,7 @@ def test_the_forecast_band_is_visible_on_its_time_axis():
     cuts = np.array([80.0, 100.0, 120.0, 140.0])
     observed = 204.0
     band = np.array([0.4, 0.3, 0.1, 0.05])  # s: narrow against a 400 s record
-    running = gf.RunningForecast(
+    running = gf.forecast.ForecastSeries(
         cuts=cuts,
         methods={
             "model": {"time": observed + 0 * cuts, "low": observed - band, "high": observed + band}

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from granflow.fitting.rsf_fit import correlation_time
+from granflow.forecast._inputs import rough_noise
 
 __all__ = [
     "END_Z",
@@ -56,6 +57,10 @@ __all__ = [
 
 #: tau above this inflates the variance (white residuals: 1 + 2 sqrt(2 / 19)).
 SIGNIFICANT = 1.0 + 2.0 * math.sqrt(2.0 / 19.0)
+#: A declined record whose first samples' median stands off zero by more than this many
+#: times its noise is told that its slip should start at 0.
+_OFFSET_NOISES = 5.0
+_ZERO_SAMPLES = 5
 #: The residuals' RMS over the record's own noise above which a forecast declines.
 LACK_OF_FIT = 4.0
 #: |end_z| above which a forecast declines.
@@ -171,6 +176,13 @@ def review(forecast, fit, time, slip):
             )
     if not verdict:
         return forecast
+    start = float(np.median(slip[:_ZERO_SAMPLES])) if len(slip) else 0.0
+    if abs(start) > _OFFSET_NOISES * rough_noise(slip):
+        # the likeliest cause: the slip clock counts from 0 where loading starts
+        verdict += (
+            f" (its slip starts at {start * 1e6:.4g} µm, not at 0: the forecast counts the "
+            "slip from where the loading starts; subtract the slip there)"
+        )
     check = dataclasses.replace(fit.check, verdict=verdict)
     nan = (math.nan, math.nan)
     return dataclasses.replace(

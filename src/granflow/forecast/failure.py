@@ -254,7 +254,9 @@ def forecast_failure(
     t : array_like
         Record time [s], 0 when loading starts, strictly increasing.
     slip : array_like
-        Record slip (displacement) [m], 0 at the start (the model's x = x0 + slip).
+        Record slip (displacement) [m], 0 at the start (the model's x = x0 + slip); a
+        record whose start stands off zero (more than five times its noise) does not
+        follow the model, and its forecast says so.
     force : array_like
         Imposed force at ``t`` [N].
     until : float, optional

@@ -8,7 +8,8 @@ anything it showed before. A sample interval is the failure when
   far) by a factor ``max(100, 3 sqrt(n))`` (just before a quasi-static failure the sampled
   rate reaches about sqrt(t_f / dt) times that mean: 17 at 300 samples, 140 at 20 000),
 * its slip increment exceeds ``_NOISE_FACTOR`` times the slip's noise (a single noisy sample
-  cannot pass), and
+  cannot pass; the noise taken as at least 1e-6 of the slip's range, so that a simulated
+  record without noise does not read its first creep out of rest as a run-away), and
 * the layer keeps running away: over the next ``_SUSTAINED`` intervals (at least
   ``_SHOWN`` of them must be in the record) the median rate stays that high, within the next
   ``_AHEAD`` samples it gains more than all the slip before, and it never comes back below
@@ -64,7 +65,9 @@ def find_failure(t, slip, force):
         return None
     step = np.diff(slip)
     rate = step / np.diff(t)
-    noise = rough_noise(slip)
+    # the slip's noise, at least a millionth of its range: a record without noise (a
+    # simulation) otherwise reads its first creep out of rest as a run-away
+    noise = max(rough_noise(slip), 1e-6 * float(np.ptp(slip)))
     so_far = slip[:-1] - np.minimum.accumulate(slip)[:-1]
     elapsed = np.maximum(t[:-1] - t[0], np.diff(t))
     mean_rate = np.maximum(so_far, noise) / elapsed
