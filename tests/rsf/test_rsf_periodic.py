@@ -209,12 +209,15 @@ def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
     from granflow.analysis.velocity_steps import campaign_velocity_steps
     from granflow.io.manifest import BadEntry, read_manifest
 
+    # the same record twice, fitted with the ripple and without: two files (a run named
+    # twice in one manifest is refused since issue 31)
     _write_record(tmp_path / "rippled.txt")
+    _write_record(tmp_path / "rippled-again.txt")
     manifest = tmp_path / "manifest.yaml"
     manifest.write_text(
         "runs:\n"
         "  - {file: rippled.txt, test: velocity_steps, periodic: true}\n"
-        "  - {file: rippled.txt, test: velocity_steps}\n"
+        "  - {file: rippled-again.txt, test: velocity_steps}\n"
         "  - {file: b.txt, test: velocity_steps, periodic: 30 um}\n"
         "  - {file: c.txt, test: velocity_steps, periodic: 30}\n"
         "  - {file: d.txt, test: velocity_steps, periodic: none}\n"
