@@ -317,6 +317,17 @@ def _missing_to_end(velocity):
     return int(finite[-1] + 1)
 
 
+def _force_carried_to(run, index, time):
+    """The force [N] of the samples up to ``index`` carried on linearly to ``time`` [s]
+    from the last two finite ones (the last one's where there is one only)."""
+    finite = np.flatnonzero(np.isfinite(run.force[: index + 1]))
+    if finite.size < 2:
+        return float(run.force[finite[-1]]) if finite.size else math.nan
+    i, j = finite[-2], finite[-1]
+    slope = (run.force[j] - run.force[i]) / (run.t[j] - run.t[i])
+    return float(run.force[j] + slope * (time - run.t[j]))
+
+
 def _last_finite_force(run, index):
     finite = np.flatnonzero(np.isfinite(run.force[: index + 1]))
     return (float(run.force[finite[-1]]), int(finite[-1])) if finite.size else (math.nan, index)
@@ -400,13 +411,21 @@ def _analyse_switch(run, options):
     imposed = imposed[np.isfinite(imposed)]
     level = float(np.median(imposed)) if imposed.size else force_before
     tail = velocity[switch:]
-    if _runaway(tail, RUNAWAY_FACTOR * nominal) is not None:
+    # from the last sample under rate control: a velocity missing from the switch on (a
+    # failure at the switch itself, its flow not recorded) is missing after a finite one
+    if _runaway(velocity[switch - 1 :], RUNAWAY_FACTOR * nominal) is not None:
         outcome = "failure"
     elif np.isfinite(tail[-1]) and abs(tail[-1]) <= 0.01 * nominal:
         outcome = "stop"
     else:
         outcome = "creep"
     switch_time = float(run.meta.get("switch_time", run.t[where]))
+    if "switch_time" not in run.meta:
+        # found from the velocity: the switch came after the last sample under rate control
+        # and at the first under stress control at the latest; taken there, with the
+        # rate-controlled force carried on to it from its last two samples
+        switch_time = float(run.t[switch])
+        force_before = _force_carried_to(run, where, switch_time)
     event = SwitchEvent(
         switch_time=switch_time,
         found_by=found,
