@@ -325,22 +325,27 @@ def scan(
         internal_hints = {
             side: [_internal(parameter, q - offset) for q in ends] for side, ends in hints.items()
         }
-    profile = profile_scan(
-        problem,
-        values,
-        index,
-        fit.chisqr,
-        targets,
-        halfwidth,
-        variance=1.0,
-        internal_hessian=hessian,
-        check=True,
-        tolerance=precision,
-        starts=starts,
-        precision=precision,
-        hints=internal_hints,
-        damped=True,
-    )
+
+    def valley(at, at_hessian, at_hints=None):
+        """The profile scan of the valley whose bottom is ``at``."""
+        return profile_scan(
+            problem,
+            at,
+            index,
+            fit.chisqr,
+            targets,
+            halfwidth,
+            variance=1.0,
+            internal_hessian=at_hessian,
+            check=True,
+            tolerance=precision,
+            starts=starts,
+            precision=precision,
+            hints=at_hints,
+            damped=True,
+        )
+
+    profile = valley(values, hessian, internal_hints)
     if others is None:
         others = fit.others if problem is fit.problem else ()
     for other in others:
@@ -349,24 +354,10 @@ def scan(
             continue
         try:
             _, _, other_hessian = problem.state(problem.internal(other), problem.free)
-            valley = profile_scan(
-                problem,
-                other,
-                index,
-                fit.chisqr,
-                targets,
-                halfwidth,
-                variance=1.0,
-                internal_hessian=other_hessian,
-                check=True,
-                tolerance=precision,
-                starts=starts,
-                precision=precision,
-                damped=True,
-            )
+            other_profile = valley(other, other_hessian)
         except (np.linalg.LinAlgError, ValueError, FloatingPointError):
             continue
-        profile = _joined(profile, valley, problem.chisqr(other) - fit.chisqr)
+        profile = _joined(profile, other_profile, problem.chisqr(other) - fit.chisqr)
     u, r = profile.signed_roots()
     low_end, high_end = parameter.internal_bounds()
     distribution = Distribution(
