@@ -400,3 +400,14 @@ def test_a_slip_that_does_not_start_at_zero_is_told_so(offset):
     start = re.search(r"its slip starts at ([\d.]+) µm, not at 0", shifted.message)
     assert start and float(start.group(1)) == pytest.approx(offset * 1e6, abs=0.1)
     assert "subtract the slip there" in shifted.message
+
+
+def test_a_profile_end_far_beyond_the_range_is_no_crash():
+    """A study ramp (seed 200177 of the calibration design) whose force profile ran so far
+    out that its end's exponential overflowed: ``OverflowError: math range error`` on the
+    way to the running forecast's hints. It is forecast, and its interval holds the truth."""
+    from granflow.forecast.calibration import draw
+
+    case = draw(200177, "ramp")
+    ff = gf.forecast_failure(case.t, case.slip, case.force, until=0.9 * case.failure)
+    assert ff.time_interval[0] <= case.failure <= ff.time_interval[1]

@@ -561,12 +561,19 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     return review(forecast, fit, time, slip_cut), left
 
 
+#: exp(u) overflows beyond this: an end that far out is no hint.
+_EXP_LIMIT = 700.0
+
+
 def _absolute(profile, floor):
     """A profile's ends as the profiled quantity's values [N] (their internal coordinates
     depend on the problem's scales): the hints of the next scan, converted back there."""
     parameter = profile.optimum
     scale = parameter.value
     return {
-        side: [floor + scale * math.exp(u) if math.isfinite(u) else math.nan for u in ends]
+        side: [
+            floor + scale * math.exp(u) if math.isfinite(u) and u < _EXP_LIMIT else math.nan
+            for u in ends
+        ]
         for side, ends in profile.ends.items()
     }
