@@ -31,7 +31,8 @@ def uniform(t, residuals):
     """The residuals at one sampling interval: where the record changes rate, the faster
     part is thinned to the slower part's interval."""
     steps = np.diff(t)
-    slow = np.median(steps[steps > 1.5 * np.min(steps)]) if np.any(steps > 1.5 * np.min(steps)) else None
+    longer = steps > 1.5 * np.min(steps)
+    slow = np.median(steps[longer]) if np.any(longer) else None
     if slow is None:
         return t, residuals
     keep, last = [0], t[0]
@@ -67,7 +68,8 @@ def measure(name):
     tau = float(np.exp(log_tau))
     print(
         f"{name}: T = {span:.5g} s, dt = {dt:.4g} s, white share {white:.4f}, "
-        f"tau = {tau:.4g} s = {tau / span:.4f} T, red / white sd {np.sqrt((1 - white) / white):.4f}, "
+        f"tau = {tau:.4g} s = {tau / span:.4f} T, "
+        f"red / white sd {np.sqrt((1 - white) / white):.4f}, "
         f"jitter {jitter:.4f}, residual rms {np.sqrt(x.var()):.4g}"
     )
 
