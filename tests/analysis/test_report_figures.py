@@ -39,11 +39,56 @@ def _legend_boxes(figure):
             yield (frame.x0, frame.y0, frame.x1, frame.y1), (box.x0, box.y0, box.x1, box.y1)
 
 
+def _overlap(a, b, margin=1.0):
+    """Whether two boxes (x0, y0, x1, y1) share more than ``margin`` pixels each way."""
+    return min(a[2], b[2]) - max(a[0], b[0]) > margin and min(a[3], b[3]) - max(a[1], b[1]) > margin
+
+
+def _legend_covers(figure):
+    """What each legend covers that it must not: another axes (an inset, a neighbouring
+    panel) or a text drawn in the axes (a label such as "runaway")."""
+    renderer = figure.canvas.get_renderer()
+    found = []
+    for ax in figure.axes:
+        legend = ax.get_legend()
+        if legend is None:
+            continue
+        box = legend.get_window_extent(renderer).extents
+        own = ax.get_window_extent(renderer).extents
+        insets = [child for parent in figure.axes for child in parent.child_axes]
+        for other in [*figure.axes, *insets]:
+            extent = other.get_window_extent(renderer).extents
+            if other is ax or tuple(extent) == tuple(own):  # itself or its twin
+                continue
+            if other.get_visible() and other.axison and _overlap(box, extent):
+                found.append(f"axes {other.get_label() or other.get_title()!r}")
+        twins = [
+            a for a in figure.axes if tuple(a.get_window_extent(renderer).extents) == tuple(own)
+        ]
+        for text in (text for twin in twins for text in twin.texts):
+            shown = text.get_text().strip() and text.get_visible()
+            if shown and _overlap(box, text.get_window_extent(renderer).extents):
+                found.append(f"text {text.get_text()!r}")
+    return found
+
+
 @pytest.fixture(scope="module")
 def drawn(tmp_path_factory):
     """Analyse the small campaign, checking each figure as it is saved."""
     directory = tmp_path_factory.mktemp("figures")
-    manifest = write_small_campaign(directory / "campaign")
+    return _analyse_checking(write_small_campaign(directory / "campaign"), directory / "out")
+
+
+@pytest.fixture(scope="module")
+def demo_drawn(tmp_path_factory):
+    """The demo campaign (two creep forces, a ramp that runs away), its figures checked."""
+    from granflow.analysis import make_demo_campaign
+
+    directory = tmp_path_factory.mktemp("demo-figures")
+    return _analyse_checking(make_demo_campaign(directory / "campaign"), directory / "out")
+
+
+def _analyse_checking(manifest, out):
     seen = {}
     original = granflow.plotting.save_figure
 
@@ -57,6 +102,7 @@ def drawn(tmp_path_factory):
                 "size": (width, height),
                 "labels": list(_labels(figure)),
                 "legends": list(_legend_boxes(figure)),
+                "covered": _legend_covers(figure),
                 "formats": tuple(formats),
             }
         )
@@ -73,7 +119,7 @@ def drawn(tmp_path_factory):
     patch.setattr(granflow.plotting, "save_figure", checking)
     patch.setattr(figures, "draw_figure", picklable)
     try:
-        result = analyze(manifest, directory / "out", jobs=1, quiet=True)
+        result = analyze(manifest, out, jobs=1, quiet=True)
     finally:
         patch.undo()
     return result, seen
@@ -111,6 +157,21 @@ def test_legends_inside_the_axes_stay_inside_their_frame(drawn):
             assert box[0] >= frame[0] - 1 and box[2] <= frame[2] + 1, (name, frame, box)
             assert box[1] >= frame[1] - 1 and box[3] <= frame[3] + 1, (name, frame, box)
     assert checked >= 3  # the Amontons panels at least
+
+
+@pytest.mark.parametrize("campaign", ["drawn", "demo_drawn"])
+def test_no_legend_covers_an_inset_a_panel_or_a_label(campaign, request):
+    """A legend placed in a busy panel once hid the demo's Fig. 3b inset and Fig. 3a's
+    "runaway" label."""
+    _, seen = request.getfixturevalue(campaign)
+    assert "fig3" in seen
+    covered = {name: call["covered"] for name, (call,) in seen.items() if call["covered"]}
+    assert covered == {}
+
+
+def test_the_demo_figures_keep_their_text_inside_the_frame(demo_drawn):
+    test_no_text_outside_any_frame(demo_drawn)
+    test_legends_inside_the_axes_stay_inside_their_frame(demo_drawn)
 
 
 def test_axis_labels_carry_units_in_mathtext(drawn):

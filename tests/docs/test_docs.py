@@ -71,6 +71,7 @@ OPENED = (
 #: Where each figure of the user guide and the index must be: every page teaches with one.
 FIGURED = (
     "index.html",
+    "getting_started.html",
     *(
         f"user_guide/{p.stem}.html"
         for p in (DOCS / "user_guide").glob("*.rst")
@@ -174,6 +175,11 @@ def _require_records():
 
 
 #: Every pre block's width against its box: long lines wrap, none is cut or scrolls.
+#: The page's width and how far its content reaches to the side [CSS px].
+_PAGE_WIDTH = """
+return {scroll: document.documentElement.scrollWidth,
+        client: document.documentElement.clientWidth};
+"""
 _PRE_LAYOUT = """
 return Array.from(document.querySelectorAll('pre')).map(function (pre) {
   return {scroll: pre.scrollWidth, box: pre.clientWidth, text: pre.textContent.slice(0, 60)};
@@ -227,6 +233,11 @@ def test_site_builds_runs_every_example_and_opens_cleanly(tmp_path, browser):  #
             page_problems(browser, html_dir / relative)
             cut = [p for p in browser.execute_script(_PRE_LAYOUT) if p["scroll"] > p["box"] + 1]
             assert cut == [], (relative, cut)
+        # at 800 px no page runs off to the side (a long heading's "#" link once did)
+        for relative in FIGURED:
+            page_problems(browser, html_dir / relative)
+            width = browser.execute_script(_PAGE_WIDTH)
+            assert width["scroll"] <= width["client"], (relative, width)
     finally:
         browser.set_window_size(1400, 900)
 

@@ -141,10 +141,14 @@ def draw_corner(posterior):
     return plot_corner(posterior)
 
 
-def _legends_inside(figure, places=None, fontsize=6):
+def _legends_inside(figure, places=None, fontsize=6, letters=None):
     """Move each legend drawn above its axes inside them (upper-most twin; at ``places[ax]``,
-    else the best place), so that the panels of a multi-panel figure keep their width."""
-    places = places or {}
+    else the best place), so that the panels of a multi-panel figure keep their width;
+    ``places[ax] == "key"`` moves its entries into one key below the figure instead, each
+    prefixed by the panel's letter from ``letters`` (a busy panel, whose inset or labels a
+    legend inside would hide)."""
+    key = []
+    places, letters = places or {}, letters or {}
     found = [(ax, ax.get_legend()) for ax in figure.axes if ax.get_legend() is not None]
     for ax, legend in found:
         handles, texts = legend.legend_handles, [t.get_text() for t in legend.get_texts()]
@@ -152,16 +156,33 @@ def _legends_inside(figure, places=None, fontsize=6):
         legend.remove()
         twins = [a for a in figure.axes if a.bbox.bounds == ax.bbox.bounds]
         target = twins[-1] if twins else ax
+        place = places.get(ax, "best")
+        if place == "key":
+            prefix = letters.get(ax, "")
+            key += [(f"{prefix}{text}", h) for h, text in zip(handles, texts, strict=True)]
+            continue
         target.legend(
             handles,
             texts,
-            loc=places.get(ax, "best"),
+            loc=place,
             fontsize=fontsize,
             title=title or None,
             title_fontsize=fontsize,
             framealpha=0.85,
             borderaxespad=0.3,
             handlelength=1.5,
+        )
+    if key:
+        labels, handles = zip(*key, strict=True)
+        figure.legend(
+            handles,
+            labels,
+            loc="outside lower center",
+            ncols=3,
+            fontsize=fontsize,
+            frameon=False,
+            handlelength=1.5,
+            columnspacing=1.2,
         )
 
 
@@ -195,8 +216,9 @@ def draw_fig2(startup=None, collapse=None, amontons=None):
 
 def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
     """Fig. 3 at double-column width, 2 x 2: (a) stress ramp, (b) creep (log time), (c)
-    switch, (d) stability map, the legends inside the panels; a panel without its input is
-    left out."""
+    switch, (d) stability map; the legends of (a)-(c) in one key below the panels (inside
+    they would hide the creep inset and the runaway), the map's inside; a panel without its
+    input is left out."""
     import matplotlib.pyplot as plt
 
     from granflow.plotting import plot_creep, plot_stability_map, plot_stress_ramp, plot_switch
@@ -217,11 +239,11 @@ def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
     figure, axes = plt.subplots(
         rows,
         columns,
-        figsize=(DOUBLE_COLUMN, 3.4 * rows),
+        figsize=(DOUBLE_COLUMN, 3.4 * rows + 0.6),
         layout="constrained",
         squeeze=False,
     )
-    places = {}
+    places, letters = {}, {}
     for index, ax in enumerate(axes.flat):
         if index >= len(panels):
             ax.set_axis_off()
@@ -229,18 +251,19 @@ def draw_fig3(ramp=None, creep=None, switch=None, stability=None):
         name, value = panels[index]
         if name == "ramp":  # the slip axis is scaled to the creep: no inset needed
             plot_stress_ramp(value[0], value[1], ax=ax, inset=False, velocity=value[2])
-            places[ax] = "upper left"
+            places[ax] = "key"
         elif name == "creep":
             plot_creep(value[0], value[1], ax=ax, params=value[2], log_time=True)
-            places[ax] = "upper right"  # the inset is upper left
+            places[ax] = "key"  # the inset fills the upper left
         elif name == "switch":
             plot_switch(value[0], value[1], ax=ax, switch_time=value[2])
-            places[ax] = "center"
+            places[ax] = "key"
         else:
             plot_stability_map(_stability_map(value), ax=ax)
             places[ax] = "upper right"
         panel_letter(ax, "abcd"[index])
-    _legends_inside(figure, places)
+        letters[ax] = f"({'abcd'[index]}) "
+    _legends_inside(figure, places, letters=letters)
     return figure
 
 

@@ -187,6 +187,11 @@ def forecast_view(result: Any, figures: Any) -> list[dict[str, Any]]:
                 "reason": forecast.reason,
                 "level": f"{forecast.level:.0%}",
                 "observed": format_number(forecast.observed),
+                "observed_between": (
+                    f"{format_number(forecast.observed)} s"
+                    if window is None
+                    else f"between {format_number(window[0])} and {format_number(window[1])} s"
+                ),
                 "converged": forecast.converged,
                 "rows": rows,
                 "details": [

@@ -349,7 +349,7 @@ def _stress_lines(result, views):
                 "ok" if forecast["converged"] else "warn",
                 f"Failure forecast {forecast['label']}: at {last['cut']} s, t_f = "
                 f"{last['time']} s {last['interval']} ({forecast['level']}) against the "
-                f"observed {forecast['observed']} s.",
+                f"failure observed {forecast['observed_between']}.",
                 "#forecasting",
             )
         )
