@@ -58,5 +58,5 @@ for v in (v1, v2):
 ax.set_xlabel("load-point displacement [µm]")
 ax.set_ylabel("friction coefficient μ [-]")
 ax.set_xlim(30, 200)
-ax.legend(title="k = 2000 1/m, a = 0.005, b = 0.008, D_c = 10 µm")
+ax.legend(title=r"$k$ = 2000 1/m, $a$ = 0.005, $b$ = 0.008, $D_\mathrm{c}$ = 10 µm")
 plt.show()

@@ -299,3 +299,31 @@ def test_autodoc_can_ask_granflow_rsf_for_a_submodule():
     from granflow import rsf
 
     assert callable(rsf.simulate)
+
+
+#: A symbol written with an underscore outside mathtext ("F_d", "F_N").
+_LITERAL_SUBSCRIPT = re.compile(r"(?<![A-Za-z])[A-Za-zμτα]_[A-Za-z0-9]")
+
+
+def _label_strings(path):
+    """The string constants a gallery script gives to axis labels and titles."""
+    import ast
+
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.Call) or not isinstance(node.func, ast.Attribute):
+            continue
+        if node.func.attr in ("set_xlabel", "set_ylabel", "set_title", "suptitle"):
+            for argument in node.args[:1]:
+                if isinstance(argument, ast.Constant) and isinstance(argument.value, str):
+                    yield node.lineno, argument.value
+
+
+def test_gallery_axis_labels_write_symbols_in_mathtext():
+    """An axis label in the gallery once read "F_d [mN]" with a literal underscore."""
+    found = []
+    for path in sorted((DOCS / "examples").glob("plot_*.py")):
+        for line, text in _label_strings(path):
+            if _LITERAL_SUBSCRIPT.search(re.sub(r"\$[^$]*\$", "", text)):
+                found.append(f"{path.name}:{line}: {text!r}")
+    assert found == []

@@ -80,6 +80,12 @@ def test_fixed_parameters_and_priors(least_squares):
 def test_corner_and_fit_plots(posterior, least_squares):
     figure = posterior.plot_corner()
     assert len(figure.axes) == 16
+    # the parameters in display units, their symbols in mathtext ("Fd" once had no unit)
+    bottom = [ax.get_xlabel() for ax in figure.axes[-4:]]
+    assert bottom == ["$a$ [mN]", r"$\alpha$ [1/m]", r"$F_\mathrm{d}$ [mN]", "$x_0$ [µm]"]
+    low, high = figure.axes[-1].get_xlim()  # x0 in µm, about the least-squares value
+    x0 = posterior.least_squares["x0"] * 1e6
+    assert low < x0 < high and high - low < x0
     ax = least_squares.plot()
     assert ax.get_ylabel() == "force F [mN]"
     assert len(ax.figure.axes) == 2

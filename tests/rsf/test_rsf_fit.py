@@ -149,6 +149,11 @@ def test_result_round_trip_report_and_plot(tmp_path):
     assert "(profile)" in text and "Dc" in text and "a - b" in text
     top, bottom = fit.plot()
     assert len(top.lines) == 2 and len(bottom.lines) >= 1
+    # the title gives each value with its error, the symbols in mathtext; axes carry units
+    title = top.get_title()
+    assert title.startswith("$a$ = ") and r"$D_\mathrm{c}$ = " in title
+    assert title.count("±") == 3 and title.endswith(" µm")
+    assert top.get_ylabel().endswith("[-]") and bottom.get_ylabel() == "residual [-]"
     top.figure.savefig(tmp_path / "fit.png")
     assert repr(fit).startswith("RateStateFitResult(aging")
 

@@ -23,6 +23,18 @@ if TYPE_CHECKING:
 __all__ = ["RateStateFitResult"]
 
 
+#: The parameters a fit's figure names in its title: (mathtext symbol, factor, unit).
+_TITLE = {
+    "a": ("$a$", 1.0, ""),
+    "b": ("$b$", 1.0, ""),
+    "Dc": (r"$D_\mathrm{c}$", 1e6, " µm"),
+    "b1": ("$b_1$", 1.0, ""),
+    "Dc1": (r"$D_\mathrm{c1}$", 1e6, " µm"),
+    "b2": ("$b_2$", 1.0, ""),
+    "Dc2": (r"$D_\mathrm{c2}$", 1e6, " µm"),
+}
+
+
 @dataclass(frozen=True, eq=False)
 class RateStateFitResult(FitOutcome):
     """A rate-and-state fit of velocity steps.
@@ -290,17 +302,19 @@ class RateStateFitResult(FitOutcome):
                 lw=1.0,
                 label=f"without the ripple (λ = {self.params['wavelength'] * 1e6:.3g} µm)",
             )
-        top.set_ylabel("friction μ")
+        from granflow.plotting._axes import plus_minus
+
+        top.set_ylabel(r"friction coefficient $\mu$ [-]")
         text = ", ".join(
-            f"{n} = {self.params[n] * (1e6 if n.startswith('Dc') else 1):.4g}"
-            f"{' µm' if n.startswith('Dc') else ''}"
-            for n in self.names
-            if n in ("a", "b", "Dc", "b1", "Dc1", "b2", "Dc2")
+            f"{symbol} = {plus_minus(self.params[n] * scale, self.stderr.get(n, np.nan) * scale)}"
+            f"{unit}"
+            for n, (symbol, scale, unit) in _TITLE.items()
+            if n in self.names
         )
         top.set_title(text, fontsize=9)
         top.legend(loc="best", fontsize=8)
         bottom.plot(self.t, self.residuals, ".", ms=2, color="C0")
         bottom.axhline(0.0, color="k", lw=0.8)
         bottom.set_xlabel("time [s]")
-        bottom.set_ylabel("residual")
+        bottom.set_ylabel("residual [-]")
         return top, bottom

@@ -114,13 +114,47 @@ def plot_corner(posterior: PosteriorResult, **kwargs: Any) -> Figure:
         raise ImportError(
             "plot_corner needs corner: install the extra with `pip install granflow[mcmc]`"
         ) from exc
+    scales, labels = [], []
+    for name in posterior.names:
+        scale, unit = _display_of_parameter(name)
+        scales.append(scale)
+        symbol = _SYMBOLS.get(name, name)
+        labels.append(f"{symbol} [{unit}]" if unit not in ("", "1") else symbol)
+    scales = np.asarray(scales, dtype=float)
     options = {
-        "labels": list(posterior.names),
-        "truths": [posterior.least_squares[n] for n in posterior.names],
+        "labels": labels,
+        "truths": [
+            posterior.least_squares[n] * k for n, k in zip(posterior.names, scales, strict=True)
+        ],
         "quantiles": (0.16, 0.5, 0.84),
+        "max_n_ticks": 3,  # tick labels of neighbouring panels never run into each other
+        "labelpad": 0.12,
     }
     options.update(kwargs)
-    return corner.corner(posterior.samples, **options)
+    return corner.corner(np.asarray(posterior.samples) * scales, **options)
+
+
+#: Each fitted parameter's symbol in mathtext (the others are shown by name).
+_SYMBOLS = {
+    "a": r"$a$",
+    "alpha": r"$\alpha$",
+    "Fd": F_D,
+    "x0": r"$x_0$",
+    "k": r"$\alpha v$",
+    "t0": r"$t_0$",
+    "sigma": r"$\sigma$",
+}
+
+
+def _display_of_parameter(name):
+    """(factor from SI, display unit) of a fitted parameter; (1, "") where it has none."""
+    from granflow.model.units import quantity
+
+    try:
+        shown = quantity(name)
+    except (KeyError, ValueError, InvalidParameterError):
+        return 1.0, ""
+    return float(shown.scale), shown.display
 
 
 def _velocity_groups(result):

@@ -78,7 +78,7 @@ def plot_forecast(result: Any, ax: Axes | None = None) -> Axes:
     if span is not None:
         ax.set_ylim(*span)
     ax.set_xlabel("cut time (the last record time used) [s]")
-    ax.set_ylabel("forecast failure time t_f [s]")
+    ax.set_ylabel(r"forecast failure time $t_\mathrm{f}$ [s]")
     ax.legend(fontsize="small", loc="upper right")
     model = result.methods.get("model")
     if model is not None and result.observed is not None and span is not None:
@@ -98,6 +98,6 @@ def _deviation_inset(ax: Axes, cuts: Any, model: Any, observed: float, level: st
     inset.plot(cuts, np.asarray(model["time"], float) - observed, "o-", color="C0", ms=2.5)
     inset.axhline(0.0, color="k", ls="--", lw=0.8)
     inset.set_xlabel("cut [s]", fontsize="x-small", labelpad=1)
-    inset.set_ylabel("t_f − observed [s]", fontsize="x-small", labelpad=1)
+    inset.set_ylabel(r"$t_\mathrm{f}$ − observed [s]", fontsize="x-small", labelpad=1)
     inset.tick_params(labelsize="x-small")
     inset.set_title(f"model, {level} band, magnified", fontsize="x-small", pad=2)

@@ -186,4 +186,5 @@ def _analytic_boundary(ax, stability):
     ratios = np.asarray(stability.stress_ratios, dtype=float)
     half = 0.5 * float(np.diff(ratios[:2]).sum()) if ratios.size > 1 else 0.01
     ax.set_ylim(ratios.min() - half, ratios.max() + half)
-    ax.legend(loc="lower right", fontsize="small", framealpha=0.9)
+    # upper right: the failure side, after the peak, where no boundary runs
+    ax.legend(loc="upper right", fontsize="small", framealpha=0.9)
