@@ -86,6 +86,9 @@ def test_corner_and_fit_plots(posterior, least_squares):
     low, high = figure.axes[-1].get_xlim()  # x0 in µm, about the least-squares value
     x0 = posterior.least_squares["x0"] * 1e6
     assert low < x0 < high and high - low < x0
+    figure.canvas.draw()
+    offsets = [ax.xaxis.get_offset_text().get_text() for ax in figure.axes]
+    assert not any(offsets), offsets  # no "+1.099e1" beside the ticks
     ax = least_squares.plot()
     assert ax.get_ylabel() == "force F [mN]"
     assert len(ax.figure.axes) == 2

@@ -131,7 +131,15 @@ def plot_corner(posterior: PosteriorResult, **kwargs: Any) -> Figure:
         "labelpad": 0.12,
     }
     options.update(kwargs)
-    return corner.corner(np.asarray(posterior.samples) * scales, **options)
+    figure = corner.corner(np.asarray(posterior.samples) * scales, **options)
+    from matplotlib.ticker import ScalarFormatter
+
+    for axis in (axis for ax in figure.axes for axis in (ax.xaxis, ax.yaxis)):
+        formatter = axis.get_major_formatter()
+        if isinstance(formatter, ScalarFormatter):  # whole values, no "+1.099e1" beside them
+            formatter.set_useOffset(False)
+            formatter.set_scientific(False)
+    return figure
 
 
 #: Each fitted parameter's symbol in mathtext (the others are shown by name).
