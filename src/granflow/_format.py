@@ -148,18 +148,25 @@ def format_value_error(value: object, error: object, scale: float = 1.0, digits:
     )
 
 
+#: The most significant digits an interval's ends are shown with (a double holds about 16; a
+#: model evaluated in double precision is good to about 1e-10 of its value).
+MOST_DIGITS = 8
+
+
 def format_interval(bounds: object, scale: float = 1.0, significant: int = 4) -> str:
-    """A 95 % interval ``[low, high]`` for display ("—" when it is missing)."""
+    """An interval ``[low, high]`` for display ("—" when it is missing), with digits enough
+    that the two ends differ (two in the width), but never more than :data:`MOST_DIGITS`: an
+    interval narrower than that (a fit of noise-free data) shows equal ends."""
     if not isinstance(bounds, list | tuple) or len(bounds) != 2:
         return DASH
     low, high = (real_number(b) for b in bounds)
     if low is None and high is None:
         return DASH
     if low is not None and high is not None and high > low:
-        # enough digits that the two ends differ: two in the width
         width, top = (high - low) * abs(scale), max(abs(low), abs(high)) * abs(scale)
         if top > 0:
-            significant = max(significant, _exponent(top, 2) - _exponent(width, 2) + 2)
+            wanted = _exponent(top, 2) - _exponent(width, 2) + 2
+            significant = max(significant, min(wanted, MOST_DIGITS))
     return f"[{format_number(low, scale, significant)}, {format_number(high, scale, significant)}]"
 
 

@@ -144,6 +144,9 @@ def test_format_interval():
     assert format_interval([0.05990, 0.06007]) == "[0.05990, 0.06007]"
     assert format_interval([4.9733e4, 5.0057e4], 1e-6) == "[0.04973, 0.05006]"
     assert format_interval([None, 2.0]) == "[—, 2.000]"
+    # a noise-free fit: the ends differ in the 16th digit; shown with 8, equal, not 18
+    assert format_interval([235.953800872746029, 235.953800872746086]) == "[235.95380, 235.95380]"
+    assert format_interval([1.0, 1.0 + 1e-6]) == "[1.0000000, 1.0000010]"
     assert format_interval(None) == "—"
 
 

@@ -2,6 +2,8 @@
 t_s, slip_m, velocity_m_s, force_N), has one row per instant, and is read back by every
 command that reads files (issue 31, point 12)."""
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -99,7 +101,17 @@ def test_fit_reads_the_curve_and_convert_reads_its_own_table(written, tmp_path, 
 
 
 def test_forecast_reads_a_simulated_record(written, capsys):
+    """The simulation's slip is the model's x (it starts at x0): the command counts it from
+    the loading's start, says so, and dates the failure (it once declined: "its slip starts
+    at 0.198 µm, not at 0")."""
     code = main(["forecast", str(written["ramp"]), "--until", "200s"])
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert "Traceback" not in captured.err
+    assert "the slip starts at 0.198 µm where the loading starts" in captured.out
+    match = re.search(r"t_f = \S+ s\s+90%: \[([\d.]+), ([\d.]+|inf)\] s", captured.out)
+    assert match, captured.out
+    frame = pd.read_csv(written["ramp"])
+    failure = frame["t_s"].iloc[-1]  # the simulation's failure, its last row
+    shown = 1e-7 * failure  # the ends are printed with 8 significant digits
+    assert float(match[1]) - shown <= failure <= float(match[2]) + shown

@@ -1,6 +1,8 @@
 """``granflow forecast``: the peak of a rate-controlled start-up, or the failure of a
 force-controlled run, forecast from the record up to a cut time."""
 
+import numpy as np
+
 import granflow
 from granflow.cli._common import add_command, quantity
 
@@ -76,9 +78,10 @@ def _run_forecast(args):
         if run.control == "rate" or velocity is not None:
             result = granflow.forecast_peak(run, velocity=velocity, until=until, level=args.level)
         else:
+            slip = _slip_from_loading_start(run)
             result = granflow.forecast_failure(
                 run.t,
-                run.slip,
+                slip,
                 run.force,
                 until=until,
                 level=args.level,
@@ -93,3 +96,21 @@ def _run_forecast(args):
                 f"{result.probability_within(within):.3f}"
             )
     return 0
+
+
+def _slip_from_loading_start(run):
+    """The run's slip counted from its first sample [m] where the record starts with the
+    loading (its first force within 1 % of its largest): a simulation's CSV carries the
+    model's slip x, which starts at x0, and the forecast counts slip from the loading's start.
+    Says so when it subtracts; other records are passed as they are (the forecast explains)."""
+    slip, force = np.asarray(run.slip, dtype=float), np.asarray(run.force, dtype=float)
+    if slip.size == 0 or not np.isfinite(slip[0]) or slip[0] == 0.0:
+        return slip
+    largest = np.nanmax(np.abs(force)) if np.isfinite(force).any() else np.nan
+    if not (np.isfinite(force[0]) and abs(force[0]) <= 0.01 * largest):
+        return slip
+    print(
+        f"{run.name}: the slip starts at {slip[0] * 1e6:.4g} µm where the loading starts; "
+        "counted from there (subtracted)"
+    )
+    return slip - slip[0]
