@@ -245,22 +245,25 @@ def current_rate_forecast(
     return _velocity_forecast("current rate", t, slip, until, level, window, _CURRENT)
 
 
-def _ffm_rss(time, slip, until, leads, powers):
+def _ffm_rss(time, slip, until, leads, powers, log_ratio=None):
     """The residual sum of squares of the slip's power law at each (lead, p) pair [m^2],
-    offset and amplitude (non-negative) in closed form."""
+    offset and amplitude (non-negative) in closed form; ``log_ratio``, ln((until + lead -
+    time) / until) for these leads, may be given when it is already known."""
     centred = slip - slip.mean()
-    remaining = (until + leads)[:, None] - time[None, :]
-    log_ratio = np.log(remaining / until)
-    exponent = (1.0 - powers)[:, None]
-    near = np.abs(exponent) < 0.1
-    with np.errstate(over="ignore"):
-        basis = np.where(near, np.expm1(exponent * log_ratio), np.exp(exponent * log_ratio))
+    if log_ratio is None:
+        log_ratio = _log_ratio(time, until, leads)
+    exponent = 1.0 - np.asarray(powers, dtype=float)
+    near, zero = np.abs(exponent) < 0.1, np.abs(exponent) < 1e-9  # one (lead, p) a row
     # (tau / T)^(1 - p) / (p - 1): the slip of v = (tau / T)^(-p) / T up to a constant, which
     # the offset takes; near p = 1 with the constant -1 / (p - 1) kept (expm1), whose digits
     # the varying part would lose; -ln(tau / T) at p = 1
-    basis = basis / np.where(np.abs(exponent) < 1e-9, 1.0, -exponent)
-    basis = np.where(np.abs(exponent) < 1e-9, -log_ratio, basis)
-    basis = basis - basis.mean(axis=1, keepdims=True)
+    basis = exponent[:, None] * log_ratio
+    with np.errstate(over="ignore"):
+        basis[~near] = np.exp(basis[~near])
+        basis[near] = np.expm1(basis[near])
+    basis /= np.where(zero, 1.0, -exponent)[:, None]
+    basis[zero] = -log_ratio[zero]
+    basis -= basis.mean(axis=1, keepdims=True)
     norm = np.sum(basis * basis, axis=1)
     projection = basis @ centred
     ok = (projection > 0) & np.isfinite(norm) & (norm > 0)
@@ -268,30 +271,46 @@ def _ffm_rss(time, slip, until, leads, powers):
     return np.maximum(float(centred @ centred) - gain, 0.0)
 
 
+def _log_ratio(time, until, leads):
+    """ln((until + lead - time) / until) for each lead (rows) and time (columns)."""
+    return np.log(((until + leads)[:, None] - time[None, :]) / until)
+
+
 def _ffm_profile(time, slip, until):
     """rss(leads): the power law's least residual sum of squares over p at each lead, p on
-    a grid of 10 from 0.1 to 8 and then by golden section in ln p about the grid's least;
-    and the p of each (a function of the leads too)."""
+    a grid of 10 from 0.1 to 8 and then by golden section in ln p about the grid's least
+    (one new evaluation an iteration: the other point is the previous one's); and the p of
+    each (a function of the leads too)."""
     grid = np.log(np.geomspace(_POWERS[0], _POWERS[-1], 10))
     golden = 0.5 * (math.sqrt(5.0) - 1.0)
 
     def solve(leads):
-        values = np.array([_ffm_rss(time, slip, until, leads, np.full(leads.size, math.exp(g)))
-                           for g in grid])  # fmt: skip
+        log_ratio = _log_ratio(time, until, leads)
+
+        def rss(log_power):
+            return _ffm_rss(time, slip, until, leads, np.exp(log_power), log_ratio)
+
+        values = np.array([rss(np.full(leads.size, g)) for g in grid])
         k = np.argmin(values, axis=0)
         lo = grid[np.maximum(k - 1, 0)]
         hi = grid[np.minimum(k + 1, grid.size - 1)]
+        x1, x2 = hi - golden * (hi - lo), lo + golden * (hi - lo)
+        f1, f2 = rss(x1), rss(x2)
         for _ in range(18):
-            x1 = hi - golden * (hi - lo)
-            x2 = lo + golden * (hi - lo)
-            f1 = _ffm_rss(time, slip, until, leads, np.exp(x1))
-            f2 = _ffm_rss(time, slip, until, leads, np.exp(x2))
-            hi = np.where(f1 < f2, x2, hi)
-            lo = np.where(f1 < f2, lo, x1)
+            left = f1 < f2  # the least lies in [lo, x2]: x1 becomes the new x2
+            hi, lo = np.where(left, x2, hi), np.where(left, lo, x1)
+            fresh = np.where(left, hi - golden * (hi - lo), lo + golden * (hi - lo))
+            f_new = rss(fresh)
+            x1, x2, f1, f2 = (
+                np.where(left, fresh, x2),
+                np.where(left, x1, fresh),
+                np.where(left, f_new, f2),
+                np.where(left, f1, f_new),
+            )
         best = 0.5 * (lo + hi)
-        rss = _ffm_rss(time, slip, until, leads, np.exp(best))
+        least = rss(best)
         floor = values[k, np.arange(leads.size)]
-        return np.minimum(rss, floor), np.where(rss <= floor, np.exp(best), np.exp(grid[k]))
+        return np.minimum(least, floor), np.where(least <= floor, np.exp(best), np.exp(grid[k]))
 
     return solve
 
