@@ -146,3 +146,33 @@ def test_a_header_of_delimiters_only_is_an_error_naming_its_line(tmp_path):
     path = write(tmp_path, "comma.txt", ",")
     with pytest.raises(granflow.FileFormatError, match=r"comma\.txt, line 1: the header line"):
         granflow.read_runs(path)
+
+
+# --------------------------------------------------------------------------- the long fuzz run
+
+
+def test_a_stray_carriage_return_before_a_quoted_cell_is_no_crash(tmp_path):
+    """The long fuzz run found it: a lone carriage return inserted before the first line of
+    a RheoCompass export, whose first line quotes a cell, raised the csv module's own
+    error. It is a space now."""
+    head = '\rProject:\t"Viscosity Curve | DESKTOP, 8/1/2019 | 1"\t\t\n'
+    body = "Time [s]\tTorque [mN m]\tDeflection Angle [mrad]\n0.5\t1.25\t0.5\n1.5\t2.25\t1.5\n"
+    path = write(tmp_path, "cr.txt", head + body)
+    try:
+        runs = granflow.read_runs(path)
+    except granflow.FileFormatError as exc:
+        assert str(path) in str(exc) and "line " in str(exc)
+    else:
+        (run,) = runs
+        assert run.t.tolist() == [0.5, 1.5]
+
+
+def test_a_cell_of_a_megabyte_is_quoted_cut_short(tmp_path):
+    """A cell far past the csv module's field limit (128 KiB) is read as the text it is, kept
+    as NaN with its line; the message quotes its first 40 characters only."""
+    cell = "x" * 1_000_000
+    path = write(tmp_path, "huge.csv", f't_s,slip_m,force_N\n0,"{cell}",1\n1,2,3\n')
+    (run,) = granflow.read_runs(path)
+    assert np.isnan(run.slip[0]) and run.slip[1] == 2.0
+    (problem,) = run.problems
+    assert "line 2" in problem and len(problem) < 200

@@ -54,9 +54,18 @@ def sniff_delimiter(lines):
 
 
 def split(line, delimiter):
-    """The cells of one line (quoted fields allowed), right-stripped of empty trailing cells."""
+    """The cells of one line (quoted fields allowed), right-stripped of empty trailing cells.
+
+    A stray carriage return inside the line (a line end of another system) is a space; a line
+    the csv module refuses (a field past its size limit) is split at every delimiter, so that
+    what is wrong with it is found, and named with its line, where its cells are read."""
     if '"' in line:
-        cells = next(csv.reader([line], delimiter=delimiter, strict=False), [])
+        try:
+            cells = next(
+                csv.reader([line.replace("\r", " ")], delimiter=delimiter, strict=False), []
+            )
+        except csv.Error:
+            cells = line.split(delimiter)
     else:
         cells = line.split(delimiter)
     while cells and not cells[-1].strip():
@@ -194,6 +203,17 @@ def line_list(lines, most=5):
     return ("line " if lines.size == 1 else "lines ") + ", ".join(items) + more
 
 
+#: The longest cell text a message quotes [characters]; a longer one is cut, with "…".
+SHOWN_CELL = 40
+
+
+def _shown_cell(cell):
+    """A cell as a message quotes it: its repr, cut after :data:`SHOWN_CELL` characters (a
+    damaged file may hold a cell of a megabyte)."""
+    text = str(cell)
+    return repr(text if len(text) <= SHOWN_CELL else text[:SHOWN_CELL] + "…")
+
+
 def _cells_problem(name, what, mask, line_numbers, example=""):
     """ "column 'Torque': 3 missing values kept as NaN, first at line 2 (lines 2-4)"."""
     lines = line_numbers[mask]
@@ -322,7 +342,7 @@ def read_block(
             problems.append((position, _cells_problem(name, "missing", missing, line_numbers)))
         if invalid.any():
             index = int(np.argmax(invalid))
-            example = repr(column.iloc[index])
+            example = _shown_cell(column.iloc[index])
             if strict:
                 raise fail(
                     source,
@@ -333,7 +353,7 @@ def read_block(
                 (position, _cells_problem(name, "invalid", invalid, line_numbers, example))
             )
         if infinite.any():
-            example = repr(str(column.iloc[int(np.argmax(infinite))]).strip())
+            example = _shown_cell(str(column.iloc[int(np.argmax(infinite))]).strip())
             problems.append(
                 (position, _cells_problem(name, "non-finite", infinite, line_numbers, example))
             )

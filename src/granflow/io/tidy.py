@@ -407,7 +407,11 @@ def _refuse_wide_rows(rows, header, path, first_line):
     import csv
 
     text = bytes(rows).decode("utf-8").splitlines()
-    for number, cells in enumerate(csv.reader(text), start=first_line):
+    for number, line in enumerate(text, start=first_line):
+        try:
+            cells = next(csv.reader([line]), [])
+        except csv.Error:  # a field past the csv module's limit, say
+            cells = line.split(",")
         while len(cells) > header and not cells[-1].strip():
             cells.pop()
         if len(cells) > header:
