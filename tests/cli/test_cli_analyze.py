@@ -1,9 +1,11 @@
 """The analyze and demo commands: exit codes, messages, help, interruption and --resume."""
 
 import contextlib
+import html
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -294,6 +296,38 @@ def test_demo_end_to_end_recovers_the_constants_it_was_made_with(demo):
     assert results["forecasts"][0]["converged"] is True
 
 
+def _table_rows(page, anchor):
+    """The header and the rows of the report's table ``id=anchor``, as cell texts."""
+    table = page[page.index(f'id="{anchor}"') :]
+    table = table[: table.index("</table>")]
+    rows = re.findall(r"<tr[^>]*>(.*?)</tr>", table, flags=re.S)
+
+    def cells(row, tag):
+        found = re.findall(rf"<{tag}[^>]*>(.*?)</{tag}>", row, flags=re.S)
+        return [html.unescape(re.sub(r"<[^>]+>", "", cell)).strip() for cell in found]
+
+    return cells(rows[0], "th"), [cells(row, "td") for row in rows[1:]]
+
+
+def test_the_run_tables_chi2_column_holds_one_quantity(demo):
+    """χ²ₙ once held a normalised χ² for start-ups but a residual variance in mN² for the
+    switch (6.94×10⁻⁴) and in µm² for creep: now the switch's start-up gives its normalised
+    χ² (about 1 for a fit to the noise) and a creep run none; creep's τ_c below the sampling
+    interval is said to be unresolved, not quoted as 0.0151 s."""
+    output, _, _ = demo
+    page = (output / "report.html").read_text(encoding="utf-8")
+    header, rows = _table_rows(page, "run-table")
+    column = header.index("χ²n")
+    (switch,) = [row for row in rows if row[0].startswith("fig3c_switch")]
+    assert 0.3 < float(switch[column]) < 3.0
+    creeps = [row for row in rows if row[0].startswith("fig3b_creep")]
+    assert len(creeps) == 2
+    assert all("no Eq. 3 fit" in " ".join(row) and len(row) < len(header) for row in creeps)
+    creep = page[page.index('<section id="creep">') :]
+    creep = creep[: creep.index("</section>")]
+    assert creep.count("below the sampling interval: not resolved") == 2
+
+
 def test_demo_report_opens_in_chromium_with_every_figure(demo, browser):  # noqa: F811
     output, _, _ = demo
     results = json.loads((output / "results.json").read_text(encoding="utf-8"))
@@ -320,9 +354,6 @@ def test_demo_report_opens_in_chromium_with_every_figure(demo, browser):  # noqa
 def test_demo_report_opens_with_its_verdicts(demo):
     """The summary states each verdict with numbers and links to its section; Fig. 2a shows
     the three preparations of one state; the preparation spread holds a, α and F_d."""
-    import html
-    import re
-
     output, _, _ = demo
     page = (output / "report.html").read_text(encoding="utf-8")
     results = json.loads((output / "results.json").read_text(encoding="utf-8"))
