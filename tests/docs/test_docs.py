@@ -180,6 +180,20 @@ _PAGE_WIDTH = """
 return {scroll: document.documentElement.scrollWidth,
         client: document.documentElement.clientWidth};
 """
+#: The boxes around each image that would clip it (overflow not visible), by tag and class.
+_CLIPPING_BOXES = """
+var found = [];
+Array.from(document.images).forEach(function (img) {
+  for (var box = img.parentElement; box; box = box.parentElement) {
+    var style = getComputedStyle(box);
+    if (style.overflowY !== 'visible' || style.overflowX === 'hidden') {
+      var name = box.tagName + '.' + box.className;
+      if (found.indexOf(name) < 0) { found.push(name); }
+    }
+  }
+});
+return found;
+"""
 _PRE_LAYOUT = """
 return Array.from(document.querySelectorAll('pre')).map(function (pre) {
   return {scroll: pre.scrollWidth, box: pre.clientWidth, text: pre.textContent.slice(0, 60)};
@@ -240,6 +254,16 @@ def test_site_builds_runs_every_example_and_opens_cleanly(tmp_path, browser):  #
             assert width["scroll"] <= width["client"], (relative, width)
     finally:
         browser.set_window_size(1400, 900)
+    # in print no figure sits in a box that clips it: the theme's scrolling containers once
+    # printed as one page-high box, cutting a gallery figure off at the sheet's end
+    browser.execute_cdp_cmd("Emulation.setEmulatedMedia", {"media": "print"})
+    try:
+        for relative in ("auto_examples/plot_fig2c_amontons.html", "user_guide/physics.html"):
+            page_problems(browser, html_dir / relative)
+            clipping = browser.execute_script(_CLIPPING_BOXES)
+            assert clipping == [], (relative, clipping)
+    finally:
+        browser.execute_cdp_cmd("Emulation.setEmulatedMedia", {"media": ""})
 
 
 def test_link_checker_sees_a_missing_page_a_missing_anchor_and_a_cdn(tmp_path):
