@@ -1,8 +1,6 @@
 """``granflow forecast``: the peak of a rate-controlled start-up, or the failure of a
 force-controlled run, forecast from the record up to a cut time."""
 
-import numpy as np
-
 import granflow
 from granflow.cli._common import add_command, quantity
 
@@ -103,6 +101,8 @@ def _slip_from_loading_start(run):
     loading (its first force within 1 % of its largest): a simulation's CSV carries the
     model's slip x, which starts at x0, and the forecast counts slip from the loading's start.
     Says so when it subtracts; other records are passed as they are (the forecast explains)."""
+    import numpy as np
+
     slip, force = np.asarray(run.slip, dtype=float), np.asarray(run.force, dtype=float)
     if slip.size == 0 or not np.isfinite(slip[0]) or slip[0] == 0.0:
         return slip

@@ -114,13 +114,13 @@ def plot_corner(posterior: PosteriorResult, **kwargs: Any) -> Figure:
         raise ImportError(
             "plot_corner needs corner: install the extra with `pip install granflow[mcmc]`"
         ) from exc
-    scales, labels = [], []
+    factors, labels = [], []
     for name in posterior.names:
         scale, unit = _display_of_parameter(name)
-        scales.append(scale)
+        factors.append(scale)
         symbol = _SYMBOLS.get(name, name)
         labels.append(f"{symbol} [{unit}]" if unit not in ("", "1") else symbol)
-    scales = np.asarray(scales, dtype=float)
+    scales = np.asarray(factors, dtype=float)
     options = {
         "labels": labels,
         "truths": [
