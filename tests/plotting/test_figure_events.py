@@ -88,6 +88,29 @@ def test_the_forecast_band_is_visible_on_its_time_axis():
     assert 2 * band[0] > 0.2 * (high - low)  # the widest band fills a fifth of the axis
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert not any("voight" in t for t in legend)
+    assert not [t.get_text() for t in ax.texts if "axis" in t.get_text()]  # nothing left out
+
+
+def test_a_baseline_that_leaves_the_forecast_axis_is_said_to():
+    """The axis keeps to half the observed time either side, so that Voight's law far above
+    does not squash the model's band; the figure says where it went (it once just left)."""
+    cuts = np.array([80.0, 100.0, 120.0])
+    observed = 204.0
+    model = {
+        "time": observed + 0 * cuts,
+        "low": observed - 2 + 0 * cuts,
+        "high": observed + 2 + 0 * cuts,
+    }
+    voight = {"time": np.array([900.0, 500.0, 250.0]), "low": np.array([600.0, 400.0, 230.0]),
+              "high": np.array([1500.0, 700.0, 280.0])}  # fmt: skip
+    running = gf.forecast.ForecastSeries(
+        cuts=cuts, methods={"model": model, "voight": voight}, observed=observed, level=0.9
+    )
+    ax = plot_forecast(running)
+    assert ax.get_ylim()[1] < 1500.0
+    notes = [t.get_text() for t in ax.texts]
+    assert any("Voight's law above the axis (up to 1500 s)" in note for note in notes), notes
+    assert not any("model" in note for note in notes)
 
 
 def test_the_stability_map_cells_agree_with_its_boundary():

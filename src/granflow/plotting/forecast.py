@@ -77,6 +77,10 @@ def plot_forecast(result: Any, ax: Axes | None = None) -> Axes:
     span = _span(result)
     if span is not None:
         ax.set_ylim(*span)
+        beyond = _beyond(result, span)
+        if beyond:
+            ax.text(0.01, 0.99, "\n".join(beyond), transform=ax.transAxes, va="top", ha="left",
+                    fontsize="x-small", color="0.3")  # fmt: skip
     ax.set_xlabel("cut time (the last record time used) [s]")
     ax.set_ylabel(r"forecast failure time $t_\mathrm{f}$ [s]")
     ax.legend(fontsize="small", loc="upper right")
@@ -87,6 +91,23 @@ def plot_forecast(result: Any, ax: Axes | None = None) -> Axes:
         if widths.size and np.max(widths) < (span[1] - span[0]) / 20:
             _deviation_inset(ax, cuts, model, float(result.observed), level)
     return ax
+
+
+def _beyond(result: Any, span: tuple[float, float]) -> list[str]:
+    """A line for each method whose forecasts or band leave the axis (its span keeps far-off
+    baselines from squashing the model's band): which way, and how far they reach [s]."""
+    lines = []
+    for name, series in result.methods.items():
+        values = np.concatenate(
+            [np.asarray(series[k], dtype=float) for k in ("time", "low", "high")]
+        )
+        values = values[np.isfinite(values)]
+        shown = _NAMES.get(name, name)
+        if values.size and values.max() > span[1]:
+            lines.append(f"↑ {shown} above the axis (up to {values.max():.4g} s)")
+        if values.size and values.min() < span[0]:
+            lines.append(f"↓ {shown} below the axis (down to {values.min():.4g} s)")
+    return lines
 
 
 def _deviation_inset(ax: Axes, cuts: Any, model: Any, observed: float, level: str) -> None:
