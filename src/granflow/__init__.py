@@ -75,18 +75,18 @@ if TYPE_CHECKING:  # the public names as type checkers and editors see them
     from granflow.model.special import scaled_ei_diff as scaled_ei_diff
     from granflow.simulation.driver import simulate as simulate
     from granflow.simulation.options import DirectEffect as DirectEffect
-    from granflow.simulation.protocol import Protocol as Protocol
+    from granflow.model.protocol import Protocol as Protocol
     from granflow.simulation.results import Event as Event
     from granflow.simulation.results import SimulationResult as SimulationResult
-    from granflow.simulation.segments import Force as Force
-    from granflow.simulation.segments import ForceRamp as ForceRamp
-    from granflow.simulation.segments import ForceSteps as ForceSteps
-    from granflow.simulation.segments import ForceTable as ForceTable
-    from granflow.simulation.segments import Hold as Hold
-    from granflow.simulation.segments import SwitchToForce as SwitchToForce
-    from granflow.simulation.segments import Velocity as Velocity
-    from granflow.simulation.segments import VelocitySteps as VelocitySteps
-    from granflow.simulation.segments import VelocityTable as VelocityTable
+    from granflow.model.segments import Force as Force
+    from granflow.model.segments import ForceRamp as ForceRamp
+    from granflow.model.segments import ForceSteps as ForceSteps
+    from granflow.model.segments import ForceTable as ForceTable
+    from granflow.model.segments import Hold as Hold
+    from granflow.model.segments import SwitchToForce as SwitchToForce
+    from granflow.model.segments import Velocity as Velocity
+    from granflow.model.segments import VelocitySteps as VelocitySteps
+    from granflow.model.segments import VelocityTable as VelocityTable
     from granflow.simulation.stability import StabilityMap as StabilityMap
     from granflow.simulation.stability import stability_map as stability_map
 

@@ -169,7 +169,7 @@ def test_the_failure_time_under_an_erroneous_history(kind):
     *true* history reaches F_peak; the forecast dates it by the fitted history's force at
     that moment (and maps it back to F_peak for the time profile). Checked against brentq
     on the true history."""
-    from granflow.forecast.failure import loading_error
+    from granflow.forecast.quasistatic import loading_error
     from granflow.forecast.loading import fit_loading
     from granflow.forecast.models import Continuation
 
@@ -209,7 +209,7 @@ def test_an_irregular_staircase_keeps_the_history_error_off_its_early_steps():
     only, not as a tilt c0 + c1 u over the early steps (the quasi-static forecast gives every
     level its own coordinate: tests/forecast/test_forecast_steps.py), and the failure (the
     start of the 12th step, the first above F_peak) lies in the interval."""
-    from granflow.forecast.failure import loading_error
+    from granflow.forecast.quasistatic import loading_error
 
     strength = gf.peak(PARAMS).force
     step, duration = strength / 11.5, 15.0
@@ -241,10 +241,10 @@ def test_a_noise_free_force_column_gives_the_forecast_without_the_history_error(
     """An exact ramp column has a history error of ~1e-19 N: the forecast with the two
     nuisance coordinates must be the one without them (intervals to 1e-9; the best fit,
     re-solved once more with them, to the optimiser's tolerance)."""
-    from granflow.forecast import failure
+    from granflow.forecast import quasistatic
 
     t, slip, force, failure_time = record
-    inner = failure.loading_error
+    inner = quasistatic.loading_error
 
     def without_error(loading, time, each_level=False):
         root, basis, anchor, slope = inner(loading, time, each_level)
@@ -253,7 +253,7 @@ def test_a_noise_free_force_column_gives_the_forecast_without_the_history_error(
     for cut in (0.75, 0.9):
         with_error = gf.forecast_failure(t, slip, force, until=cut * failure_time)
         with monkeypatch.context() as patch:
-            patch.setattr(failure, "loading_error", without_error)
+            patch.setattr(quasistatic, "loading_error", without_error)
             without = gf.forecast_failure(t, slip, force, until=cut * failure_time)
         assert with_error.sigma == pytest.approx(without.sigma, rel=1e-9)
         for name in ("time_interval", "force_interval"):

@@ -156,7 +156,7 @@ def staircase_edges(loading):
 
 def history_with_error(loading, root, z, ceiling, shift=(0.0, 0.0), edges=None):
     """The imposed force history: the fitted one plus its error (``root @ z``, the offset and
-    slope errors of :func:`~granflow.forecast.failure.loading_error`), and its continuation
+    slope errors of :func:`~granflow.forecast.quasistatic.loading_error`), and its continuation
     beyond the record (steps up to ``ceiling`` [N], then the last level).
 
     A staircase's edges (:func:`staircase_edges`, or ``edges``: its result) are known to

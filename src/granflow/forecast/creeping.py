@@ -14,6 +14,13 @@ from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
 from granflow.forecast.creep_model import CreepModel, creep_problem
 from granflow.forecast.inference import estimate, scan
+from granflow.forecast.quasistatic import (
+    NO_TREND,
+    loading_error,
+    no_date,
+    observed_dict,
+    quasi_static_fit,
+)
 from granflow.forecast.results import FailureForecast
 
 __all__ = ["forecast_creep"]
@@ -53,14 +60,6 @@ def _starts(model, quasi_static, floor):
 def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, observed, message):
     """The forecast with the direct effect of a checked record cut at ``until``: see
     :func:`granflow.forecast_failure`."""
-    from granflow.forecast.failure import (
-        NO_TREND,
-        loading_error,
-        no_date,
-        observed_dict,
-        quasi_static_fit,
-    )
-
     root, _, _, _ = loading_error(loading, time)
     fit_qs, peak_slip, trend = quasi_static_fit(time, slip, loading, prior, sigma)
     held = float(np.max(loading.force(time)))

@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from granflow.errors import FileFormatError, InvalidDataError
-from granflow.simulation.protocol import Protocol
-from granflow.simulation.segments import Velocity
+from granflow.model.protocol import Protocol
+from granflow.model.segments import Velocity
 
 __all__ = [
     "VelocityStepRecord",

@@ -3,7 +3,9 @@
 ``params`` (Params, MaterialConstants), ``special`` (the scaled exponential-integral kernel
 and its mpmath-generated tables), ``friction`` (Eq. 3 in slip and time, its Jacobian, the
 peak, limits and right-hand sides), ``geometry`` (the annular contact), ``units`` (the one
-unit table) and ``run`` (a record of force against time and slip, measured or simulated).
+unit table), ``run`` (a record of force against time and slip, measured or simulated) and
+``segments`` and ``protocol`` (an experiment's imposed history, which the readers and the
+simulator share; re-exported by :mod:`granflow.simulation`).
 Nothing here imports from the rest of granflow.
 """
 
