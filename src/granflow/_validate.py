@@ -126,11 +126,3 @@ def real_array(value: Any, name: str, unit: str = "") -> FloatArray:
             f"{name} must be finite, got {array[tuple(index)]}{_fmt_unit(unit)}{where}"
         )
     return array
-
-
-def same_shape(arrays, names):
-    """Raise InvalidParameterError unless all arrays have one shape."""
-    shapes = [np.shape(a) for a in arrays]
-    if len(set(shapes)) > 1:
-        listed = ", ".join(f"{n} {s}" for n, s in zip(names, shapes, strict=False))
-        raise InvalidParameterError(f"arrays must have the same shape, got {listed}")

@@ -22,14 +22,12 @@ from granflow._format import (
     real_number,
 )
 from granflow._json import json_safe
-from granflow.analysis.files import RESULTS_FILE
 from granflow.analysis.forecasts import RunForecast
 from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Material
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.values import Value, frozen_json
 from granflow.analysis.velocity_steps import VelocitySteps
-from granflow.errors import InvalidParameterError
 from granflow.fitting.results import FrozenMap
 from granflow.model.units import display_unit, to_display
 
@@ -289,13 +287,6 @@ class AnalysisResult(Value):
     def results(self) -> dict[str, Any]:
         """The content of ``results.json``: :meth:`to_dict` plus ``timing``."""
         return {**self.to_dict(), "timing": json_safe(self.timing)}
-
-    @property
-    def results_path(self) -> Path:
-        """``OUTPUT/results.json``."""
-        if self.output is None:
-            raise InvalidParameterError("this result was not written to a folder (output is None)")
-        return self.output / RESULTS_FILE
 
     @property
     def failed_runs(self) -> list[dict[str, Any]]:

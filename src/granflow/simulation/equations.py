@@ -20,7 +20,6 @@ load-point velocity).
 import math
 
 import numba
-import numpy as np
 
 __all__ = [
     "EVENTS",
@@ -289,8 +288,3 @@ def events(kind, t, y, p, g):
         _rsf_events(t, y, p, g)
     else:
         _slider_events(t, y, p, g)
-
-
-def empty_slider_parameters():
-    """A zeroed slider parameter vector."""
-    return np.zeros(SLIDER_PARAMETERS)

@@ -114,15 +114,6 @@ class RunState:
                     "this outcome depends on the machine)"
                 )
 
-    def transition(self):
-        """Count one stick-slip phase; bound their number."""
-        self.phases += 1
-        if self.phases > self.numerics.max_transitions:
-            raise WorkExceededError(
-                f"gave up after {self.numerics.max_transitions} stick-slip transitions "
-                "(max_transitions)"
-            )
-
     # -- the one clock
 
     def loaded(self):
