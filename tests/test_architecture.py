@@ -458,3 +458,72 @@ def test_the_private_name_rule_finds_one(tmp_path):
     path = tmp_path / "module.py"
     path.write_text("def f():\n    from granflow.forecast.failure import _helper\n")
     assert _private_names_imported(path) == [(2, "granflow.forecast.failure", "_helper")]
+
+
+#: ``summary`` names kept for another meaning until a file edited in parallel is merged:
+#: (module, class) -> why. Delete each with its alias.
+OTHER_SUMMARIES = {
+    ("granflow.fitting.statistics", "FitSummary"): (
+        "alias of fit_fields() still called by fitting/rsf_fit.py (issue 32)"
+    ),
+}
+
+
+def _summaries(modules=None):
+    """{(module, class): the node} of every ``summary`` a class defines or assigns."""
+    found = {}
+    for module, path in (modules or MODULES).items():
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ClassDef):
+                for item in node.body:
+                    named = isinstance(item, ast.FunctionDef) and item.name == "summary"
+                    assigned = isinstance(item, ast.Assign) and any(
+                        isinstance(target, ast.Name) and target.id == "summary"
+                        for target in item.targets
+                    )
+                    if named or assigned:
+                        found[(module, node.name)] = item
+    return found
+
+
+def odd_summaries(found):
+    """The ``summary`` of ``found`` (:func:`_summaries`) that are not a method of ``self``
+    alone returning ``str``, nor listed in :data:`OTHER_SUMMARIES`."""
+    return {
+        key: ast.unparse(item)[:60]
+        for key, item in found.items()
+        if key not in OTHER_SUMMARIES
+        and not (
+            isinstance(item, ast.FunctionDef)
+            and [arg.arg for arg in item.args.args] == ["self"]
+            and not (item.args.vararg or item.args.kwarg or item.args.kwonlyargs)
+            and item.returns is not None
+            and ast.unparse(item.returns) == "str"
+        )
+    }
+
+
+def test_summary_means_one_thing():
+    """``summary()`` is a result's short text (its key numbers with units, for a terminal):
+    a method of ``self`` alone that returns ``str``, everywhere."""
+    found = _summaries()
+    assert len(found) >= 3
+    assert odd_summaries(found) == {}
+    assert set(OTHER_SUMMARIES) <= set(found)  # an alias that has gone leaves the list
+
+
+def test_the_summary_rule_finds_another_meaning(tmp_path):
+    _write_package(
+        tmp_path,
+        {
+            "granflow/__init__.py": "",
+            "granflow/io/__init__.py": (
+                "class Table:\n    def summary(self) -> 'DataFrame':\n        return None\n"
+                "class Fields:\n    def summary(self, **changes) -> str:\n        return ''\n"
+                "class Alias:\n    summary = dict\n"
+                "class Text:\n    def summary(self) -> str:\n        return ''\n"
+            ),
+        },
+    )
+    odd = odd_summaries(_summaries(source_modules(tmp_path)))
+    assert set(odd) == {("granflow.io", name) for name in ("Table", "Fields", "Alias")}

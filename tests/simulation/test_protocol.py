@@ -4,7 +4,7 @@ import pytest
 
 import granflow as gf
 from granflow.model.units import QUANTITIES
-from granflow.simulation import protocol as protocol_module
+from granflow.model import protocol as protocol_module
 from granflow.simulation.segments import SEGMENT_TYPES
 
 

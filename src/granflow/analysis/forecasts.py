@@ -176,7 +176,7 @@ class RunForecast(Value):
             level=self.level,
         )
 
-    def summary(self):
+    def summary(self) -> str:
         """One line: the first and last forecasts against the observed failure (s)."""
         if self.reason is not None:
             return f"forecast {self.run}: none ({self.reason})"

@@ -222,7 +222,7 @@ def fit_curve(model, *, name, formula, units, start, x, y, sigma=None, held=None
             "covar": matrix({p: dict.fromkeys(free) for p in free}),
         }
     return CurveFitResult(
-        **stats.summary(**changes),
+        **stats.fit_fields(**changes),
         success=bool(solution.status > 0 and stats.invertible),
         message=message,
         sigma_known=sigma is not None,

@@ -64,11 +64,15 @@ class FitSummary:
     aic: float
     bic: float
 
-    def summary(self, **changes):
+    def fit_fields(self, **changes):
         """The :class:`FitSummary` fields as keyword arguments of a result (``changes``
         replace some of them)."""
         fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(FitSummary)}
         return {**fields, **changes}
+
+    #: Its old name, still called by ``fitting/rsf_fit.py`` (rewritten in parallel): delete
+    #: when that call reads ``fit_fields`` (issue 32). ``summary()`` is a result's text.
+    summary = fit_fields
 
 
 @dataclass(frozen=True, eq=False)

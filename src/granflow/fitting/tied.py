@@ -234,7 +234,7 @@ def solve_joint(spec, prepared, fits, domain, fixed, sigma_known, names_order, r
         success = False
         messages.append(verdict)
     return dict(
-        **stats.summary(),
+        **stats.fit_fields(),
         success=success,
         message="; ".join(messages),
         sigma_known=sigma_known,

@@ -365,8 +365,9 @@ class Campaign(HtmlReport):
         table = read_tidy(path)
         return cls(table.runs, table.problems)
 
-    def summary(self) -> pd.DataFrame:
-        """A pandas DataFrame with one row per run: name, points, control and metadata."""
+    def run_table(self) -> pd.DataFrame:
+        """A pandas DataFrame with one row per run: name, points, control and scalar
+        metadata (:meth:`to_frame` has one row per point; :meth:`report` is the text)."""
         import pandas as pd
 
         rows = []
