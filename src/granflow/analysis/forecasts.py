@@ -52,43 +52,18 @@ class ForecastCut(Value):
 
     cut: float
     time: float | None
-    time_interval: tuple = _NAN_PAIR
+    time_interval: tuple[float, float] = _NAN_PAIR
     force: float | None = None
-    force_interval: tuple = _NAN_PAIR
+    force_interval: tuple[float, float] = _NAN_PAIR
     message: str = ""
+
+    KEEP_INFINITIES = True  # an unbounded end is kept (see granflow._codec.encode)
 
     @property
     def width(self):
         """Width of the time interval [s] (inf when unbounded, NaN without a date)."""
         low, high = self.time_interval
         return high - low if self.time is not None else math.nan
-
-    def to_dict(self):
-        """JSON-safe mapping (SI units; an unbounded end kept, see
-        :func:`granflow.fitting.results.encode`)."""
-        return encode(
-            {
-                "cut": self.cut,
-                "time": self.time,
-                "time_interval": list(self.time_interval),
-                "force": self.force,
-                "force_interval": list(self.force_interval),
-                "message": self.message,
-            }
-        )
-
-    @classmethod
-    def from_dict(cls, saved):
-        """The cut of :meth:`to_dict`."""
-        saved = decode(saved, cls)
-        return cls(
-            cut=number(saved["cut"]),
-            time=None if saved["time"] is None else number(saved["time"]),
-            time_interval=_pair(saved["time_interval"]),
-            force=None if saved["force"] is None else number(saved["force"]),
-            force_interval=_pair(saved["force_interval"]),
-            message=saved.get("message", ""),
-        )
 
 
 @dataclass(frozen=True, eq=False)

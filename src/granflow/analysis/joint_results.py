@@ -74,16 +74,6 @@ class Estimate(Value):
 
         return format_value_error(self.value, self.stderr)
 
-    def to_dict(self) -> dict[str, Any]:
-        """``{"value", "stderr", "ci95": [low, high]}``."""
-        return json_safe({"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)})
-
-    @classmethod
-    def from_dict(cls, saved: Mapping[str, Any]) -> Estimate:
-        """The estimate of :meth:`to_dict`."""
-        low, high = saved.get("ci95") or (None, None)
-        return cls(value=saved.get("value"), stderr=saved.get("stderr"), ci95=(low, high))
-
 
 @dataclass(frozen=True, eq=False)
 class Material(Value, Mapping):
@@ -249,19 +239,6 @@ class FitJudgement(Value):
     noise: float
     chi2: float
 
-    def to_dict(self) -> dict[str, Any]:
-        """``{"noise", "chi2"}``."""
-        return json_safe({"noise": self.noise, "chi2": self.chi2})
-
-    @classmethod
-    def from_dict(cls, saved: Mapping[str, Any]) -> FitJudgement:
-        """The judgement of :meth:`to_dict`."""
-        return cls(noise=_float(saved.get("noise")), chi2=_float(saved.get("chi2")))
-
-
-def _float(value):
-    return float("nan") if value is None else float(value)
-
 
 @dataclass(frozen=True, eq=False)
 class GoodnessOfFit(Value):
@@ -282,40 +259,13 @@ class GoodnessOfFit(Value):
         How the noise and the χ² were found.
     """
 
-    runs: FrozenMap
+    runs: Mapping[str, FitJudgement]
     median: float
     min: float
     max: float
     limit: float
-    poor: tuple = ()
+    poor: tuple[str, ...] = ()
     method: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        """The ``goodness_of_fit`` entry of ``results.json``."""
-        return json_safe(
-            {
-                "runs": {name: row.to_dict() for name, row in self.runs.items()},
-                "median": self.median,
-                "min": self.min,
-                "max": self.max,
-                "limit": self.limit,
-                "poor": list(self.poor),
-                "method": self.method,
-            }
-        )
-
-    @classmethod
-    def from_dict(cls, saved: Mapping[str, Any]) -> GoodnessOfFit:
-        """The judgement of :meth:`to_dict`."""
-        return cls(
-            runs=FrozenMap({k: FitJudgement.from_dict(v) for k, v in saved["runs"].items()}),
-            median=_float(saved["median"]),
-            min=_float(saved["min"]),
-            max=_float(saved["max"]),
-            limit=_float(saved["limit"]),
-            poor=tuple(saved.get("poor", ())),
-            method=str(saved.get("method", "")),
-        )
 
 
 # --------------------------------------------------------------------------- the analyses

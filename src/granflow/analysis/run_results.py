@@ -13,6 +13,7 @@ inverts it (through :meth:`granflow.FitResult.from_dict` and
 """
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 from granflow._json import json_safe
 from granflow.analysis.values import Value
@@ -38,11 +39,6 @@ __all__ = [
 def optional_number(value):
     """A float from JSON, None staying None."""
     return None if value is None else float(value)
-
-
-def _done(fields, warnings):
-    """A successful run's dict: its fields, then its warnings, status and reason."""
-    return {**fields, "warnings": list(warnings), "status": "ok", "reason": None}
 
 
 # --------------------------------------------------------------------------- start-up
@@ -72,31 +68,6 @@ class StartupWindow(Value):
     points: int
     non_finite: int = 0
 
-    def to_dict(self, include_arrays=False):
-        """JSON-safe mapping."""
-        return json_safe(
-            {
-                "abscissa": self.abscissa,
-                "elastic_points": self.elastic_points,
-                "start": self.start,
-                "stop": self.stop,
-                "points": self.points,
-                "non_finite": self.non_finite,
-            }
-        )
-
-    @classmethod
-    def from_dict(cls, saved):
-        """The window of :meth:`to_dict`."""
-        return cls(
-            abscissa=saved["abscissa"],
-            elastic_points=int(saved["elastic_points"]),
-            start=number(saved["start"]),
-            stop=number(saved["stop"]),
-            points=int(saved["points"]),
-            non_finite=int(saved.get("non_finite", 0)),
-        )
-
 
 @dataclass(frozen=True, eq=False)
 class ObservedPeak(Value):
@@ -112,15 +83,6 @@ class ObservedPeak(Value):
 
     force: float
     slip: float
-
-    def to_dict(self, include_arrays=False):
-        """JSON-safe mapping."""
-        return json_safe({"force": self.force, "slip": self.slip})
-
-    @classmethod
-    def from_dict(cls, saved):
-        """The peak of :meth:`to_dict`."""
-        return cls(force=number(saved["force"]), slip=number(saved["slip"]))
 
 
 def _peak_from_dict(saved):
@@ -219,29 +181,7 @@ class CreepResult(Value):
     warnings: tuple = ()
 
     kind = "creep"
-
-    def to_dict(self, include_arrays=False):
-        """JSON-safe mapping (the fitted points too with ``include_arrays``)."""
-        fields = {
-            "fit": self.fit.to_dict(include_arrays=include_arrays),
-            "stress": self.stress,
-            "creep_start": self.creep_start,
-            "creep_slip": self.creep_slip,
-            "duration": self.duration,
-        }
-        return json_safe(_done(fields, self.warnings))
-
-    @classmethod
-    def from_dict(cls, saved):
-        """The result of :meth:`to_dict`."""
-        return cls(
-            fit=CurveFitResult.from_dict(saved["fit"]),
-            stress=number(saved["stress"]),
-            creep_start=number(saved["creep_start"]),
-            creep_slip=number(saved["creep_slip"]),
-            duration=number(saved["duration"]),
-            warnings=tuple(saved.get("warnings", ())),
-        )
+    JSON_EXTRA: ClassVar = {"status": "ok", "reason": None}
 
 
 # --------------------------------------------------------------------------- stress ramp
@@ -273,31 +213,6 @@ class RampFailure(Value):
     slip: float | None
     force: float
     runaway_time: float
-
-    def to_dict(self, include_arrays=False):
-        """JSON-safe mapping."""
-        return json_safe(
-            {
-                "criterion": self.criterion,
-                "index": self.index,
-                "time": self.time,
-                "slip": self.slip,
-                "force": self.force,
-                "runaway_time": self.runaway_time,
-            }
-        )
-
-    @classmethod
-    def from_dict(cls, saved):
-        """The failure of :meth:`to_dict`."""
-        return cls(
-            criterion=saved["criterion"],
-            index=int(saved["index"]),
-            time=number(saved["time"]),
-            slip=optional_number(saved["slip"]),
-            force=number(saved["force"]),
-            runaway_time=number(saved["runaway_time"]),
-        )
 
 
 @dataclass(frozen=True, eq=False)
@@ -376,37 +291,6 @@ class SwitchEvent(Value):
     factor: float | None
     hold_time: float
     outcome: str
-
-    def to_dict(self, include_arrays=False):
-        """JSON-safe mapping."""
-        return json_safe(
-            {
-                "switch_time": self.switch_time,
-                "found_by": self.found_by,
-                "index": self.index,
-                "velocity": self.velocity,
-                "switch_force": self.switch_force,
-                "imposed_force": self.imposed_force,
-                "factor": self.factor,
-                "hold_time": self.hold_time,
-                "outcome": self.outcome,
-            }
-        )
-
-    @classmethod
-    def from_dict(cls, saved):
-        """The event of :meth:`to_dict`."""
-        return cls(
-            switch_time=number(saved["switch_time"]),
-            found_by=saved["found_by"],
-            index=int(saved["index"]),
-            velocity=number(saved["velocity"]),
-            switch_force=number(saved["switch_force"]),
-            imposed_force=number(saved["imposed_force"]),
-            factor=optional_number(saved["factor"]),
-            hold_time=number(saved["hold_time"]),
-            outcome=saved["outcome"],
-        )
 
 
 @dataclass(frozen=True, eq=False)

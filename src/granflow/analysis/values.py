@@ -1,28 +1,31 @@
 """What the frozen result types of :mod:`granflow.analysis` share.
 
-:class:`Value` gives them equality by content (their ``to_dict()``); :func:`as_json` and
+:class:`Value` gives them the one codec of :mod:`granflow._codec` and equality by content
+(their ``to_dict()``); :func:`as_json` and
 :func:`frozen_json` move between fitting results, their JSON and read-only JSON.
 """
 
 from collections.abc import Mapping
 
-from granflow.fitting.results import FrozenMap
+from granflow._codec import Codec, FrozenMap
 
 __all__ = ["Value", "as_json", "frozen_json"]
 
 
-class Value:
+class Value(Codec):
     """Base of the frozen results: two are equal when they are of one type and their
-    ``to_dict()`` are equal (so a result rebuilt by ``from_dict`` equals the original)."""
+    ``to_dict()`` are equal (so a result rebuilt by ``from_dict`` equals the original).
+
+    The one codec and equality of :mod:`granflow._codec`, with the analysis's JSON rule:
+    ``to_dict()`` is the compact form by default (``results.json`` holds the fits without
+    their arrays) and writes NaN and infinities as null.
+    """
 
     __slots__ = ()
 
-    def __eq__(self, other):
-        if type(other) is not type(self):
-            return NotImplemented
-        return self.to_dict() == other.to_dict()
-
-    __hash__ = None  # type: ignore[assignment]  # equal by value: unhashable
+    EQUAL_BY_JSON = True
+    INCLUDE_ARRAYS = False
+    KEEP_INFINITIES = False
 
 
 def as_json(result, **options):
