@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from granflow.fitting.results import ValueEquality, number
+from granflow.fitting.results import Codec, ValueEquality, number
 
 __all__ = ["AmontonsTest", "RelationTest", "amontons_test"]
 
@@ -27,7 +27,7 @@ LEVEL = 0.05
 
 
 @dataclass(frozen=True, eq=False)
-class RelationTest(ValueEquality):
+class RelationTest(Codec):
     """One relation of Amontons' law tested on the per-load means.
 
     Attributes
@@ -49,27 +49,6 @@ class RelationTest(ValueEquality):
     statistic: float
     df: int
     p_value: float
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe mapping."""
-        return {
-            "name": self.name,
-            "mean": self.mean,
-            "statistic": self.statistic,
-            "df": self.df,
-            "p_value": self.p_value,
-        }
-
-    @classmethod
-    def from_dict(cls, saved: Mapping[str, Any]) -> RelationTest:
-        """The test of :meth:`to_dict`."""
-        return cls(
-            name=str(saved["name"]),
-            mean=number(saved["mean"]),
-            statistic=number(saved["statistic"]),
-            df=int(saved["df"]),
-            p_value=number(saved["p_value"]),
-        )
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,20 +1,19 @@
 """The parts of a simulation's record: its events, its clock (:class:`Origin`) and its
 segments, each frozen with a JSON-safe ``to_dict()`` and a ``from_dict()`` that inverts it
-(non-finite numbers written as None)."""
+(:mod:`granflow._codec`; non-finite numbers written as None, read back as NaN)."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import dataclass
+
+from granflow._codec import Codec
 
 __all__ = [
     "ORIGINS",
     "Event",
     "Origin",
     "SegmentRecord",
-    "fields_of",
     "json_number",
     "number_or",
 ]
@@ -38,12 +37,8 @@ def number_or(value, missing=math.nan):
     return missing if value is None else float(value)
 
 
-def fields_of(instance):
-    return {item.name: getattr(instance, item.name) for item in fields(instance)}
-
-
-@dataclass(frozen=True, slots=True)
-class Event:
+@dataclass(frozen=True, slots=True, eq=False)
+class Event(Codec):
     """Something that happened during a run.
 
     Attributes
@@ -67,6 +62,8 @@ class Event:
         A short explanation.
     """
 
+    KEEP_INFINITIES = False
+
     kind: str
     time: float
     slip: float
@@ -75,25 +72,9 @@ class Event:
     segment: int
     message: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
-        return fields_of(self)
 
-    @classmethod
-    def from_dict(cls, mapping: Mapping[str, Any]) -> Event:
-        """Inverse of :meth:`to_dict` (and of the JSON form in a result's ``to_dict``)."""
-        return cls(
-            kind=mapping["kind"],
-            time=number_or(mapping["time"]),
-            slip=number_or(mapping["slip"]),
-            force=number_or(mapping["force"]),
-            state=number_or(mapping["state"]),
-            segment=int(mapping["segment"]),
-            message=mapping.get("message", ""),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class Origin:
+@dataclass(frozen=True, slots=True, eq=False)
+class Origin(Codec):
     """Where a result's clock and displacement start, and where the model takes over.
 
     Times are always the record's time, 0 when the protocol starts; displacements the slip
@@ -120,6 +101,8 @@ class Origin:
         ``"rest"``.
     """
 
+    KEEP_INFINITIES = False
+
     kind: str
     shear_start: float | None
     model_start: float
@@ -138,24 +121,12 @@ class Origin:
             f"(slip = displacement + {self.slip_offset * 1e6:.6g} µm)"
         )
 
-    def to_dict(self):
-        return fields_of(self)
 
-    @classmethod
-    def from_dict(cls, mapping):
-        """Inverse of :meth:`to_dict`."""
-        shear = mapping["shear_start"]
-        return cls(
-            kind=mapping["kind"],
-            shear_start=None if shear is None else float(shear),
-            model_start=float(mapping["model_start"]),
-            slip_offset=float(mapping["slip_offset"]),
-        )
-
-
-@dataclass(frozen=True, slots=True)
-class SegmentRecord:
+@dataclass(frozen=True, slots=True, eq=False)
+class SegmentRecord(Codec):
     """Bookkeeping of one protocol segment in a run (times [s], slips [m], forces [N])."""
+
+    KEEP_INFINITIES = False
 
     index: int
     kind: str
@@ -167,11 +138,3 @@ class SegmentRecord:
     start_force: float
     end_force: float
     outcome: str
-
-    def to_dict(self):
-        return fields_of(self)
-
-    @classmethod
-    def from_dict(cls, mapping):
-        """Inverse of :meth:`to_dict`."""
-        return cls(**{item.name: mapping[item.name] for item in fields(cls)})
