@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from granflow._html import HtmlReport
-from granflow.fitting.results import FrozenMap, decode, encode
+from granflow.fitting.results import Codec, FrozenMap
 from granflow.forecast.loading import Loading
 from granflow.forecast.series import ForecastSeries
 
@@ -27,10 +27,6 @@ __all__ = ["BaselineForecast", "FailureForecast", "ForecastSeries", "PeakForecas
 
 PEAK_CLOCK = "start-up: record time = model t; slip since the start of shear = model x = v t"
 FAILURE_CLOCK = "force control from rest: record time from 0; record slip = x - x0 (slip clock)"
-
-
-def _interval(pair):
-    return tuple(math.nan if v is None else float(v) for v in pair)
 
 
 #: How each method is named where it is shown.
@@ -90,46 +86,6 @@ def _within(cdf, until, seconds):
     return min(max(value, 0.0), 1.0)
 
 
-class _Codec(HtmlReport):
-    """to_dict/from_dict of a flat frozen dataclass of floats, pairs, strings and dicts."""
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe mapping (SI units; infinities kept, see granflow.fitting.results)."""
-        out = {}
-        for item in dataclasses.fields(self):
-            value = getattr(self, item.name)
-            if hasattr(value, "to_dict"):
-                value = value.to_dict()
-            elif isinstance(value, FrozenMap):
-                value = dict(value)
-            elif isinstance(value, tuple):
-                value = list(value)
-            out[item.name] = value
-        return encode(out)
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Any:
-        """Inverse of :meth:`to_dict`."""
-        d = dict(decode(d, cls))
-        if "noise" in d and "sigma" not in d:  # written before sigma took noise's place
-            d["sigma"] = d.pop("noise")
-        values = {}
-        for item in dataclasses.fields(cls):
-            if item.name not in d and item.default is not dataclasses.MISSING:
-                continue
-            value = d.get(item.name)
-            if item.name.endswith("_interval"):
-                value = _interval(value)
-            elif item.name == "loading" and value is not None:
-                value = Loading.from_dict(value)
-            elif item.name == "params":
-                value = FrozenMap(value or {})
-            elif isinstance(value, float | int) and not isinstance(value, bool):
-                value = int(value) if item.type in (int, "int") else float(value)
-            values[item.name] = value
-        return cls(**values)
-
-
 class _Fitted:
     """What every model-based forecast shares with the fits: ``to_params()`` and the noise
     under its fits' name, ``sigma`` (``noise`` still answers, with a warning)."""
@@ -159,9 +115,16 @@ class _Fitted:
         )
         return self.sigma
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Any:
+        """Inverse of :meth:`to_dict` (also of one written when ``sigma`` was ``noise``)."""
+        if "noise" in d and "sigma" not in d:
+            d = {("sigma" if key == "noise" else key): value for key, value in d.items()}
+        return super().from_dict(d)  # type: ignore[misc]
 
-@dataclass(frozen=True)
-class PeakForecast(_Fitted, _Codec):
+
+@dataclass(frozen=True, eq=False)
+class PeakForecast(_Fitted, HtmlReport, Codec):
     """The static yield of a rate-controlled start-up, forecast from its beginning.
 
     Attributes
@@ -194,11 +157,11 @@ class PeakForecast(_Fitted, _Codec):
     """
 
     force: float
-    force_interval: tuple
+    force_interval: tuple[float, float]
     slip: float
-    slip_interval: tuple
+    slip_interval: tuple[float, float]
     time: float
-    time_interval: tuple
+    time_interval: tuple[float, float]
     velocity: float
     until: float
     level: float
@@ -262,8 +225,8 @@ class PeakForecast(_Fitted, _Codec):
         return "\n".join(lines)
 
 
-@dataclass(frozen=True)
-class FailureForecast(_Fitted, _Codec):
+@dataclass(frozen=True, eq=False)
+class FailureForecast(_Fitted, HtmlReport, Codec):
     """The failure of a force-controlled layer, forecast from its slow slip.
 
     Attributes
@@ -326,11 +289,11 @@ class FailureForecast(_Fitted, _Codec):
     """
 
     time: float | None
-    time_interval: tuple
+    time_interval: tuple[float, float]
     force: float | None
-    force_interval: tuple
+    force_interval: tuple[float, float]
     slip: float | None
-    slip_interval: tuple
+    slip_interval: tuple[float, float]
     until: float
     level: float
     loading: Loading
@@ -498,8 +461,8 @@ class FailureForecast(_Fitted, _Codec):
         return "\n".join(lines)
 
 
-@dataclass(frozen=True)
-class BaselineForecast(_Codec):
+@dataclass(frozen=True, eq=False)
+class BaselineForecast(HtmlReport, Codec):
     """A failure time from the slip rate alone (inverse velocity or Voight's law).
 
     Attributes
@@ -530,7 +493,7 @@ class BaselineForecast(_Codec):
 
     method: str
     time: float | None
-    time_interval: tuple
+    time_interval: tuple[float, float]
     until: float
     level: float
     exponent: float
