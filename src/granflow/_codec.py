@@ -124,10 +124,10 @@ class ValueEquality:
         if type(other) is not type(self):
             return NotImplemented
         if self.EQUAL_BY_JSON:
-            return same(self.to_dict(), other.to_dict())  # type: ignore[attr-defined]
+            return same(self.to_dict(), other.to_dict())
         return all(
             same(getattr(self, f.name), getattr(other, f.name))
-            for f in dataclasses.fields(self)  # type: ignore[arg-type]
+            for f in dataclasses.fields(self)
             if f.compare
         )
 

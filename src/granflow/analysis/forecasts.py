@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from granflow.analysis.values import Value
+from granflow.analysis.values import FieldValue, Value
 from granflow.errors import GranflowError
 from granflow.fitting.results import decode, encode, number
 from granflow.forecast.results import FAILURE_CLOCK
@@ -35,7 +35,7 @@ def _pair(values):
 
 
 @dataclass(frozen=True, eq=False)
-class ForecastCut(Value):
+class ForecastCut(FieldValue):
     """The model's failure forecast at one cut time.
 
     Attributes

@@ -21,7 +21,7 @@ from granflow.analysis.prediction_results import (
     RampComparison,
     SwitchComparison,
 )
-from granflow.analysis.values import Value, as_json, frozen_json
+from granflow.analysis.values import FieldValue, Value, as_json, frozen_json
 from granflow.fitting.compare import ModelComparison
 from granflow.fitting.joint import (
     AmontonsResult,
@@ -54,7 +54,7 @@ MATERIAL_CONSTANTS = ("mu_a", "mu_d", "alpha")
 
 
 @dataclass(frozen=True, eq=False)
-class Estimate(Value):
+class Estimate(FieldValue):
     """A value with its standard error and 95 % interval (None where not determined).
 
     Attributes
@@ -225,7 +225,7 @@ class JointAnalysis(Value):
 
 
 @dataclass(frozen=True, eq=False)
-class FitJudgement(Value):
+class FitJudgement(FieldValue):
     """One Eq. 3 fit against the noise of its own plateau.
 
     Attributes
@@ -241,7 +241,7 @@ class FitJudgement(Value):
 
 
 @dataclass(frozen=True, eq=False)
-class GoodnessOfFit(Value):
+class GoodnessOfFit(FieldValue):
     """Every Eq. 3 fit of the campaign (start-ups and the rate-controlled part of switches)
     against the noise of its own plateau (:func:`granflow.analysis.joint.goodness_of_fit`).
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 from granflow._json import json_safe
-from granflow.analysis.values import Value
+from granflow.analysis.values import FieldValue, Value
 from granflow.fitting.creep import CurveFitResult
 from granflow.fitting.results import FrozenMap, number
 from granflow.fitting.single import FitResult
@@ -45,7 +45,7 @@ def optional_number(value):
 
 
 @dataclass(frozen=True, eq=False)
-class StartupWindow(Value):
+class StartupWindow(FieldValue):
     """The fit window of a start-up run (see :func:`granflow.analysis.startup_data`).
 
     Attributes
@@ -70,7 +70,7 @@ class StartupWindow(Value):
 
 
 @dataclass(frozen=True, eq=False)
-class ObservedPeak(Value):
+class ObservedPeak(FieldValue):
     """The largest force of a start-up curve (running mean over 5 points) and its slip.
 
     Attributes
@@ -156,7 +156,7 @@ class StartupResult(Value):
 
 
 @dataclass(frozen=True, eq=False)
-class CreepResult(Value):
+class CreepResult(FieldValue):
     """A creep test: δ = B ln(1 + t/τ_c) fitted from the point the force reached its level.
 
     Attributes
@@ -188,7 +188,7 @@ class CreepResult(Value):
 
 
 @dataclass(frozen=True, eq=False)
-class RampFailure(Value):
+class RampFailure(FieldValue):
     """The observed failure of a stress ramp.
 
     Attributes
@@ -258,7 +258,7 @@ class RampResult(Value):
 
 
 @dataclass(frozen=True, eq=False)
-class SwitchEvent(Value):
+class SwitchEvent(FieldValue):
     """The switch from rate to stress control, and its observed outcome.
 
     Attributes

@@ -1,29 +1,34 @@
 """What the frozen result types of :mod:`granflow.analysis` share.
 
-:class:`Value` gives them the one codec of :mod:`granflow._codec` and equality by content
-(their ``to_dict()``); :func:`as_json` and
+:class:`Value` gives them equality by content (their ``to_dict()``), :class:`FieldValue` the
+one codec of :mod:`granflow._codec` too; :func:`as_json` and
 :func:`frozen_json` move between fitting results, their JSON and read-only JSON.
 """
 
 from collections.abc import Mapping
 
-from granflow._codec import Codec, FrozenMap
+from granflow._codec import Codec, FrozenMap, ValueEquality
 
-__all__ = ["Value", "as_json", "frozen_json"]
+__all__ = ["FieldValue", "Value", "as_json", "frozen_json"]
 
 
-class Value(Codec):
+class Value(ValueEquality):
     """Base of the frozen results: two are equal when they are of one type and their
     ``to_dict()`` are equal (so a result rebuilt by ``from_dict`` equals the original).
-
-    The one codec and equality of :mod:`granflow._codec`, with the analysis's JSON rule:
-    ``to_dict()`` is the compact form by default (``results.json`` holds the fits without
-    their arrays) and writes NaN and infinities as null.
-    """
+    The one equality of :mod:`granflow._codec`."""
 
     __slots__ = ()
 
     EQUAL_BY_JSON = True
+
+
+class FieldValue(Value, Codec):
+    """A :class:`Value` whose JSON is its fields: ``to_dict``/``from_dict`` by the one codec
+    of :mod:`granflow._codec`, with the analysis's JSON rule: the compact form by default
+    (``results.json`` holds the fits without their arrays), NaN and infinities as null."""
+
+    __slots__ = ()
+
     INCLUDE_ARRAYS = False
     KEEP_INFINITIES = False
 
