@@ -70,14 +70,8 @@ if TYPE_CHECKING:  # the public names as type checkers and editors see them
     from granflow.model.geometry import Annulus as Annulus
     from granflow.model.params import MaterialConstants as MaterialConstants
     from granflow.model.params import Params as Params
-    from granflow.model.run import Run as Run
-    from granflow.model.special import scaled_ei as scaled_ei
-    from granflow.model.special import scaled_ei_diff as scaled_ei_diff
-    from granflow.simulation.driver import simulate as simulate
-    from granflow.simulation.options import DirectEffect as DirectEffect
     from granflow.model.protocol import Protocol as Protocol
-    from granflow.simulation.results import Event as Event
-    from granflow.simulation.results import SimulationResult as SimulationResult
+    from granflow.model.run import Run as Run
     from granflow.model.segments import Force as Force
     from granflow.model.segments import ForceRamp as ForceRamp
     from granflow.model.segments import ForceSteps as ForceSteps
@@ -87,6 +81,12 @@ if TYPE_CHECKING:  # the public names as type checkers and editors see them
     from granflow.model.segments import Velocity as Velocity
     from granflow.model.segments import VelocitySteps as VelocitySteps
     from granflow.model.segments import VelocityTable as VelocityTable
+    from granflow.model.special import scaled_ei as scaled_ei
+    from granflow.model.special import scaled_ei_diff as scaled_ei_diff
+    from granflow.simulation.driver import simulate as simulate
+    from granflow.simulation.options import DirectEffect as DirectEffect
+    from granflow.simulation.results import Event as Event
+    from granflow.simulation.results import SimulationResult as SimulationResult
     from granflow.simulation.stability import StabilityMap as StabilityMap
     from granflow.simulation.stability import stability_map as stability_map
 

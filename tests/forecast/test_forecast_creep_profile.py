@@ -13,8 +13,8 @@ import granflow as gf
 from granflow.forecast.coordinates import natural
 from granflow.forecast.creep import History, _exp_relative, ramp_history
 from granflow.forecast.creep_model import CreepModel
-from granflow.forecast.quasistatic import loading_error
 from granflow.forecast.loading import fit_loading
+from granflow.forecast.quasistatic import loading_error
 from granflow.forecast.synthetic import creep_ramp_record, creep_staircase_record
 from granflow.model.friction import peak
 

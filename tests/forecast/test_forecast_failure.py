@@ -169,9 +169,9 @@ def test_the_failure_time_under_an_erroneous_history(kind):
     *true* history reaches F_peak; the forecast dates it by the fitted history's force at
     that moment (and maps it back to F_peak for the time profile). Checked against brentq
     on the true history."""
-    from granflow.forecast.quasistatic import loading_error
     from granflow.forecast.loading import fit_loading
     from granflow.forecast.models import Continuation
+    from granflow.forecast.quasistatic import loading_error
 
     t = np.arange(0.0, 150.0, 1.0)
     ramp_force, staircase = 1e-3 + 0.065e-3 * t, 1e-3 * (1.0 + np.floor(t / 12.5))

@@ -317,8 +317,8 @@ def irregular_staircase(seed, scatter=0.25):
 
 
 def test_each_level_of_an_irregular_staircase_has_its_own_error():
-    from granflow.forecast.quasistatic import loading_error
     from granflow.forecast.loading import fit_loading
+    from granflow.forecast.quasistatic import loading_error
 
     t, _, force, _ = irregular_staircase(3)
     loading = fit_loading(t, force)

@@ -3,8 +3,8 @@
 import pytest
 
 import granflow as gf
-from granflow.model.units import QUANTITIES
 from granflow.model import protocol as protocol_module
+from granflow.model.units import QUANTITIES
 from granflow.simulation.segments import SEGMENT_TYPES
 
 

@@ -560,7 +560,9 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
     return FitResult(
-        **stats.fit_fields(ci95=FrozenMap({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})),
+        **stats.fit_fields(
+            ci95=FrozenMap({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})
+        ),
         success=success,
         message="; ".join(messages),
         domain=domain,

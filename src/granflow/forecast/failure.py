@@ -199,8 +199,8 @@ def _prepared(t, slip, force, until):
 
 def warm_forecast(t, slip, force, *, prior=None, level=0.9, sigma=None, warm=None):
     """The quasi-static :func:`forecast_failure` of a whole record, warm-started from the
-    :class:`~granflow.forecast.quasistatic.Warm` state of its forecast before it grew; ``(forecast, warm state)`` (the
-    state None where there was no fit)."""
+    :class:`~granflow.forecast.quasistatic.Warm` state of its forecast before it grew;
+    ``(forecast, warm state)`` (the state None where there was no fit)."""
     level = check_level(level)
     prior = check_prior(prior)
     sigma = sigma_argument(sigma, None, "m")

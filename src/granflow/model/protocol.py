@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from granflow.errors import InvalidParameterError, InvalidProtocolError
-from granflow.model.units import parse_quantity, si_unit
 from granflow.model.segments import (
     SEGMENT_TYPES,
     Force,
@@ -41,6 +40,7 @@ from granflow.model.segments import (
     VelocitySteps,
     VelocityTable,
 )
+from granflow.model.units import parse_quantity, si_unit
 
 if TYPE_CHECKING:
     from granflow._typing import PathLike
