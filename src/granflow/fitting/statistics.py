@@ -29,6 +29,19 @@ from granflow.fitting.results import (
     numbers,
 )
 
+__all__ = [
+    "FitOutcome",
+    "FitStatistics",
+    "FitSummary",
+    "comparison_row",
+    "decoded",
+    "estimates",
+    "fit_report",
+    "fit_statistics",
+    "not_a_fit",
+    "statistics",
+]
+
 STATISTICS = ("success", "message", "ndata", "nfree", "chisqr", "redchi", "aic", "bic")
 WALD_Z = 1.959963984540054  # the 97.5 % quantile of the standard normal distribution
 _CORRELATION_SHOWN = 0.1  # the report lists correlations at least this large
@@ -176,6 +189,22 @@ def fit_statistics(problem, values, names, *, sigma_known, hessian=None):
         residuals=residuals,
         invertible=invertible,
     )
+
+
+def comparison_row(result, model, formula):
+    """The row of a model comparison (:func:`granflow.compare_models`) of a fit ``result``:
+    ``model``, ``formula``, ``nfree``, ``chisqr``, ``aic``, ``bic``, ``success``,
+    ``message``."""
+    return {
+        "model": model,
+        "formula": formula,
+        "nfree": result.nfree,
+        "chisqr": result.chisqr,
+        "aic": result.aic,
+        "bic": result.bic,
+        "success": result.success,
+        "message": result.message,
+    }
 
 
 def estimates(result):
