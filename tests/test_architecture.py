@@ -26,8 +26,22 @@ CORE = ("model", "simulation", "fitting", "io", "forecast")
 
 #: What each layer may not import at module level (model at the bottom; simulation, fitting
 #: and io on it; forecast on model, simulation and fitting; analysis on those; cli on top;
-#: plotting a leaf only cli imports).
+#: plotting a leaf only cli imports). ``families`` is beside model on the ground floor: it
+#: names every family's code by ``"module:attribute"`` strings only, resolved when used, so
+#: that fitting, analysis and the report can ask it which families exist.
 FORBIDDEN = {
+    "families": (
+        "model",
+        "simulation",
+        "fitting",
+        "io",
+        "forecast",
+        "analysis",
+        "cli",
+        "plotting",
+        "watch",
+        "rsf",
+    ),
     "model": ("simulation", "fitting", "io", "forecast", "analysis", "cli", "plotting"),
     "simulation": ("forecast", "analysis", "cli", "plotting"),
     "fitting": ("forecast", "analysis", "cli", "plotting"),
