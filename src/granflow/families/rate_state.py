@@ -18,5 +18,5 @@ FAMILY = Family(
     entries="granflow.analysis.velocity_steps:velocity_step_entries",
     analyse="granflow.analysis.velocity_steps:campaign_velocity_steps",
     results="granflow.analysis.velocity_steps:VelocitySteps",
-    section="granflow.analysis.report_stress:velocity_steps_section",
+    section="granflow.analysis.velocity_steps_report:velocity_steps_section",
 )
