@@ -153,7 +153,7 @@ class CurveFitResult(FitOutcome):
         """Data, fit and residuals; see :func:`granflow.plotting.plot_fit`."""
         from granflow.plotting.fits import plot_fit
 
-        return plot_fit(self, ax=ax, residual_ax=residual_ax)  # type: ignore[arg-type]
+        return plot_fit(self, ax=ax, residual_ax=residual_ax)
 
     def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
         """JSON-safe mapping of the result, with its ``family``; :meth:`from_dict` inverts it.

@@ -13,6 +13,7 @@ the chi-square of the fit itself.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from granflow.families import Likelihood
 from granflow.fitting.likelihoods import require_points, scale_or_spread_prior
 from granflow.fitting.rsf_forward import Window
 from granflow.fitting.rsf_problem import Setup
+
+if TYPE_CHECKING:
+    from granflow.fitting.rsf_result import RateStateFitResult
 
 __all__ = ["rate_state_likelihood"]
 
@@ -65,7 +69,7 @@ def rebuilt_problem(result):
     return problem, np.array([result.params[n] for n in result.names]), list(result.names)
 
 
-def rate_state_likelihood(result) -> Likelihood:
+def rate_state_likelihood(result: RateStateFitResult) -> Likelihood:
     """The :class:`granflow.families.Likelihood` of rate-and-state fit ``result``.
 
     Default priors: log-uniform over a factor 1000 either way for a, the stiffness [1/m], Dc
