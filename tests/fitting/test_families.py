@@ -177,3 +177,79 @@ def test_the_generic_modules_name_no_family():
                 if re.search(r"RateState|rsf|rate_state", line):
                     found.append(f"{path.relative_to(SOURCE)}:{number}: {line.strip()}")
     assert found == []
+
+
+PLANTED_RECORDS = '''
+"""A record family planted by a test: one record, analysed to a count."""
+from granflow.families import Family
+
+FAMILY = Family(
+    name="planted_records",
+    description="records counted",
+    result_types=(),
+    test_kind="planted_kind",
+    entries="granflow.families.planted_records:entries",
+    analyse="granflow.families.planted_records:analyse",
+    results="granflow.families.planted_records:Counted",
+)
+
+
+def entries(manifest, allow_outside):
+    return [{"file": "one.txt"}]
+
+
+def analyse(manifest, output, figures_dir, allow_outside):
+    return {"records": [{"name": "one.txt", "figure": None}], "failed": []}
+
+
+class Counted:
+    def __init__(self, records=(), failed=()):
+        self.records, self.failed = tuple(records), tuple(failed)
+
+    def __bool__(self):
+        return bool(self.records or self.failed)
+
+    @classmethod
+    def from_dict(cls, saved):
+        saved = saved or {}
+        return cls(saved.get("records", ()), saved.get("failed", ()))
+
+    def to_dict(self):
+        return {"records": list(self.records), "failed": list(self.failed)} if self else {}
+'''
+
+
+class _InProcess:
+    """An executor that runs each task here."""
+
+    def call(self, function, task):
+        return function(task)
+
+    def recycle(self):
+        pass
+
+
+class _Quiet:
+    def stage(self, name):
+        self.last = name
+
+
+def test_a_planted_record_family_is_analysed_by_the_campaign_stage(tmp_path, monkeypatch):
+    from granflow.analysis.record_stage import analyse_records
+    from granflow.analysis.result import record_analyses
+    from granflow.io.manifest import RECORD_KINDS
+
+    (tmp_path / "planted_records.py").write_text(textwrap.dedent(PLANTED_RECORDS), "utf-8")
+    monkeypatch.setattr(families, "__path__", [*families.__path__, str(tmp_path)])
+    try:
+        assert "planted_kind" in {f.test_kind for f in families.record_families()}
+        stages = {}
+        analysed = analyse_records(None, tmp_path, False, _InProcess(), _Quiet(), stages)
+        assert analysed["files"] and ["one.txt"] in analysed["files"]
+        assert analysed["planted_kind"]["records"][0]["name"] == "one.txt"
+        assert "planted_kind_s" in stages
+        parts = record_analyses(analysed)
+        assert type(parts["planted_kind"]).__name__ == "Counted"
+        assert "velocity_steps" in RECORD_KINDS  # the manifest's kinds are the families'
+    finally:
+        sys.modules.pop("granflow.families.planted_records", None)
