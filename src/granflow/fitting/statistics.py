@@ -5,8 +5,9 @@ numbers every result carries (lmfit's names): params, stderr, covariance and cor
 name, Wald intervals, chisqr, redchi, AIC, BIC and R-squared. :class:`FitSummary` declares the
 fields that the statistics and every result share, :class:`FitOutcome` those of every result
 (with success, message and sigma_known); :func:`estimates`, :func:`statistics` and
-:func:`decoded` are their JSON codec, and :func:`fit_report` is the lmfit-style report of
-every single, joint and curve fit.
+:func:`decoded` are their JSON codec, :func:`comparison_row` a result's row of a model
+comparison, and :func:`fit_report` is the lmfit-style report of every single, joint and
+curve fit.
 """
 
 from __future__ import annotations
@@ -28,19 +29,6 @@ from granflow.fitting.results import (
     number,
     numbers,
 )
-
-__all__ = [
-    "FitOutcome",
-    "FitStatistics",
-    "FitSummary",
-    "comparison_row",
-    "decoded",
-    "estimates",
-    "fit_report",
-    "fit_statistics",
-    "not_a_fit",
-    "statistics",
-]
 
 STATISTICS = ("success", "message", "ndata", "nfree", "chisqr", "redchi", "aic", "bic")
 WALD_Z = 1.959963984540054  # the 97.5 % quantile of the standard normal distribution
