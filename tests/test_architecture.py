@@ -29,8 +29,22 @@ CORE = ("model", "simulation", "fitting", "io", "forecast")
 
 #: What each layer may not import (model at the bottom; simulation, fitting and io on it, io
 #: on the model only; forecast on model, simulation and fitting; analysis on those; cli on top;
-#: plotting a leaf only cli imports).
+#: plotting a leaf only cli imports). ``families`` is beside model on the ground floor: it
+#: names every family's code by ``"module:attribute"`` strings only, resolved when used, so
+#: that fitting, analysis and the report can ask it which families exist.
 FORBIDDEN = {
+    "families": (
+        "model",
+        "simulation",
+        "fitting",
+        "io",
+        "forecast",
+        "analysis",
+        "cli",
+        "plotting",
+        "watch",
+        "rsf",
+    ),
     "model": ("simulation", "fitting", "io", "forecast", "analysis", "cli", "plotting"),
     "simulation": ("forecast", "analysis", "cli", "plotting"),
     "fitting": ("forecast", "analysis", "cli", "plotting"),
@@ -52,6 +66,9 @@ LAZY_IMPORTS = {
     ("granflow.fitting.single", "granflow.plotting.fits"): (
         "FitResult.plot(): the result hands itself to plotting.plot_fit, which reads it"
     ),
+    ("granflow.fitting.creep", "granflow.plotting.fits"): (
+        "CurveFitResult.plot(): the result hands itself to plotting.plot_fit, which reads it"
+    ),
     ("granflow.fitting.mcmc", "granflow.plotting.fits"): (
         "PosteriorResult.plot_corner(): the result hands itself to plotting.plot_corner"
     ),
@@ -59,8 +76,6 @@ LAZY_IMPORTS = {
         "RateStateFitResult.plot() draws inside the result: its figure moves to plotting/ "
         "(issue 32, point 2)"
     ),
-    ("granflow.fitting.compare", "granflow.fitting.rsf_compare"): _SEAM,
-    ("granflow.fitting.mcmc", "granflow.fitting.rsf_posterior"): _SEAM,
 }
 
 #: Modules that may exceed the limit: generated tables.

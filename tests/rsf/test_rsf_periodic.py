@@ -242,18 +242,15 @@ def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
     assert wavelength["value"] == pytest.approx(WAVELENGTH, rel=0.01) and wavelength["unit"] == "m"
     assert without["fit"]["harmonics"] == 0 and "consider periodic: true" in without["caption"]
     # the report's verdict line says which fit carries the ripple
-    from types import SimpleNamespace
-
-    from granflow.analysis.report_stress import velocity_steps_view
     from granflow.analysis.report_summary import verdicts
     from granflow.analysis.velocity_steps import VelocitySteps
+    from granflow.analysis.velocity_steps_report import velocity_steps_section
 
-    typed = SimpleNamespace(velocity_steps=VelocitySteps.from_dict(section))
-    records = velocity_steps_view(typed, [])
-    assert sum(record["ripple"] for record in records) == 1
+    part = velocity_steps_section(VelocitySteps.from_dict(section), lambda entries: [])
+    assert sum(record["ripple"] for record in part["view"]["records"]) == 1
     [line] = [
         line["text"]
-        for line in verdicts(_no_other_analysis(), {**_no_views(), "velocity_steps": records})
+        for line in verdicts(_no_other_analysis(), {**_no_views(), "record_sections": [part]})
     ]
     assert line.count("with the apparatus ripple") == 1
 
@@ -299,5 +296,4 @@ def _no_views():
         "creep": [],
         "switch": [],
         "forecasts": [],
-        "velocity_steps_failed": [],
     }

@@ -37,14 +37,11 @@ one whose force stays level is a creep test.
   runaway as above, relative to the nominal velocity), *stop* (last velocity below 1 % of
   the nominal one) or *creep*.
 
-**Velocity-step records.** A manifest entry with ``test: velocity_steps`` is a rate-and-state
-record (time, load-point displacement, friction; :func:`granflow.io.read_velocity_steps`),
-never read as a rheometer export: after the joint stage, in this process and in manifest
-order, it is fitted by rate-and-state friction with the entry's ``law`` (default aging) and
-compared with the other law and the paper's Eq. 2 with and without the direct effect
-(:func:`granflow.analysis.velocity_steps.campaign_velocity_steps`); ``results.json`` holds
-them under ``velocity_steps``, the report in its section ``#velocity-steps``. A record that
-cannot be read or fitted is a failed run (stage ``velocity_steps``), the rest analysed.
+**Records of a model family.** A manifest entry whose ``test`` is a record family's
+(:mod:`granflow.families`) is analysed by that family's ``analyse``, on a worker, after the
+joint stage; ``results.json`` holds it under the ``test`` kind and the report shows the
+family's section (``velocity_steps``: :mod:`granflow.analysis.velocity_steps`). A record
+that cannot be read or analysed is a failed run (stage: its ``test``), the rest analysed.
 
 A run that cannot be analysed (an error, or a fit with ``success=False``) is a failed run; a
 file that cannot be read is one too; the rest goes on.
@@ -127,7 +124,8 @@ from granflow.analysis.inputs import (
 )
 from granflow.analysis.outputs import make_figures, write_report, write_tables
 from granflow.analysis.predictions import MAP_HOLD, MAP_POINTS, MAP_RATIOS
-from granflow.analysis.result import AnalysisResult
+from granflow.analysis.record_stage import analyse_records
+from granflow.analysis.result import AnalysisResult, record_analyses
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.runs import (
     ELASTIC_RAMP_TOLERANCE,
@@ -138,12 +136,8 @@ from granflow.analysis.runs import (
     startup_data,
 )
 from granflow.analysis.stage import joint_stage
-from granflow.analysis.velocity_steps import (
-    VelocitySteps,
-    campaign_velocity_steps,
-    velocity_step_entries,
-)
 from granflow.errors import InvalidParameterError
+from granflow.families import record_families
 from granflow.fitting.results import FrozenMap
 
 if TYPE_CHECKING:
@@ -186,8 +180,9 @@ def _own_files(output):
         listed = [RESULTS_FILE, REPORT_FILE]
         listed += [f.get(k) for f in previous.get("figures", []) for k in ("png", "svg", "pdf")]
         listed += [p for t in previous.get("tables", {}).values() for p in t.values()]
-        steps = previous.get("velocity_steps") or {}
-        listed += [r.get("figure") for r in steps.get("records", [])]
+        for family in record_families():
+            part = previous.get(family.test_kind) or {}
+            listed += [r.get("figure") for r in part.get("records", [])]
         for relative in listed:
             if isinstance(relative, str) and (output / relative).is_file():
                 files.append(output / relative)
@@ -343,23 +338,21 @@ def analyze(
             joint = _noted(joint_stage, entries, executor, mcmc=mcmc, seed=seed)
         executor.recycle()
         stages["joint_s"] = time.perf_counter() - clock_stage
-        reporter.stage("velocity steps")
-        clock_stage = time.perf_counter()
-        steps = velocity_step_entries(manifest, allow_outside)
-        velocity_steps = {}
-        if steps:  # on a worker: the rate-and-state fits and their figures load matplotlib
-            velocity_steps = executor.call(_velocity_steps, (manifest, output, allow_outside))
-            executor.recycle()
-        inputs += [e["file"] for e in steps if e["file"] not in inputs]
-        stages["velocity_steps_s"] = time.perf_counter() - clock_stage
+        analysed = analyse_records(manifest, output, allow_outside, executor, reporter, stages)
+        for files in analysed.pop("files"):
+            inputs += [file for file in files if file not in inputs]
         description = executor.description
         clock_stage = time.perf_counter()
         options = {"mcmc": mcmc, "seed": seed, "strict": bool(strict), "reference": reference}
         result = _assemble(items, entries, manifest, inputs, joint, options)
-        failed = [f"failed: {f['name']}: {f['reason']}" for f in velocity_steps.get("failed", ())]
+        failed = [
+            f"failed: {f['name']}: {f['reason']}"
+            for part in analysed.values()
+            for f in part.get("failed", ())
+        ]
         result = replace(
             result,
-            velocity_steps=VelocitySteps.from_dict(velocity_steps),
+            record_analyses=record_analyses(analysed),
             warnings=result.warnings + tuple(failed),
         )
         notes = list(result.warnings)
@@ -419,13 +412,6 @@ def _noted(stage, *args, **kwargs):
     if not numerical:
         return joint
     return replace(joint, warnings=joint.warnings + tuple(dict.fromkeys(numerical)))
-
-
-def _velocity_steps(task):
-    """:func:`campaign_velocity_steps` of ``(manifest, output, allow_outside)``, as one
-    executor task."""
-    manifest, output, allow_outside = task
-    return campaign_velocity_steps(manifest, output, FIGURES_DIR, allow_outside)
 
 
 def _require_emcee():

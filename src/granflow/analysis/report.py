@@ -7,7 +7,8 @@ its section; every section holds its table and its figure (PNG embedded as a bas
 URI): material constants, the start-ups (Fig. 2a and every fit), the velocity collapse
 (Fig. 2b), Amontons' law (Fig. 2c), the preparations, the model comparison, the static yield,
 the stress ramp (Fig. 3a), creep (Fig. 3b), the switch (Fig. 3c), the stability map, the
-forecasts, the velocity steps, the publication figures, then the campaign, data quality,
+forecasts, the sections of the record families (:mod:`granflow.families`: each family's
+``section`` and its template), the publication figures, then the campaign, data quality,
 warnings and provenance. The page has no external resources and no JavaScript; a print style
 sheet keeps every column (the run table on landscape pages).
 
@@ -43,8 +44,6 @@ from granflow.analysis.report_stress import (
     prediction_view,
     ramp_view,
     switch_view,
-    velocity_step_figures,
-    velocity_steps_view,
 )
 from granflow.analysis.report_summary import headline, quality_lines, verdicts
 from granflow.analysis.report_views import (
@@ -61,6 +60,7 @@ from granflow.analysis.report_views import (
 )
 from granflow.analysis.result import AnalysisResult
 from granflow.errors import InvalidParameterError
+from granflow.families import record_families, resolve
 
 if TYPE_CHECKING:
     from granflow._typing import PathLike
@@ -87,11 +87,37 @@ def _typed(result: Any) -> AnalysisResult:
         ) from exc
 
 
+def _record_sections(result, output_dir, report_dir, problems):
+    """The sections of the record families (:mod:`granflow.families`) that hold anything:
+    each family's ``section`` of its part of the result, its figures embedded."""
+
+    def embedded(entries):
+        return figures_view(entries, output_dir, report_dir, problems).get("publication", [])
+
+    sections = []
+    for family in record_families():
+        part = result.record_analyses.get(family.test_kind)
+        if part and family.section is not None:
+            sections.append(resolve(family.section)(part, embedded))
+    return sections
+
+
+def _contents(shown, sections):
+    """The contents: the fixed sections shown, the record families' before the publication
+    figures."""
+    contents = []
+    for anchor, title in SECTIONS:
+        if anchor == "publication":
+            contents += [(section["id"], section["title"]) for section in sections]
+        if shown.get(anchor, True):
+            contents.append((anchor, title))
+    return contents
+
+
 def _context(result: AnalysisResult, output_dir: Path | None, report_dir: Path) -> dict[str, Any]:
     problems: list[str] = []
     views: dict[str, Any]
     figures = figures_view(result.figures, output_dir, report_dir, problems)
-    step_figures = figures_view(velocity_step_figures(result), output_dir, report_dir, problems)
     runs = runs_view(result)
     views = {
         "runs": runs,
@@ -105,10 +131,7 @@ def _context(result: AnalysisResult, output_dir: Path | None, report_dir: Path) 
         "ramp": ramp_view(result),
         "switch": switch_view(result),
         "forecasts": forecast_view(result, figures.pop("forecasting", [])),
-        "velocity_steps": velocity_steps_view(result, step_figures.get("publication", [])),
-        "velocity_steps_failed": [
-            (str(f.get("name")), str(f.get("reason"))) for f in result.velocity_steps.failed
-        ],
+        "record_sections": _record_sections(result, output_dir, report_dir, problems),
         "quality": quality_view(runs),
         "campaign": campaign_view(result, runs),
     }
@@ -127,10 +150,9 @@ def _context(result: AnalysisResult, output_dir: Path | None, report_dir: Path) 
         "switch": bool(views["switch"]) or "switch" in figures,
         "stability-map": views["prediction"]["stability"] is not None,
         "forecasting": bool(views["forecasts"]),
-        "velocity-steps": bool(views["velocity_steps"] or views["velocity_steps_failed"]),
         "publication": bool(figures.get("publication")),
     }
-    contents = [(anchor, title) for anchor, title in SECTIONS if shown.get(anchor, True)]
+    contents = _contents(shown, views["record_sections"])
     timing = timing_view(result.timing)
     return {
         **views,

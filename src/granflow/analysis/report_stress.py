@@ -1,9 +1,9 @@
-"""The views of the report's stress-controlled runs, forecasts and velocity steps, read
-from the typed :class:`~granflow.analysis.AnalysisResult`: each stress ramp's failure against
-the predicted static yield, each switch's outcome against the simulated one, the static yield
-per load and the stability map, the running forecasts (intervals written with digits enough
-that their two ends differ) and the rate-and-state fits of velocity-step records (Dc in µm).
-No statistic is computed here: every number is a field of a result, in display units.
+"""The views of the report's stress-controlled runs and forecasts, read from the typed
+:class:`~granflow.analysis.AnalysisResult`: each stress ramp's failure against the predicted
+static yield, each switch's outcome against the simulated one, the static yield per load and
+the stability map, the running forecasts (intervals written with digits enough that their two
+ends differ). No statistic is computed here: every number is a field of a result, in display
+units.
 """
 
 from __future__ import annotations
@@ -17,17 +17,13 @@ from granflow.analysis.formatting import (
     display_scale,
     format_interval,
     format_number,
-    format_value_error,
 )
-from granflow.analysis.report_views import comparison_view
 
 __all__ = [
     "forecast_view",
     "prediction_view",
     "ramp_view",
     "switch_view",
-    "velocity_step_figures",
-    "velocity_steps_view",
 ]
 
 
@@ -207,62 +203,3 @@ def forecast_view(result: Any, figures: Any) -> list[dict[str, Any]]:
             }
         )
     return entries
-
-
-# --------------------------------------------------------------------------- velocity steps
-
-
-def _step_value(value, unit, significant=4):
-    scale, shown = (1e6, "µm") if unit == "m" else ((1e-6, "1/µm") if unit == "1/m" else (1, unit))
-    return format_number(value, scale, significant), shown
-
-
-def velocity_steps_view(result: Any, figures: Any) -> list[dict[str, Any]]:
-    """Each velocity-step record: its figure, its parameters in display units (Dc in µm)
-    with the digits their errors justify, and its model comparison."""
-    records = []
-    for index, record in enumerate(result.velocity_steps.records, start=1):
-        fit = record.fit
-        figure = next((f for f in figures if f["name"] == f"velocity-step-{index}"), None)
-        parameters = []
-        for p in fit.parameters:
-            value, unit = _step_value(p.value, p.unit)
-            scale = 1e6 if p.unit == "m" else (1e-6 if p.unit == "1/m" else 1.0)
-            parameters.append(
-                {
-                    "name": p.name,
-                    "value": format_value_error(p.value, p.stderr, scale)
-                    if p.method != "fixed"
-                    else f"{value} (held)",
-                    "ci95": format_interval(list(p.ci95), scale) if p.method != "fixed" else DASH,
-                    "method": p.method,
-                    "unit": unit,
-                }
-            )
-        records.append(
-            {
-                "name": record.name,
-                "law": record.law,
-                "figure": figure,
-                "parameters": parameters,
-                "a_minus_b": format_value_error(fit.a_minus_b, fit.a_minus_b_stderr),
-                "a_minus_b_ci": format_number(1.96 * fit.a_minus_b_stderr, significant=2),
-                "rms_ratio": format_number(fit.rms_ratio, significant=3),
-                "ripple": bool(fit.harmonics),
-                "comparison": comparison_view(record.comparison),
-            }
-        )
-    return records
-
-
-def velocity_step_figures(result: Any) -> list[dict[str, Any]]:
-    """The figure entries of the velocity-step records (``velocity-step-<k>``)."""
-    return [
-        {
-            "name": f"velocity-step-{index}",
-            "title": f"{record.name}: rate-and-state fit ({record.law} law)",
-            "caption": record.caption,
-            "png": record.figure,
-        }
-        for index, record in enumerate(result.velocity_steps.records, start=1)
-    ]

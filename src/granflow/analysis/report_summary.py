@@ -356,26 +356,6 @@ def _stress_lines(result, views):
     return lines
 
 
-def _velocity_steps_line(records, failed):
-    if not records and not failed:
-        return None
-    parts = []
-    for record in records:
-        comparison = record["comparison"]
-        parts.append(
-            f"{record['name']}: a − b = {record['a_minus_b']} ({record['law']} law"
-            f"{' with the apparatus ripple' if record['ripple'] else ''}, residual RMS "
-            f"{record['rms_ratio']} × the scatter), best by AIC {comparison['best_aic']}"
-        )
-    parts += [f"{name} failed" for name, _ in failed]
-    count = len(records) + len(failed)
-    return (
-        "warn" if failed else "ok",
-        f"Velocity steps ({count} record{'s' if count != 1 else ''}): " + "; ".join(parts) + ".",
-        "#velocity-steps",
-    )
-
-
 def verdicts(result: Any, views: dict[str, Any]) -> list[dict[str, str]]:
     """The verdicts at the top of the report, in the order of the sections: (status, text,
     link) per line."""
@@ -387,7 +367,7 @@ def verdicts(result: Any, views: dict[str, Any]) -> list[dict[str, str]]:
         _spread_line(views["spread"]),
         _yield_line(result),
         *_stress_lines(result, views),
-        _velocity_steps_line(views["velocity_steps"], views["velocity_steps_failed"]),
+        *(section["summary"] for section in views["record_sections"]),
     ]
     return [{"status": s, "text": t, "link": link} for s, t, link in filter(None, lines)]
 

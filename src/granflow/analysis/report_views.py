@@ -2,7 +2,7 @@
 :class:`~granflow.analysis.AnalysisResult`: the run table (start-up fits in the paper's
 terms), creep, campaign, data quality, material constants, velocity collapse, Amontons' law,
 preparations and model comparison. :mod:`granflow.analysis.report_stress` has the
-stress-controlled runs, forecasts and velocity steps, :mod:`granflow.analysis.report_frame`
+stress-controlled runs and forecasts, :mod:`granflow.analysis.report_frame`
 the figures, warnings and provenance.
 
 Nothing here computes a statistic: every estimate, test and interval is a field of a result;
@@ -51,7 +51,7 @@ SECTIONS = (
     ("switch", "Switch to stress control"),
     ("stability-map", "Stability map"),
     ("forecasting", "Forecasting the failure"),
-    ("velocity-steps", "Velocity steps"),
+    # here the sections of the record families (granflow.families), in the families' order
     ("publication", "Publication figures"),
     ("campaign", "Campaign"),
     ("data-quality", "Data quality"),

@@ -27,7 +27,8 @@ from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Materi
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.values import Value, frozen_json
-from granflow.analysis.velocity_steps import VelocitySteps
+from granflow.errors import InvalidParameterError
+from granflow.families import record_families, resolve
 from granflow.fitting.results import FrozenMap
 from granflow.model.units import display_unit, to_display
 
@@ -192,10 +193,13 @@ class AnalysisResult(Value):
         Table name to its files (relative to ``output``).
     provenance : mapping
         Version, Python, input files with their SHA-256, options.
-    velocity_steps : granflow.analysis.velocity_steps.VelocitySteps
-        The rate-and-state fits and model comparison of the manifest's velocity-step records
-        (``records`` and ``failed``); empty without any. Its failures are among
-        :attr:`failed_runs`.
+    record_analyses : mapping of str to object
+        The analyses of the record families (:mod:`granflow.families`) by their manifest
+        ``test`` kind, each an object of the family's ``results`` class (``records`` and
+        ``failed``); ``results.json`` holds each under that key (``velocity_steps``: the
+        rate-and-state fits and model comparisons of the velocity-step records), empty
+        without records. Their failures are among :attr:`failed_runs`. Each is also an
+        attribute of its key: ``result.velocity_steps``.
     timing : mapping
         Dates, durations, jobs, scheduler, runs fitted now or reused (not in ``to_dict``).
     output : pathlib.Path or None
@@ -218,12 +222,24 @@ class AnalysisResult(Value):
     figures: tuple = ()
     tables: FrozenMap = field(default_factory=FrozenMap)
     provenance: FrozenMap = field(default_factory=FrozenMap)
-    velocity_steps: VelocitySteps = field(default_factory=VelocitySteps)
+    record_analyses: FrozenMap = field(default_factory=FrozenMap)
     timing: FrozenMap = field(default_factory=FrozenMap, repr=False)
     output: Path | None = None
     fitted_now: int = 0
     reused: int = 0
     report: Path | None = None
+
+    def __getattr__(self, name: str) -> Any:
+        """A record family's analysis by its ``test`` kind (``result.velocity_steps``): the
+        stored one, or the family's empty one."""
+        if not name.startswith("_"):
+            stored = self.__dict__.get("record_analyses", {})
+            if name in stored:
+                return stored[name]
+            for family in record_families():
+                if family.test_kind == name and family.results is not None:
+                    return resolve(family.results).from_dict(None)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def __repr__(self):
         output = None if self.output is None else str(self.output)
@@ -249,7 +265,7 @@ class AnalysisResult(Value):
                 "figures": list(self.figures),
                 "tables": self.tables,
                 "provenance": self.provenance,
-                "velocity_steps": self.velocity_steps.to_dict(),
+                **{kind: part.to_dict() for kind, part in _record_parts(self.record_analyses)},
             }
         )
 
@@ -278,7 +294,7 @@ class AnalysisResult(Value):
             figures=frozen_json(saved["figures"], tuple),
             tables=frozen_json(saved["tables"], tuple),
             provenance=frozen_json(saved["provenance"], tuple),
-            velocity_steps=VelocitySteps.from_dict(saved.get("velocity_steps")),
+            record_analyses=record_analyses(saved),
             timing=frozen_json(saved.get("timing", {}), tuple),
             output=None if output is None else Path(output),
         )
@@ -293,7 +309,9 @@ class AnalysisResult(Value):
         """The runs that could not be analysed: ``name``, ``source``, ``interval``, ``stage``,
         ``reason``."""
         failed = [entry.failure() for entry in self.runs if not entry.ok]
-        return failed + [dict(f) for f in self.velocity_steps.failed]
+        for _, part in _record_parts(self.record_analyses):
+            failed += [dict(f) for f in part.failed]
+        return failed
 
     @property
     def exit_code(self) -> int:
@@ -320,12 +338,8 @@ class AnalysisResult(Value):
             lines.append(f"  synthetic truth: {inside} the 95 % intervals")
         lines += _prediction_lines(self.predictions, self.analyses)
         lines += [forecast.summary() for forecast in self.forecasts]
-        for record in self.velocity_steps.records:
-            lines.append(
-                f"velocity steps {record.name}: a - b = "
-                f"{_value_error(record.fit.a_minus_b, record.fit.a_minus_b_stderr)} "
-                f"({record.law} law), best by AIC: {record.comparison.best_aic}"
-            )
+        for _, part in _record_parts(self.record_analyses):
+            lines += part.summary_lines()
         for name, reason in self.analyses.errors.items():
             lines.append(f"joint analysis failed: {name.replace('_', ' ')}: {reason}")
         lines += _quality_lines(self.runs, self.campaign)
@@ -385,6 +399,32 @@ class AnalysisResult(Value):
             where = self.report if self.report is not None else self.output
             parts.append(Html(f"<p>output: <code>{text(where)}</code></p>"))
         return result_html(title, parts)
+
+
+def record_analyses(saved: Mapping[str, Any]) -> FrozenMap:
+    """The analyses of the record families in ``saved`` (a ``results.json``, or what the
+    families' ``analyse`` returned, by ``test`` kind): each read by its family's ``results``
+    class, those that hold anything."""
+    parts = {}
+    for family in record_families():
+        if family.results is None or family.test_kind is None:
+            continue
+        part = resolve(family.results).from_dict(saved.get(family.test_kind))
+        if part:
+            parts[family.test_kind] = part
+    return FrozenMap(parts)
+
+
+def _record_parts(stored):
+    """(kind, analysis) of every record family, in the families' order: the stored one or
+    the family's empty one (so ``results.json`` always has its key)."""
+    for family in record_families():
+        if family.results is None or family.test_kind is None:
+            continue
+        part = stored.get(family.test_kind)
+        if part is None:
+            part = resolve(family.results).from_dict(None)
+        yield family.test_kind, part
 
 
 def _number(value, significant=4):

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from granflow._format import format_value_error
 from granflow._json import json_safe
 from granflow._typing import PathLike
 from granflow.analysis.values import Value
@@ -484,6 +485,16 @@ class VelocitySteps(Value):
 
     def __bool__(self) -> bool:
         return bool(self.records or self.failed)
+
+    def summary_lines(self) -> list[str]:
+        """One line per record for :meth:`granflow.AnalysisResult.summary`: a - b with its
+        standard error, the law, the model best by AIC."""
+        return [
+            f"velocity steps {record.name}: a - b = "
+            f"{format_value_error(record.fit.a_minus_b, record.fit.a_minus_b_stderr)} "
+            f"({record.law} law), best by AIC: {record.comparison.best_aic}"
+            for record in self.records
+        ]
 
     def to_dict(self) -> dict[str, Any]:
         """Empty without records, else ``{"records", "failed"}``."""

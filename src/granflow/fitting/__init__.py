@@ -9,8 +9,10 @@ statistics, the fields every result shares and the one report, :func:`fit_report
 door, starting values), ``single`` (:func:`fit` of one curve), ``batch`` (:func:`fit_many`),
 ``joint`` (tied parameters, velocity collapse, Amontons' law, preparation spread),
 ``amontons_test`` (the test of Amontons' law over loads),
-``creep``, ``compare`` (Eq. 3 against simpler laws) and ``mcmc`` (posterior sampling with
-emcee). Stands on :mod:`granflow.model`.
+``creep``, ``compare`` (Eq. 3 against simpler laws and, through :mod:`granflow.families`,
+the other families' rows), ``likelihoods`` (the log-likelihood a result rebuilds from what it
+stores) and ``mcmc`` (posterior sampling with emcee, of any family's fit). Stands on
+:mod:`granflow.model`.
 """
 
 from granflow._lazy import attach

@@ -3,6 +3,12 @@
 Each model is fitted by least squares to the same points; the table ranks them by AIC and
 BIC (lmfit's definitions, ``n ln(chi2/n) + 2 k`` and ``n ln(chi2/n) + k ln n``). A model that
 cannot be fitted (Eq. 3 on a curve without overshoot) stays in the table with its reason.
+
+Other model families add their rows through :mod:`granflow.families` (a family's
+``compare`` hooks): on a record with a load-point protocol, the family whose ``"record"``
+hook takes it; on a start-up curve with ``rate_and_state=True``, every ``"startup"`` hook.
+Each fit's row is its own ``comparison_row()``, and a comparison read back finds each fit's
+class from the ``"family"`` its ``to_dict`` stored.
 """
 
 from __future__ import annotations
@@ -13,13 +19,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from granflow import families
 from granflow.errors import GranflowError, InvalidParameterError
-from granflow.fitting.creep import CurveFitResult, fit_curve
+from granflow.fitting.creep import fit_curve
 from granflow.fitting.curves import prepare
 from granflow.fitting.engine import Model
 from granflow.fitting.results import FrozenMap, ValueEquality, decode, encode
-from granflow.fitting.rsf_result import RateStateFitResult
-from granflow.fitting.single import FitResult, fit
+from granflow.fitting.single import FORMULA, fit
 from granflow.model.units import si_unit
 
 if TYPE_CHECKING:
@@ -32,7 +38,7 @@ __all__ = ["ModelComparison", "compare_models"]
 
 MODELS = ("eq3", "log_aging", "exponential")
 _FORMULAS = {
-    "eq3": "Eq. 3: a e^-s [Ei(s) - Ei(s0)] + Fd (1 - e^-s)",
+    "eq3": FORMULA,
     "log_aging": "F = F1 + a ln(x / x1), x1 the first point (alpha -> 0)",
     "exponential": "F = Fd + (F_init - Fd) e^(-alpha x)",
 }
@@ -137,10 +143,7 @@ class ModelComparison(ValueEquality):
         d = decode(d, cls)
         fits = {}
         for model, result in d.get("fits", {}).items():
-            kind = FitResult if model == "eq3" else CurveFitResult
-            if model.startswith("rsf_") or model == "eq2_direct":
-                kind = RateStateFitResult
-            fits[model] = None if result is None else kind.from_dict(result)
+            fits[model] = None if result is None else _fit_from_dict(model, result)
         return cls(
             rows=tuple(dict(row) for row in d["rows"]),
             fits=FrozenMap(fits),
@@ -153,6 +156,44 @@ class ModelComparison(ValueEquality):
         import pandas as pd
 
         return pd.DataFrame(list(self.rows)).set_index("model")
+
+
+def _fit_from_dict(model, saved):
+    """The fit result a comparison's ``saved`` fit describes: the class its ``"family"``
+    names (or, written before results stored it, the family that lists ``model``)."""
+    if "family" in saved:
+        kind = families.result_type(saved["family"])
+    else:
+        kind = families.result_type_of_model(model)
+        if kind is None:
+            raise InvalidParameterError(
+                f"the comparison's fit {model!r} names no model family: it cannot be read"
+            )
+    return kind.from_dict(saved)
+
+
+def _hooks(kind):
+    """The ``compare`` hooks of this kind (``"record"``, ``"startup"``), family by family."""
+    return [
+        families.resolve(family.compare[kind])
+        for family in families.families()
+        if kind in family.compare
+    ]
+
+
+def _record_hook(data):
+    """The ``"record"`` hook of the family that takes this record: the one declared for its
+    type (``"record:module:Class"``), else the first plain ``"record"`` one."""
+    kind = type(data)
+    specific = f"record:{kind.__module__}:{kind.__qualname__}"
+    for key in (specific, "record"):
+        hooks = _hooks(key)
+        if hooks:
+            return hooks[0]
+    raise InvalidParameterError(
+        "no model family compares records with a load-point protocol (none declares a "
+        "'record' comparison)"
+    )
 
 
 def failed_row(model: str, formula: str, nfree: int, reason: object) -> dict[str, Any]:
@@ -211,6 +252,7 @@ def _fit_log_aging(z, y, sigma):
         x=z,
         y=y,
         sigma=sigma,
+        function=f"{__name__}:LOG_AGING",
     )
 
 
@@ -234,6 +276,7 @@ def _fit_exponential(z, y, sigma):
         x=z,
         y=y,
         sigma=sigma,
+        function=f"{__name__}:EXPONENTIAL",
     )
 
 
@@ -249,9 +292,9 @@ def compare_models(
     detrend: bool = False,
     correlated_noise: bool = False,
 ) -> ModelComparison:
-    """Compare Eq. 3 with pure logarithmic aging and a single-exponential approach; or, on
-    velocity steps, rate-and-state (aging and slip laws) with the paper's Eq. 2 with and
-    without the direct effect.
+    """Compare Eq. 3 with pure logarithmic aging and a single-exponential approach; or, on a
+    record with its load-point protocol, the models of the family that compares such
+    records (:mod:`granflow.families`).
 
     Parameters
     ----------
@@ -266,17 +309,18 @@ def compare_models(
     sigma : float, optional
         Known noise [N].
     protocol : Protocol, optional
-        The load-point velocity history of a velocity-step record (``data`` then holds time
-        [s] and friction; a :func:`granflow.io.read_velocity_steps` record brings its own):
-        the models are ``rsf_aging``, ``rsf_slip``, ``eq2_direct`` and ``eq2``
-        (:mod:`granflow.fitting.rsf_compare`), each row with its residual pattern and the
-        likelihood-ratio test against the model it extends. ``window`` is then a list of
-        windows as in :func:`granflow.rsf.fit`.
+        The load-point velocity history of a record (``data`` then holds time [s] and
+        friction; a record read by the family's reader brings its own): the rows are those
+        of the family's ``"record"`` comparison (velocity steps: the two laws of the
+        friction family, the paper's Eq. 2 with and without the direct effect, each row
+        with its residual pattern and the likelihood-ratio test against the model it
+        extends). ``window`` is then a list of fit windows [s].
     rate_and_state : bool
-        On a start-up curve, add the rate-and-state aging and slip laws (a step of the load
-        point from a slow steady sliding to ``velocity``).
+        On a start-up curve, add the rows of every family's ``"startup"`` comparison (the
+        aging and slip laws of friction on a spring, a step of the load point from a slow
+        steady sliding to ``velocity``).
     detrend, correlated_noise : bool
-        Velocity steps: a linear trend in load-point displacement in every model; the
+        Records: a linear trend in load-point displacement in every model; the
         likelihood-ratio tests with n divided by the residuals' correlation time.
 
     Returns
@@ -295,13 +339,12 @@ def compare_models(
     if domain not in ("slip", "time"):
         raise InvalidParameterError(f"domain must be 'slip' or 'time', got {domain!r}")
     if protocol is not None or hasattr(data, "protocol"):
-        from granflow.fitting.rsf_compare import velocity_step_rows
-
+        rows_of = _record_hook(data)
         if isinstance(data, tuple | list):
             t, friction = data
-        else:  # a velocity-step record or a Run: the friction comes with it
+        else:  # a record or a Run: the friction comes with it
             t, friction = data, None
-        rows, fits, _ = velocity_step_rows(
+        rows, fits, _ = rows_of(
             t, friction, protocol, windows=window, detrend=detrend, correlated=correlated_noise
         )
         return _ranked(rows, fits)
@@ -324,24 +367,12 @@ def compare_models(
             rows.append(failed_row(model, _FORMULAS[model], nfree, exc))
             continue
         fits[model] = result
-        rows.append(
-            {
-                "model": model,
-                "formula": _FORMULAS[model],
-                "nfree": result.nfree,
-                "chisqr": result.chisqr,
-                "aic": result.aic,
-                "bic": result.bic,
-                "success": result.success,
-                "message": result.message,
-            }
-        )
+        rows.append(result.comparison_row())
     if rate_and_state:
-        from granflow.fitting.rsf_compare import startup_rows
-
-        more_rows, more_fits = startup_rows(z, y, domain=domain, velocity=prepared.velocity)
-        rows += more_rows
-        fits.update(more_fits)
+        for rows_of in _hooks("startup"):
+            more_rows, more_fits = rows_of(z, y, domain=domain, velocity=prepared.velocity)
+            rows += more_rows
+            fits.update(more_fits)
     return _ranked(rows, fits)
 
 

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from granflow.errors import InvalidDataError
+from granflow.families import family_of
 from granflow.fitting.curves import real_column
 from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
 from granflow.fitting.parameters import Split, require_positive, split
@@ -31,6 +32,7 @@ from granflow.fitting.results import (
 )
 from granflow.fitting.statistics import (
     FitOutcome,
+    comparison_row,
     decoded,
     estimates,
     fit_report,
@@ -40,10 +42,10 @@ from granflow.fitting.statistics import (
 from granflow.model.units import si_unit
 
 if TYPE_CHECKING:
-    from granflow._typing import FloatArray
+    from matplotlib.axes import Axes
 
-if TYPE_CHECKING:
-    from granflow._typing import ArrayLike
+    from granflow._typing import ArrayLike, FloatArray
+    from granflow.families import Likelihood
     from granflow.fitting.parameters import Parameter, Parameters
 
 __all__ = ["CurveFitResult", "fit_creep"]
@@ -71,6 +73,11 @@ class CurveFitResult(FitOutcome):
     x, data, best_fit, residuals : numpy.ndarray
     fixed : tuple of str
         The parameters held at their value (``params=`` with ``vary=False``).
+    function : str
+        The engine :class:`~granflow.fitting.Model` fitted, as ``"module:NAME"`` (what
+        :meth:`log_likelihood` evaluates); "" where unknown.
+    sigma : float or None
+        The known noise of the data [unit of the data] (``sigma_known``), else None.
     """
 
     model: str
@@ -82,6 +89,8 @@ class CurveFitResult(FitOutcome):
     best_fit: np.ndarray
     residuals: np.ndarray
     fixed: tuple = ()
+    function: str = ""
+    sigma: float | None = None
 
     #: The per-point arrays, which the compact ``to_dict(include_arrays=False)`` leaves out.
     ARRAYS = ("x", "data", "best_fit", "residuals")
@@ -129,8 +138,25 @@ class CurveFitResult(FitOutcome):
 
         return fit_html(self, title=f"CurveFitResult: {self.formula}")
 
+    def log_likelihood(self) -> Likelihood:
+        """The likelihood of the free parameters, from the result's points, model and noise
+        (:func:`granflow.fitting.likelihoods.curve_likelihood`)."""
+        from granflow.fitting.likelihoods import curve_likelihood
+
+        return curve_likelihood(self)
+
+    def comparison_row(self) -> dict[str, Any]:
+        """The fit's row of :func:`granflow.compare_models` (its ``model`` and ``formula``)."""
+        return comparison_row(self, self.model, self.formula)
+
+    def plot(self, ax: Axes | None = None, *, residual_ax: Axes | None = None) -> Axes:
+        """Data, fit and residuals; see :func:`granflow.plotting.plot_fit`."""
+        from granflow.plotting.fits import plot_fit
+
+        return plot_fit(self, ax=ax, residual_ax=residual_ax)
+
     def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
-        """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
+        """JSON-safe mapping of the result, with its ``family``; :meth:`from_dict` inverts it.
 
         Parameters
         ----------
@@ -139,6 +165,7 @@ class CurveFitResult(FitOutcome):
             summary, which :meth:`from_dict` rebuilds with empty arrays).
         """
         out = {
+            "family": family_of(self),
             "model": self.model,
             "formula": self.formula,
             "names": list(self.names),
@@ -149,6 +176,10 @@ class CurveFitResult(FitOutcome):
         }
         if self.fixed:
             out["fixed"] = list(self.fixed)
+        if self.function:
+            out["function"] = self.function
+        if self.sigma is not None:
+            out["sigma"] = self.sigma
         return encode(out)
 
     @classmethod
@@ -163,6 +194,8 @@ class CurveFitResult(FitOutcome):
             units=FrozenMap(d["units"]),
             **read_arrays(cls, d),
             fixed=tuple(d.get("fixed", ())),
+            function=str(d.get("function", "")),
+            sigma=None if d.get("sigma") is None else float(d["sigma"]),
         )
 
 
@@ -182,14 +215,17 @@ def check_xy(x: Any, y: Any, names: tuple[str, str], minimum: int) -> tuple[Floa
     return x, y
 
 
-def fit_curve(model, *, name, formula, units, start, x, y, sigma=None, held=None, ranges=None):
+def fit_curve(
+    model, *, name, formula, units, start, x, y, sigma=None, held=None, ranges=None, function=""
+):
     """Least squares of a small :class:`~granflow.fitting.engine.Model` from ``start``.
 
     The engine's Levenberg-Marquardt (trust-region reflective if it does not converge) in the
     model's coordinates (log for its scale parameters); covariance from the analytic
     Jacobian, scaled by the residual variance unless ``sigma`` (the known noise) is given.
     ``held``: values [SI] of parameters held fixed; ``ranges``: (min, max) search ranges
-    [SI] by name (the start is moved inside).
+    [SI] by name (the start is moved inside); ``function``: the model as ``"module:NAME"``
+    (kept for the result's :meth:`~CurveFitResult.log_likelihood`); ``sigma``: a number.
     """
     held, ranges = held or {}, ranges or {}
     weights = np.ones_like(y) if sigma is None else 1.0 / np.broadcast_to(sigma, y.shape)
@@ -235,6 +271,8 @@ def fit_curve(model, *, name, formula, units, start, x, y, sigma=None, held=None
         best_fit=read_only(stats.best_fit),
         residuals=read_only(stats.residuals),
         fixed=tuple(slot for slot in model.slots if slot in held),
+        function=function,
+        sigma=None if sigma is None else float(sigma),
     )
 
 
@@ -333,4 +371,5 @@ def fit_creep(
         sigma=sigma,
         held=held,
         ranges=requested.ranges,
+        function=f"{__name__}:CREEP",
     )

@@ -1,9 +1,10 @@
-"""Bayesian posterior of an Eq. 3 fit with emcee (the optional extra ``granflow[mcmc]``).
+"""Bayesian posterior of a fit with emcee (the optional extra ``granflow[mcmc]``).
 
-The likelihood is Gaussian with the noise of the least-squares fit: the known sigma when the
-fit had one, otherwise the residual standard deviation. Scale parameters (a, alpha or k, x0
-or t0) get log-uniform priors by default, Fd a uniform one; walkers move in log coordinates
-for log-uniform parameters, so the prior is flat there.
+One path for every model family: the fit result's ``log_likelihood()``
+(:class:`granflow.families.FamilyFit`) gives the free parameters, their least-squares values,
+standard errors and default priors, and the log-likelihood, rebuilt from the result's own
+data (so a result read back from JSON is sampled like the one fitted). Walkers move in log
+coordinates for log-uniform parameters, so the prior is flat there.
 """
 
 from __future__ import annotations
@@ -17,8 +18,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from granflow._progress import progress_bar
+from granflow._seeds import two_streams
 from granflow.errors import ConvergenceWarning, InvalidParameterError
-from granflow.fitting.engine import model_only
+from granflow.families import FamilyFit
 from granflow.fitting.results import (
     FrozenMap,
     ValueEquality,
@@ -30,7 +32,6 @@ from granflow.fitting.results import (
     numbers,
     read_arrays,
 )
-from granflow.fitting.single import FitResult
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -39,9 +40,7 @@ if TYPE_CHECKING:
 
 __all__ = ["PosteriorResult", "sample_posterior"]
 
-_SCALE_PARAMETERS = {"a", "alpha", "x0", "k", "t0"}
 _PRIOR_KINDS = ("log-uniform", "uniform")
-_PRIOR_WIDTH = 1e3  # default log-uniform prior: [value / 1e3, value * 1e3]
 _TAU_FACTOR = 50  # chains shorter than 50 autocorrelation times are flagged
 
 
@@ -58,7 +57,7 @@ def _emcee():
 
 @dataclass(frozen=True, eq=False)
 class PosteriorResult(ValueEquality):
-    """Samples of the posterior of an Eq. 3 fit.
+    """Samples of the posterior of a fit.
 
     Attributes
     ----------
@@ -217,14 +216,7 @@ class PosteriorResult(ValueEquality):
         return plot_corner(self, **kwargs)
 
 
-def _default_prior(name, value):
-    """Eq. 3's default prior of ``name`` about its least-squares ``value``."""
-    if name in _SCALE_PARAMETERS and value > 0:
-        return "log-uniform", value / _PRIOR_WIDTH, value * _PRIOR_WIDTH
-    return "uniform", 0.0, max(10.0 * abs(value), 1e-12)
-
-
-def priors_for(values, priors, default=_default_prior):
+def priors_for(values, priors, default):
     """The prior (kind, low, high) of each free parameter: ``priors[name]`` where given
     (checked), else ``default(name, value)``; ``values`` maps the free parameters' names to
     their least-squares values, which every prior must hold."""
@@ -257,7 +249,7 @@ def priors_for(values, priors, default=_default_prior):
 
 
 def sample_posterior(
-    fit_result: FitResult,
+    fit_result: FamilyFit,
     *,
     priors: Mapping[str, tuple[str, float, float]] | None = None,
     nwalkers: int = 32,
@@ -266,19 +258,19 @@ def sample_posterior(
     seed: int | None = None,
     progress: bool | None = None,
 ) -> PosteriorResult:
-    """Sample the posterior of a single-curve fit with emcee's affine-invariant ensemble.
+    """Sample the posterior of a fit with emcee's affine-invariant ensemble.
 
     Parameters
     ----------
-    fit_result : FitResult or RateStateFitResult
-        A result of :func:`granflow.fit`, or of :func:`granflow.rsf.fit` in this session
-        (:mod:`granflow.fitting.rsf_posterior`); its free parameters are sampled, fixed ones
-        stay.
+    fit_result : FamilyFit
+        A fit result of any model family (:class:`granflow.families.FamilyFit`: a result of
+        :func:`granflow.fit`, :func:`granflow.fit_creep` and the other families' fits),
+        also one read back with ``from_dict``: its ``log_likelihood()`` is rebuilt from the
+        result's stored data. Its free parameters are sampled, fixed ones stay.
     priors : mapping of str to (kind, low, high), optional
-        ``kind`` is ``"log-uniform"`` or ``"uniform"``, bounds in SI. Defaults: log-uniform on
-        [value/1000, value*1000] for a, alpha (k), x0 (t0); uniform on [0, 10 value] for Fd.
-        Rate-and-state: log-uniform for a, the stiffness, Dc and the ripple's wavelength,
-        uniform 100 standard errors either side for b, mu0, the trend and the amplitudes.
+        ``kind`` is ``"log-uniform"`` or ``"uniform"``, bounds in SI. Default: the result's
+        own (its likelihood's ``priors``); for Eq. 3 log-uniform on [value/1000,
+        value*1000] for a, alpha (k), x0 (t0) and uniform on [0, 10 value] for Fd.
     nwalkers : int
         Walkers (at least twice the number of free parameters).
     nsteps : int
@@ -308,38 +300,16 @@ def sample_posterior(
     >>> y = granflow.friction_slip(x, p) + np.random.default_rng(0).normal(0, 5e-5, 300)
     >>> post = granflow.sample_posterior(granflow.fit((x, y)), nsteps=300, seed=1)  # doctest: +SKIP
     """
-    from granflow.fitting.rsf_result import RateStateFitResult
-
-    if isinstance(fit_result, RateStateFitResult):
-        from granflow.fitting.rsf_posterior import rate_state_posterior
-
-        sampling = (nwalkers, nsteps, burn, seed, progress)
-        return rate_state_posterior(fit_result, priors, sampling)
-    if not isinstance(fit_result, FitResult):
+    if not isinstance(fit_result, FamilyFit):
         raise InvalidParameterError(
-            "fit_result must be a granflow.FitResult or a rate-and-state fit, got "
-            f"{type(fit_result).__name__}"
+            "fit_result must be a fit result of a model family (a granflow.FitResult, "
+            f"CurveFitResult, ...: granflow.families.FamilyFit), got {type(fit_result).__name__}"
         )
-    free = [n for n in fit_result.names if n not in fit_result.fixed]
-    least_squares = {n: fit_result.params[n] for n in free}
-    chosen = priors_for(least_squares, priors)
-    x = np.ascontiguousarray(fit_result.x)
-    data = np.asarray(fit_result.data)
-    noise = 1.0 if fit_result.sigma_known else math.sqrt(fit_result.redchi)
-    weights = np.asarray(fit_result.weights) / noise
-    slots = [fit_result.names.index(n) for n in free]
-    base = np.array([fit_result.params[n] for n in fit_result.names])
-
-    def log_likelihood(natural):
-        values = base.copy()
-        values[slots] = natural
-        residual = weights * (model_only(x, *values) - data)
-        return -0.5 * float(residual @ residual)
-
-    spread = {n: fit_result.stderr[n] for n in free}
-    return sample(
-        log_likelihood, chosen, least_squares, spread, (nwalkers, nsteps, burn, seed, progress)
-    )
+    likelihood = fit_result.log_likelihood()
+    values = {name: likelihood.values[name] for name in likelihood.names}
+    chosen = priors_for(values, priors, lambda name, _: likelihood.priors[name])
+    sampling = (nwalkers, nsteps, burn, seed, progress)
+    return sample(likelihood.function, chosen, values, likelihood.stderr, sampling)
 
 
 def _checked(ndim, nwalkers, nsteps, burn):
@@ -390,8 +360,7 @@ def sample(log_likelihood, chosen, least_squares, spread, sampling):
         value = log_likelihood(natural(u))
         return value if math.isfinite(value) else -np.inf
 
-    seeds = np.random.SeedSequence(seed)
-    start_rng, sampler_seed = np.random.default_rng(seeds.spawn(1)[0]), seeds.generate_state(1)[0]
+    start_rng, sampler_seed = two_streams(seed)
     best = np.array([least_squares[n] for n in free])
     centre = np.where(log_axis, np.log(np.maximum(best, 1e-300)), best)
     error = np.array([spread[n] for n in free])

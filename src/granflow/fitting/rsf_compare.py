@@ -151,9 +151,9 @@ def velocity_step_rows(t, friction, protocol, *, windows=None, detrend=False, co
     else:
         held = {} if detrend else {"slope": 0.0}
         slots, start = ("mu_d",), (float(np.mean(reference.data)),)
-        model_fn = CONSTANT
+        model_fn, function = CONSTANT, f"{__name__}:CONSTANT"
         if detrend:
-            slots, model_fn = ("mu_d", "slope"), _TREND
+            slots, model_fn, function = ("mu_d", "slope"), TREND, f"{__name__}:TREND"
             start = (start[0], 0.0)
         result = fit_curve(
             model_fn,
@@ -164,6 +164,7 @@ def velocity_step_rows(t, friction, protocol, *, windows=None, detrend=False, co
             x=_displacement(reference),
             y=np.asarray(reference.data),
             held={k: v for k, v in held.items() if k in slots},
+            function=function,
         )
         fits["eq2"] = result
         row = _row("eq2", result)
@@ -188,7 +189,7 @@ def _trend_jacobian(x, mu_d, slope):
     return mu_d + slope * x, np.column_stack([np.ones_like(x), x])
 
 
-_TREND = Model(("mu_d", "slope"), _trend, _trend_jacobian, log=(False, False))
+TREND = Model(("mu_d", "slope"), _trend, _trend_jacobian, log=(False, False))
 
 
 def startup_rows(z, y, *, domain, velocity):

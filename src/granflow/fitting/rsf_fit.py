@@ -37,7 +37,6 @@ from granflow.fitting.profile import profile_interval
 from granflow.fitting.results import FrozenMap, read_only
 from granflow.fitting.rsf_forward import Window, noise_scatter
 from granflow.fitting.rsf_periodic import harmonic_names, periodicity_check
-from granflow.fitting.rsf_posterior import attach_likelihood
 from granflow.fitting.rsf_problem import Setup, with_periodic
 from granflow.fitting.rsf_result import RateStateFitResult
 from granflow.fitting.statistics import WALD_Z, fit_statistics
@@ -510,8 +509,10 @@ def fit(
         harmonics=terms,
         periodicity=FrozenMap(periodicity_check(load_point, stats.residuals, harmonics)),
         correlated_noise=bool(correlated_noise),
+        load_point_history=read_only(pieces),
+        sigma=None if sigma is None else float(sigma),
     )
-    return attach_likelihood(result, problem, values, variance)
+    return result
 
 
 def correlation_time(residuals, blocks=20):

@@ -1,96 +1,107 @@
-"""The posterior of a rate-and-state fit (:func:`granflow.sample_posterior` on a result of
-:func:`granflow.rsf.fit`), with emcee: the optional extra ``granflow[mcmc]``.
+"""The likelihood of a rate-and-state fit (:meth:`granflow.fitting.rsf_result.RateStateFitResult.
+log_likelihood`), rebuilt from the result itself, for :func:`granflow.sample_posterior`.
 
 The likelihood is the fit's own: Gaussian with the fit's noise variance (the known sigma, or
 the reduced chi-square), multiplied by the residuals' correlation time when the fit was made
 with ``correlated_noise=True``, so that the posterior is as wide as the fit's intervals say
-the data allow. The fit keeps its model for this (the result's ``_likelihood``): a result
-read back from a file or unpickled has none and must be fitted again.
+the data allow. Its model is built again from what the result stores (its points, the
+protocol's load-point history, the windows, the laws, the held values, the ripple's
+harmonics), so a result read back with ``from_dict`` (with its arrays) or unpickled gives
+the chi-square of the fit itself.
 """
 
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from granflow.errors import InvalidParameterError
-from granflow.fitting.mcmc import priors_for, sample
+from granflow.families import Likelihood
+from granflow.fitting.likelihoods import require_points, scale_or_spread_prior
+from granflow.fitting.rsf_forward import Window
+from granflow.fitting.rsf_problem import Setup
 
-__all__ = ["attach_likelihood", "rate_state_posterior"]
+if TYPE_CHECKING:
+    from granflow.fitting.rsf_result import RateStateFitResult
 
-_PRIOR_WIDTH = 1e3  # log-uniform: [value / 1e3, value * 1e3]
-_UNIFORM_ERRORS = 100.0  # uniform: this many standard errors either side
+__all__ = ["rate_state_likelihood"]
 
-
-class _Likelihood:
-    """The chi-square of a fit's problem at its free parameters' natural values."""
-
-    def __init__(self, problem, values, names, variance):
-        self.problem = problem
-        self.values = np.array(values, dtype=float)
-        self.names = tuple(names)
-        self.free = tuple(problem.free)
-        self.variance = float(variance)
-
-    def __call__(self, natural):
-        values = self.values.copy()
-        values[list(self.free)] = natural
-        chisqr = self.problem.chisqr(values)
-        return -0.5 * chisqr / self.variance if math.isfinite(chisqr) else -math.inf
+#: Search ranges the rebuilt problem declares (only evaluated, never searched).
+_OPEN = (0.0, math.inf)
+_POSITIVE = ("a", "stiffness", "wavelength", "Dc")
 
 
-def attach_likelihood(result, problem, values, variance):
-    """Keep the fit's problem on ``result`` for :func:`rate_state_posterior` (not saved, not
-    pickled, not compared)."""
-    likelihood = _Likelihood(problem, values, result.names, variance)
-    object.__setattr__(result, "_likelihood", likelihood)
-    return result
+def _ranges(t, windows):
+    """(first, stop, start time) of each window in the result's concatenated points: a
+    window runs from where the last one stopped to its last time."""
+    ranges, first = [], 0
+    for start, end in windows:
+        last = first + int(np.flatnonzero(t[first:] == end)[0])
+        ranges.append((first, last + 1, float(start)))
+        first = last + 1
+    return ranges
 
 
-def _default(stderr):
-    def prior(name, value):
-        if name.startswith(("a", "stiffness", "Dc", "wavelength")) and value > 0:
-            return "log-uniform", value / _PRIOR_WIDTH, value * _PRIOR_WIDTH
-        error = stderr.get(name, 0.0)
-        width = _UNIFORM_ERRORS * error if error > 0 else max(abs(value), 1e-12)
-        return "uniform", value - width, value + width
+def rebuilt_problem(result):
+    """(problem, values, names) of ``result``'s fit: the engine's problem over the result's
+    points, and the fitted values of all its parameters (in the problem's order)."""
+    require_points(result, ("t", "data", "load_point_history"))
+    if result.sigma_known and result.sigma is None:
+        raise InvalidParameterError(
+            "this fit had a known sigma but does not store it: fit the record again"
+        )
+    t, data = np.asarray(result.t), np.asarray(result.data)
+    ranges = _ranges(t, result.windows)
+    count = len(result.laws)
+    record = [Window(t[lo:hi], result.load_point_history, result.laws, s) for lo, hi, s in ranges]
+    multi = len(ranges) > 1
+    local_names = [
+        (f"mu0_{i}", f"slope_{i}") if multi else ("mu0", "slope") for i in range(1, len(ranges) + 1)
+    ]
+    periodic = 1 + 2 * result.harmonics if result.harmonics else 0
+    names = list(result.names[: len(result.names) - periodic])
+    fixed = {n: result.params[n] for n in result.fixed}
+    search = {n[:2]: _OPEN for n in _POSITIVE}
+    setup = Setup((t, data), record, ranges, names, local_names, count, fixed, search, result.sigma)
+    problem = setup.problem([result.params[n] for n in result.names], result.harmonics)
+    return problem, np.array([result.params[n] for n in result.names]), list(result.names)
 
-    return prior
 
+def rate_state_likelihood(result: RateStateFitResult) -> Likelihood:
+    """The :class:`granflow.families.Likelihood` of rate-and-state fit ``result``.
 
-def rate_state_posterior(fit, priors, sampling):
-    """The posterior of the free parameters of rate-and-state fit ``fit``.
-
-    Parameters
-    ----------
-    fit : RateStateFitResult
-        A result of :func:`granflow.rsf.fit` made in this session.
-    priors : mapping of str to (kind, low, high) or None
-        As :func:`granflow.sample_posterior` takes them; by default log-uniform over a factor
-        1000 either way for a, the stiffness [1/m], Dc [m] and the wavelength [m], uniform over
-        100 standard errors either side for b, mu0, the trend [1/m] and the ripple's
-        amplitudes.
-    sampling : tuple
-        ``(nwalkers, nsteps, burn, seed, progress)``.
-
-    Returns
-    -------
-    PosteriorResult
+    Default priors: log-uniform over a factor 1000 either way for a, the stiffness [1/m], Dc
+    [m] and the ripple's wavelength [m]; uniform over 100 standard errors either side for b,
+    mu0, the trend [1/m] and the ripple's amplitudes.
 
     Raises
     ------
     granflow.InvalidParameterError
-        A result without its model (read from a file or unpickled).
+        A result without its points or its protocol (written with
+        ``to_dict(include_arrays=False)``, or before results stored their protocol).
     """
-    likelihood = getattr(fit, "_likelihood", None)
-    if likelihood is None:
-        raise InvalidParameterError(
-            "this rate-and-state result has no model to sample (it was read from a file or "
-            "unpickled): fit the record again with granflow.rsf.fit, then sample"
-        )
-    free = [likelihood.names[i] for i in likelihood.free]
-    least_squares = {n: fit.params[n] for n in free}
-    spread = {n: fit.stderr[n] for n in free}
-    chosen = priors_for(least_squares, priors, _default(spread))
-    return sample(likelihood, chosen, least_squares, spread, sampling)
+    problem, values, names = rebuilt_problem(result)
+    inflation = max(result.correlation_time, 1.0) if result.correlated_noise else 1.0
+    variance = (1.0 if result.sigma_known else result.redchi) * inflation
+    free = [names[i] for i in problem.free]
+    slots = list(problem.free)
+
+    def log_likelihood(natural):
+        trial = values.copy()
+        trial[slots] = natural
+        chisqr = problem.chisqr(trial)
+        return -0.5 * chisqr / variance if math.isfinite(chisqr) else -math.inf
+
+    priors = {
+        n: scale_or_spread_prior(n, result.params[n], result.stderr[n], n.startswith(_POSITIVE))
+        for n in free
+    }
+    return Likelihood(
+        names=tuple(free),
+        values={n: result.params[n] for n in free},
+        stderr={n: result.stderr[n] for n in free},
+        priors=priors,
+        function=log_likelihood,
+    )

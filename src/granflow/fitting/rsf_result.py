@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from granflow.families import family_of
 from granflow.fitting.results import (
     FrozenMap,
     arrays,
@@ -15,10 +16,19 @@ from granflow.fitting.results import (
     encode,
     read_arrays,
 )
-from granflow.fitting.statistics import FitOutcome, decoded, estimates, fit_report, statistics
+from granflow.fitting.statistics import (
+    FitOutcome,
+    comparison_row,
+    decoded,
+    estimates,
+    fit_report,
+    statistics,
+)
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+
+    from granflow.families import Likelihood
 
 __all__ = ["RateStateFitResult"]
 
@@ -82,6 +92,12 @@ class RateStateFitResult(FitOutcome):
     correlated_noise : bool
         Whether the covariance and the intervals were scaled by the correlation time
         (correlated noise); False: the noise was taken as white.
+    load_point_history : numpy.ndarray, shape (pieces, 4)
+        The protocol the record was fitted through: per piece its start [s], end [s],
+        load-point velocity at the start [m/s] and slope [m/s^2] (what
+        :meth:`log_likelihood` simulates again).
+    sigma : float or None
+        The known noise of the friction [-] (``sigma_known``), else None.
     """
 
     laws: tuple
@@ -103,6 +119,8 @@ class RateStateFitResult(FitOutcome):
     harmonics: int = 0
     periodicity: FrozenMap = field(default_factory=lambda: FrozenMap({}))
     correlated_noise: bool = False
+    load_point_history: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
+    sigma: float | None = None
 
     ARRAYS = (
         "t",
@@ -111,6 +129,7 @@ class RateStateFitResult(FitOutcome):
         "residuals",
         "load_point_velocity",
         "load_point_displacement",
+        "load_point_history",
     )
 
     def __repr__(self) -> str:
@@ -225,17 +244,24 @@ class RateStateFitResult(FitOutcome):
         )
         return fit_html(self, title=title, **self._report_rows())
 
-    def __getstate__(self):
-        """Pickle the fields only: the model kept for sampling the posterior
-        (:mod:`granflow.fitting.rsf_posterior`) stays in the session that fitted it."""
-        state = dict(self.__dict__)
-        state.pop("_likelihood", None)
-        return state
+    def log_likelihood(self) -> Likelihood:
+        """The likelihood of the free parameters, the fit's model simulated again from the
+        result's points, protocol, windows and held values
+        (:func:`granflow.fitting.rsf_posterior.rate_state_likelihood`)."""
+        from granflow.fitting.rsf_posterior import rate_state_likelihood
+
+        return rate_state_likelihood(self)
+
+    def comparison_row(self) -> dict[str, Any]:
+        """The fit's row of a model comparison (model ``rsf_<law>``)."""
+        law = "+".join(self.laws)
+        return comparison_row(self, f"rsf_{law}", f"rate-and-state, {law} law, spring k")
 
     def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
-        """JSON-safe mapping; :meth:`from_dict` inverts it."""
+        """JSON-safe mapping, with its ``family``; :meth:`from_dict` inverts it."""
         return encode(
             {
+                "family": family_of(self),
                 "laws": list(self.laws),
                 "names": list(self.names),
                 **estimates(self),
@@ -250,6 +276,7 @@ class RateStateFitResult(FitOutcome):
                 "harmonics": self.harmonics,
                 "periodicity": dict(self.periodicity),
                 "correlated_noise": self.correlated_noise,
+                "sigma": self.sigma,
                 **statistics(self),
                 **arrays(self, include_arrays),
             }
@@ -274,6 +301,7 @@ class RateStateFitResult(FitOutcome):
             harmonics=int(d.get("harmonics", 0)),
             periodicity=FrozenMap(d.get("periodicity", {})),
             correlated_noise=bool(d.get("correlated_noise", False)),
+            sigma=None if d.get("sigma") is None else float(d["sigma"]),
             **read_arrays(cls, d),
         )
 

@@ -30,10 +30,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from granflow import _validate as check
-from granflow.errors import (
-    ConvergenceWarning,
-    InvalidParameterError,
-)
+from granflow.errors import ConvergenceWarning, InvalidParameterError
+from granflow.families import family_of
 from granflow.fitting.curves import (
     ABSCISSA,
     check_mapping,
@@ -67,6 +65,7 @@ from granflow.fitting.results import (
 from granflow.fitting.statistics import (
     WALD_Z,
     FitOutcome,
+    comparison_row,
     decoded,
     estimates,
     fit_report,
@@ -81,10 +80,14 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
     from granflow._typing import ArrayLike, FloatArray
+    from granflow.families import Likelihood
     from granflow.fitting.parameters import Parameter, Parameters
     from granflow.model.run import Run
 
-__all__ = ["FitResult", "fit", "parameter_names"]
+__all__ = ["FORMULA", "FitResult", "fit", "parameter_names"]
+
+#: Eq. 3 as text (the model comparison's formula).
+FORMULA = "Eq. 3: a e^-s [Ei(s) - Ei(s0)] + Fd (1 - e^-s)"
 
 _NAMES = {"slip": ("a", "alpha", "Fd", "x0"), "time": ("a", "k", "Fd", "t0")}
 #: SI unit of each parameter, by domain (from granflow.model.units).
@@ -233,8 +236,19 @@ class FitResult(FitOutcome):
         title = f"FitResult: Eq. 3 in {self.domain}" + (f" of {self.name}" if self.name else "")
         return fit_html(self, title=title, **self._report_rows())
 
+    def log_likelihood(self) -> Likelihood:
+        """The likelihood of the free parameters, from the result's points and weights
+        (:func:`granflow.fitting.likelihoods.eq3_likelihood`)."""
+        from granflow.fitting.likelihoods import eq3_likelihood
+
+        return eq3_likelihood(self)
+
+    def comparison_row(self) -> dict[str, Any]:
+        """The fit's row of :func:`granflow.compare_models` (model ``"eq3"``)."""
+        return comparison_row(self, "eq3", FORMULA)
+
     def to_dict(self, include_arrays: bool = True) -> dict[str, Any]:
-        """JSON-safe mapping of the result; :meth:`from_dict` inverts it.
+        """JSON-safe mapping of the result, with its ``family``; :meth:`from_dict` inverts it.
 
         Parameters
         ----------
@@ -243,6 +257,7 @@ class FitResult(FitOutcome):
             (False: a compact summary, which :meth:`from_dict` rebuilds with empty arrays).
         """
         out = {
+            "family": family_of(self),
             "domain": self.domain,
             "name": self.name,
             "names": list(self.names),
@@ -559,10 +574,9 @@ def _result(problem, solution, prepared, domain, names, fixed, profile):
         messages.append(verdict)
     if not success or bound_names:
         warnings.warn("; ".join(messages), ConvergenceWarning, stacklevel=3)
+    frozen = FrozenMap({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})
     return FitResult(
-        **stats.fit_fields(
-            ci95=FrozenMap({k: (float(v[0]), float(v[1])) for k, v in ci95.items()})
-        ),
+        **stats.fit_fields(ci95=frozen),
         success=success,
         message="; ".join(messages),
         domain=domain,

@@ -5,8 +5,9 @@ numbers every result carries (lmfit's names): params, stderr, covariance and cor
 name, Wald intervals, chisqr, redchi, AIC, BIC and R-squared. :class:`FitSummary` declares the
 fields that the statistics and every result share, :class:`FitOutcome` those of every result
 (with success, message and sigma_known); :func:`estimates`, :func:`statistics` and
-:func:`decoded` are their JSON codec, and :func:`fit_report` is the lmfit-style report of
-every single, joint and curve fit.
+:func:`decoded` are their JSON codec, :func:`comparison_row` a result's row of a model
+comparison, and :func:`fit_report` is the lmfit-style report of every single, joint and
+curve fit.
 """
 
 from __future__ import annotations
@@ -180,6 +181,22 @@ def fit_statistics(problem, values, names, *, sigma_known, hessian=None):
         residuals=residuals,
         invertible=invertible,
     )
+
+
+def comparison_row(result, model, formula):
+    """The row of a model comparison (:func:`granflow.compare_models`) of a fit ``result``:
+    ``model``, ``formula``, ``nfree``, ``chisqr``, ``aic``, ``bic``, ``success``,
+    ``message``."""
+    return {
+        "model": model,
+        "formula": formula,
+        "nfree": result.nfree,
+        "chisqr": result.chisqr,
+        "aic": result.aic,
+        "bic": result.bic,
+        "success": result.success,
+        "message": result.message,
+    }
 
 
 def estimates(result):

@@ -16,7 +16,13 @@ from typing import TYPE_CHECKING, Any
 from granflow._html import HtmlReport
 from granflow._json import json_safe
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
-from granflow.io.manifest import MANIFEST_FIELDS, TEST_KINDS, BadEntry, read_manifest
+from granflow.io.manifest import (
+    MANIFEST_FIELDS,
+    RECORD_KINDS,
+    TEST_KINDS,
+    BadEntry,
+    read_manifest,
+)
 from granflow.model.run import Run
 
 if TYPE_CHECKING:
@@ -134,8 +140,8 @@ def manifest_runs(path, geometry=None, *, executor=None, allow_outside=False):
         if isinstance(entry, BadEntry):
             planned.append((entry, None))
             continue
-        if entry.get("test") == "velocity_steps":
-            continue  # a rate-and-state record, no rheometer export: the analysis reads it
+        if entry.get("test") in RECORD_KINDS:
+            continue  # a model family's record, no rheometer export: its family reads it
         try:
             annulus, described = _entry_geometry(entry, geometry)
         except GranflowError as exc:

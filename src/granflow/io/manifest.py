@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from granflow.errors import FileFormatError, GranflowError, InvalidParameterError
+from granflow.families import record_families
 
 if TYPE_CHECKING:
     from granflow._typing import PathLike
@@ -35,7 +36,9 @@ if TYPE_CHECKING:
 __all__ = [
     "MANIFEST_FIELDS",
     "MAX_MANIFEST_BYTES",
+    "RECORD_KINDS",
     "RSF_LAWS",
+    "RUN_KINDS",
     "TEST_KINDS",
     "BadEntry",
     "read_manifest",
@@ -71,9 +74,13 @@ MANIFEST_FIELDS = (
 )
 #: What a run is: a rate-controlled start-up (Fig. 2), a stress ramp (Fig. 3a), creep under a
 #: constant stress (Fig. 3b), or a switch from rate to stress control (Fig. 3c).
-#: ``velocity_steps`` is a rate-and-state velocity-step record (time, displacement, friction;
-#: :func:`granflow.io.read_velocity_steps`), fitted and compared apart from the runs.
-TEST_KINDS = ("startup", "ramp", "creep", "switch", "velocity_steps")
+RUN_KINDS = ("startup", "ramp", "creep", "switch")
+#: The records of the model families (:func:`granflow.families.record_families`), analysed
+#: by their family apart from the runs: ``velocity_steps`` is a rate-and-state velocity-step
+#: record (time, displacement, friction; :func:`granflow.io.read_velocity_steps`).
+RECORD_KINDS = tuple(str(family.test_kind) for family in record_families())
+#: Every ``test`` a manifest entry may name.
+TEST_KINDS = RUN_KINDS + RECORD_KINDS
 #: The rate-and-state laws a ``velocity_steps`` entry may name.
 RSF_LAWS = ("aging", "slip")
 #: The largest manifest read [bytes] (1 MiB: tens of thousands of entries).
