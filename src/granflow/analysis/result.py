@@ -27,7 +27,6 @@ from granflow.analysis.joint_results import MATERIAL_CONSTANTS, Analyses, Materi
 from granflow.analysis.prediction_results import Predictions
 from granflow.analysis.run_results import FailedRun, run_result_from_dict
 from granflow.analysis.values import Value, frozen_json
-from granflow.errors import InvalidParameterError
 from granflow.families import record_families, resolve
 from granflow.fitting.results import FrozenMap
 from granflow.model.units import display_unit, to_display
