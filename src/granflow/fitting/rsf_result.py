@@ -60,7 +60,8 @@ class RateStateFitResult(FitOutcome):
     windows : tuple of (float, float)
         The fit windows [s].
     v_ref : tuple of float
-        Per window, its first load-point velocity [m/s] (mu0 is the steady friction there).
+        Per window, the load-point velocity where its simulation starts [m/s] (mu0 is the
+        steady friction there): the record's first by default, a given window's first.
     noise : float
         The record's high-frequency scatter [-] (about its running mean over 25 points).
     correlation_time : float
@@ -82,6 +83,12 @@ class RateStateFitResult(FitOutcome):
     correlated_noise : bool
         Whether the covariance and the intervals were scaled by the correlation time
         (correlated noise); False: the noise was taken as white.
+    convergence : mapping
+        The checks of the optimiser's end (:func:`granflow.fitting.rsf_convergence.verify`),
+        in chi-square units: ``gradient`` (the largest decrease a Newton step in one
+        parameter predicts), ``predicted`` (a Gauss-Newton step's), ``restart`` (what a
+        restart from the perturbed optimum gained), ``tolerance`` (what each must stay
+        below), ``chisqr``, ``restarts`` and ``passed``; empty for a result read from a file.
     """
 
     laws: tuple
@@ -103,6 +110,7 @@ class RateStateFitResult(FitOutcome):
     harmonics: int = 0
     periodicity: FrozenMap = field(default_factory=lambda: FrozenMap({}))
     correlated_noise: bool = False
+    convergence: FrozenMap = field(default_factory=lambda: FrozenMap({}))
 
     ARRAYS = (
         "t",
@@ -250,6 +258,7 @@ class RateStateFitResult(FitOutcome):
                 "harmonics": self.harmonics,
                 "periodicity": dict(self.periodicity),
                 "correlated_noise": self.correlated_noise,
+                "convergence": dict(self.convergence),
                 **statistics(self),
                 **arrays(self, include_arrays),
             }
@@ -274,6 +283,7 @@ class RateStateFitResult(FitOutcome):
             harmonics=int(d.get("harmonics", 0)),
             periodicity=FrozenMap(d.get("periodicity", {})),
             correlated_noise=bool(d.get("correlated_noise", False)),
+            convergence=FrozenMap(d.get("convergence", {})),
             **read_arrays(cls, d),
         )
 
