@@ -8,6 +8,7 @@ one-state slip-law fit of 1 -> 10 -> 1 -> 10 µm/s stopped at an RMS of 4.4e-5 (
 a two-state aging fit at 3.1e-4 (Dc2 8 % low); now both are at about 2e-11.
 """
 
+import functools
 import math
 import types
 
@@ -45,11 +46,16 @@ def _truth(states):
     return truth
 
 
+@functools.cache
+def _steps_record(case):
+    return slider_friction(0.6, 0.01, V1, 1200.0, CASES[case], SEGMENTS, T)
+
+
 @pytest.mark.parametrize("case", list(CASES))
 def test_noise_free_steps_are_fitted_to_the_solvers_tolerance(case):
     states = CASES[case]
     assert {law for *_, law in states} <= set(rsf.LAWS)
-    mu = slider_friction(0.6, 0.01, V1, 1200.0, states, SEGMENTS, T)
+    mu = _steps_record(case)
     fit = rsf.fit(T, mu, STEPS, law=states[0][2], states=len(states), profile=False)
     assert fit.success, fit.message
     assert len(fit.windows) == 3  # the default: one window per step, sharing one run
@@ -60,6 +66,21 @@ def test_noise_free_steps_are_fitted_to_the_solvers_tolerance(case):
     assert checks["passed"] and checks["restarts"] >= 1
     for key in ("gradient", "predicted", "restart"):
         assert checks[key] <= checks["tolerance"], key
+
+
+def test_two_states_of_one_law_are_numbered_by_their_dc():
+    """Started with the two states the other way round, the fit ends at the same minimum with
+    them exchanged, and reports them in order: Dc1 the shorter."""
+    mu = _steps_record("aging, two states")
+    exchanged = [Parameter("b1", 0.006), Parameter("Dc1", 100e-6), Parameter("b2", 0.008)]
+    fit = rsf.fit(
+        T, mu, STEPS, states=2, profile=False, params=[*exchanged, Parameter("Dc2", 10e-6)]
+    )
+    assert fit.success, fit.message
+    assert "states numbered by Dc" in fit.message  # it did end the other way round
+    assert fit.params["Dc1"] == pytest.approx(10e-6, rel=1e-5)
+    assert fit.params["b1"] == pytest.approx(0.008, rel=1e-5)
+    assert fit.params["Dc2"] == pytest.approx(100e-6, rel=1e-5)
 
 
 def _exponential_problem():
@@ -101,8 +122,7 @@ def test_a_stop_short_of_the_minimum_is_not_a_success():
 
 @pytest.fixture(scope="module")
 def aging_record():
-    states = CASES["aging"]
-    return slider_friction(0.6, 0.01, V1, 1200.0, states, SEGMENTS, T)
+    return _steps_record("aging")
 
 
 def test_params_and_fixed_saying_the_same_give_the_same_fit(aging_record):

@@ -232,6 +232,7 @@ def _optimise(setup, starts, noise, sigma, periodic, terms):
     scaled_noise = noise * (1.0 if sigma is None else 1.0 / sigma)
     problem = setup.problem(starts[0], harmonics=0)
     solution = _multistart(problem, starts, scaled_noise)
+    problem, solution = _in_order(setup, problem, solution)
     # model evaluations, not Levenberg-Marquardt steps (a step may try several)
     solution = dataclasses.replace(solution, nfev=setup.evaluations)
     names = list(setup.names)
@@ -241,6 +242,31 @@ def _optimise(setup, starts, noise, sigma, periodic, terms):
             setup, problem, solution, periodic, terms, load_point
         )
     return names, problem, solution
+
+
+def _in_order(setup, problem, solution):
+    """(problem, solution) with two states of one law numbered by their Dc, the shorter
+    first: the model is the same with the two exchanged, and a fit that ended with them the
+    other way round would report b1 and Dc1 for the longer one (its intervals then miss the
+    truth they were meant for). The exchanged values start a problem of their own (whose
+    scales follow them) and Levenberg-Marquardt confirms the minimum there."""
+    names = setup.names
+    laws = setup.record[0].laws
+    if len(laws) != 2 or laws[0] != laws[1] or any(n in setup.fixed for n in names[2:6]):
+        return problem, solution
+    values = dict(zip(names, problem.values(solution.x), strict=True))
+    if values["Dc1"] <= values["Dc2"]:
+        return problem, solution
+    for first, second in (("b1", "b2"), ("Dc1", "Dc2")):
+        values[first], values[second] = values[second], values[first]
+    start = [values[n] for n in names]
+    exchanged = setup.problem(start, harmonics=0)
+    u, _, converged, steps, hessian = exchanged.lm(
+        exchanged.internal(start), max_iter=_MAX_STEPS, rtol=1e-9
+    )
+    status = solution.status if converged else 0
+    message = f"{solution.message}; states numbered by Dc"
+    return exchanged, Solution(u, status, message, solution.nfev + steps, hessian)
 
 
 @dataclasses.dataclass

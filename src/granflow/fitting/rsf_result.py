@@ -23,18 +23,6 @@ if TYPE_CHECKING:
 __all__ = ["RateStateFitResult"]
 
 
-#: The parameters a fit's figure names in its title: (mathtext symbol, factor, unit).
-_TITLE = {
-    "a": ("$a$", 1.0, ""),
-    "b": ("$b$", 1.0, ""),
-    "Dc": (r"$D_\mathrm{c}$", 1e6, " µm"),
-    "b1": ("$b_1$", 1.0, ""),
-    "Dc1": (r"$D_\mathrm{c1}$", 1e6, " µm"),
-    "b2": ("$b_2$", 1.0, ""),
-    "Dc2": (r"$D_\mathrm{c2}$", 1e6, " µm"),
-}
-
-
 @dataclass(frozen=True, eq=False)
 class RateStateFitResult(FitOutcome):
     """A rate-and-state fit of velocity steps.
@@ -288,43 +276,11 @@ class RateStateFitResult(FitOutcome):
         )
 
     def plot(self, axes: Sequence[Axes] | None = None) -> tuple[Axes, Axes]:
-        """The data with the fit (top) and the residuals (bottom); returns the two Axes.
-
-        With a fitted ripple (``harmonics``) the top also shows the fit without it (dashed).
+        """The data with the fit (top) and the residuals (bottom); returns the two Axes
+        (:func:`granflow.plotting.rsf.plot_rsf_fit`).
 
         ``axes``: two matplotlib Axes to draw into (default: a new figure).
         """
-        import matplotlib.pyplot as plt
+        from granflow.plotting.rsf import plot_rsf_fit
 
-        if axes is None:
-            _, axes = plt.subplots(
-                2, 1, sharex=True, figsize=(7, 5), gridspec_kw={"height_ratios": [3, 1]}
-            )
-        top, bottom = axes
-        top.plot(self.t, self.data, ".", ms=2, color="0.6", label="data")
-        top.plot(self.t, self.best_fit, "-", color="C3", lw=1.5, label=f"{'+'.join(self.laws)} fit")
-        if self.harmonics:
-            top.plot(
-                self.t,
-                self.best_fit - self.ripple,
-                "--",
-                color="k",
-                lw=1.0,
-                label=f"without the ripple (λ = {self.params['wavelength'] * 1e6:.3g} µm)",
-            )
-        from granflow.plotting._axes import plus_minus
-
-        top.set_ylabel(r"friction coefficient $\mu$ [-]")
-        text = ", ".join(
-            f"{symbol} = {plus_minus(self.params[n] * scale, self.stderr.get(n, np.nan) * scale)}"
-            f"{unit}"
-            for n, (symbol, scale, unit) in _TITLE.items()
-            if n in self.names
-        )
-        top.set_title(text, fontsize=9)
-        top.legend(loc="best", fontsize=8)
-        bottom.plot(self.t, self.residuals, ".", ms=2, color="C0")
-        bottom.axhline(0.0, color="k", lw=0.8)
-        bottom.set_xlabel("time [s]")
-        bottom.set_ylabel("residual [-]")
-        return top, bottom
+        return plot_rsf_fit(self, axes)
