@@ -186,7 +186,7 @@ def simulate(
     events = []
     for k in range(int(found)):
         when, state = float(peak_t[k]), peak_y[k]
-        owner = int(owners[min(np.searchsorted(pieces[:, 1], when), len(pieces) - 1)])
+        owner = int(owners[min(int(np.searchsorted(pieces[:, 1], when)), len(pieces) - 1)])
         mu = float(state[0]) + model.mu0
         events.append(
             Event("peak", when, float(state[-1]), mu, float(state[1]), owner, "friction maximum")
