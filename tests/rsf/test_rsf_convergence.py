@@ -18,7 +18,7 @@ from radau_slider import slider_friction
 
 import granflow as gf
 from granflow import rsf
-from granflow.errors import InvalidParameterError
+from granflow.errors import InvalidDataError, InvalidParameterError
 from granflow.fitting import Parameter
 from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem, Solution
 from granflow.fitting.rsf_convergence import verify
@@ -174,3 +174,10 @@ def test_a_hold_is_fitted_and_a_record_brings_its_windows():
     for name, value in (("a", 0.01), ("b", 0.012), ("Dc", 10e-6), ("stiffness", 1200.0)):
         assert fit.params[name] == pytest.approx(value, rel=1e-5), name
     assert math.isclose(fit.params["mu0"], 0.6, abs_tol=1e-8)
+    # without windows: one default window holding the hold whole, simulated from t = 0
+    default = rsf.fit(HOLD_T, mu, protocol, law="aging", profile=False)
+    assert default.success and default.windows == ((0.0, 100.0),)
+    assert default.params["Dc"] == pytest.approx(10e-6, rel=1e-5)
+    # a window that starts inside the hold has no steady state to start from
+    with pytest.raises(InvalidDataError, match="starts at rest"):
+        rsf.fit(HOLD_T, mu, protocol, law="aging", windows=[(30.0, 100.0)])
