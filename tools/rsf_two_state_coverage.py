@@ -11,7 +11,8 @@ script prints, per parameter, the share of seeds whose 95 % interval holds the t
 those whose chi-square is above the one at the true parameters (an optimiser that stopped
 short) and the time taken.
 
-Run from the repository root: ``python tools/rsf_two_state_coverage.py [--seeds 100]``.
+Run from the repository root: ``python tools/rsf_two_state_coverage.py [--seeds 100]
+[--first 0]``.
 """
 
 import argparse
@@ -43,7 +44,8 @@ NOISE = 2.5e-4
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=100)
+    parser.add_argument("--seeds", type=int, default=100, help="how many seeds")
+    parser.add_argument("--first", type=int, default=0, help="the first seed")
     args = parser.parse_args(argv)
     duration = sum(d for _, d in SEGMENTS)
     t = np.arange(0.0, duration + 1e-9, 0.2)
@@ -62,7 +64,7 @@ def main(argv=None):
     names = [n for n in TRUTH if n != "mu0"]
     covered = dict.fromkeys(names, 0)
     failures, worse, start, done = [], [], time.time(), 0
-    for seed in range(args.seeds):
+    for seed in range(args.first, args.first + args.seeds):
         mu = clean + np.random.default_rng(seed).normal(0.0, NOISE, t.size)
         fit = rsf.fit(t, mu, protocol, law="aging", states=2)
         done += 1
@@ -77,7 +79,7 @@ def main(argv=None):
         for name in names:
             low, high = fit.ci95[name]
             covered[name] += bool(low <= TRUTH[name] <= high)
-        if (seed + 1) % 10 == 0:
+        if done % 10 == 0:
             shares = ", ".join(f"{n} {100 * c / done:.0f}" for n, c in covered.items())
             print(f"{done} seeds, {time.time() - start:.0f} s: {shares} %", flush=True)
     print(f"\n{done} seeds ({NOISE:g} noise), {time.time() - start:.0f} s")
