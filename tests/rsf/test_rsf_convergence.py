@@ -181,3 +181,15 @@ def test_a_hold_is_fitted_and_a_record_brings_its_windows():
     # a window that starts inside the hold has no steady state to start from
     with pytest.raises(InvalidDataError, match="starts at rest"):
         rsf.fit(HOLD_T, mu, protocol, law="aging", windows=[(30.0, 100.0)])
+
+
+def test_fit_and_simulate_refuse_a_protocol_with_the_same_words():
+    """One conversion of a protocol into pieces, with one set of checks, for both."""
+    model = rsf.RateState(0.6, 0.01, V1, 1200.0, [rsf.State(0.014, 20e-6)])
+    t = np.linspace(0.0, 2.0, 20)
+    for protocol in ([gf.Velocity(V1, 1.0), gf.Force(1.0, 1.0)], [gf.Hold(2.0, reset=True)]):
+        with pytest.raises(gf.InvalidProtocolError, match=r"segment [12]") as simulated:
+            rsf.simulate(model, protocol)
+        with pytest.raises(gf.InvalidProtocolError, match=r"segment [12]") as fitted:
+            rsf.fit(t, np.full(t.size, 0.6), gf.Protocol(protocol))
+        assert str(fitted.value) == str(simulated.value)
