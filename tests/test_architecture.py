@@ -72,9 +72,8 @@ LAZY_IMPORTS = {
     ("granflow.fitting.mcmc", "granflow.plotting.fits"): (
         "PosteriorResult.plot_corner(): the result hands itself to plotting.plot_corner"
     ),
-    ("granflow.fitting.rsf_result", "granflow.plotting._axes"): (
-        "RateStateFitResult.plot() draws inside the result: its figure moves to plotting/ "
-        "(issue 32, point 2)"
+    ("granflow.fitting.rsf_result", "granflow.plotting.rsf"): (
+        "RateStateFitResult.plot(): the result hands itself to plotting.plot_rsf_fit"
     ),
 }
 
@@ -477,11 +476,7 @@ def test_the_private_name_rule_finds_one(tmp_path):
 
 #: ``summary`` names kept for another meaning until a file edited in parallel is merged:
 #: (module, class) -> why. Delete each with its alias.
-OTHER_SUMMARIES = {
-    ("granflow.fitting.statistics", "FitSummary"): (
-        "alias of fit_fields() still called by fitting/rsf_fit.py (issue 32)"
-    ),
-}
+OTHER_SUMMARIES: dict = {}
 
 
 def _summaries(modules=None):

@@ -258,11 +258,11 @@ def test_the_manifest_and_the_report_section_take_periodic(tmp_path):
 def test_a_window_and_the_protocol_agree_on_the_load_point():
     """The window's displacement since its start and velocity, and the displacement since
     the protocol's start, against the protocol's two velocities by hand."""
-    from granflow.fitting.rsf_fit import _pieces
     from granflow.fitting.rsf_forward import Window, load_point_displacement
+    from granflow.simulation.rsf.pieces import protocol_pieces
 
     t, _, protocol = _record(0, ripple=False)
-    pieces = _pieces(protocol)
+    pieces = protocol_pieces(protocol)[0]
     np.testing.assert_allclose(load_point_displacement(pieces, t), _displacement(t), atol=1e-15)
     inside = t >= 30.0
     window = Window(t[inside], pieces, ["aging"])

@@ -23,62 +23,15 @@ import math
 import numpy as np
 
 from granflow.errors import InvalidParameterError
-from granflow.simulation import equations as eq
 from granflow.simulation import ode
 from granflow.simulation.rsf.model import RateState, State
+from granflow.simulation.rsf.pieces import absolute_tolerances, load_point, run
 
-__all__ = ["Window", "load_point_displacement", "noise_scatter"]
+__all__ = ["RELATIVE_TOLERANCE", "History", "Window", "load_point_displacement", "noise_scatter"]
 
-_RTOL = 1e-8
+#: Relative tolerance of the integration.
+RELATIVE_TOLERANCE = 1e-8
 _STEP = 3e-5
-
-
-@eq.compiled
-def _run(p, pieces, y0, t_eval, rtol, atol, max_evaluations):
-    """Integrate through every piece; the states at ``t_eval`` (NaN where not reached)."""
-    p = p.copy()
-    y = y0.copy()
-    n = y.size
-    out_y = np.full((t_eval.size, n), np.nan)
-    counters = ode.new_counters()
-    directions = np.zeros(eq.EVENTS, dtype=np.int64)
-    terminal = np.zeros(eq.EVENTS, dtype=np.bool_)
-    no_t = np.empty(0)
-    no_y = np.empty((0, n))
-    ev_t = np.empty(1)
-    ev_y = np.empty((1, n))
-    ev_k = np.empty(1, dtype=np.int64)
-    status = ode.DONE
-    for index in range(pieces.shape[0]):
-        p[eq.RSF_T_START] = pieces[index, 0]
-        p[eq.RSF_START] = pieces[index, 2]
-        p[eq.RSF_SLOPE] = pieces[index, 3]
-        status, _, _ = ode.solve(
-            ode.RODAS4,
-            eq.RATE_STATE,
-            p,
-            pieces[index, 0],
-            y,
-            pieces[index, 1],
-            rtol,
-            atol,
-            0.0,
-            max_evaluations,
-            directions,
-            terminal,
-            t_eval,
-            out_y,
-            False,
-            no_t,
-            no_y,
-            ev_t,
-            ev_y,
-            ev_k,
-            counters,
-        )
-        if status != ode.DONE:
-            break
-    return status, out_y
 
 
 def load_point_displacement(pieces, t):
@@ -87,23 +40,7 @@ def load_point_displacement(pieces, t):
     ``pieces``: rows (start [s], end [s], velocity at start [m/s], slope [m/s^2]) of a
     rate-controlled protocol, from time 0 on (the velocity is linear over each piece).
     """
-    return _displacement_and_velocity(pieces, t)[0]
-
-
-def _displacement_and_velocity(pieces, t):
-    """Load-point displacement [m] since the first piece's start, and velocity [m/s], at the
-    times ``t`` [s] (same clock as ``pieces``; before the first piece or after the last, the
-    nearest piece's polynomial continues)."""
-    pieces = np.asarray(pieces, dtype=float)
-    t = np.asarray(t, dtype=float)
-    duration = pieces[:, 1] - pieces[:, 0]
-    ends = np.concatenate(
-        [[0.0], np.cumsum((pieces[:, 2] + 0.5 * pieces[:, 3] * duration) * duration)]
-    )
-    index = np.clip(np.searchsorted(pieces[:, 1], t), 0, len(pieces) - 1)
-    dt = t - pieces[index, 0]
-    displacement = ends[index] + pieces[index, 2] * dt + 0.5 * pieces[index, 3] * dt**2
-    return displacement, pieces[index, 2] + pieces[index, 3] * dt
+    return load_point(pieces, t)[0]
 
 
 class Window:
@@ -122,8 +59,11 @@ class Window:
         default ``t[0]``.
     """
 
-    def __init__(self, t, pieces, laws, start=None):
+    def __init__(self, t, pieces, laws, start=None, history=None):
         self.t = np.ascontiguousarray(t, dtype=float)
+        #: the :class:`History` this window shares its simulation with (windows that start
+        #: their simulation at one time), or None
+        self.history = history
         start = float(self.t[0]) if start is None else float(start)
         stop = float(self.t[-1])
         self.start = start
@@ -137,7 +77,9 @@ class Window:
         self.v_ref = float(self.pieces[0, 2])
         # load-point displacement since the window's start, at the window's points
         local = self.t - start
-        self.displacement, self.velocity = _displacement_and_velocity(self.pieces, local)
+        self.displacement, self.velocity = load_point(self.pieces, local)
+        # the trend counts from the window's first point, where the simulation may start earlier
+        self.displacement = self.displacement - self.displacement[0]
         #: load-point displacement since the protocol's start [m] (the periodic term's clock)
         self.position = load_point_displacement(pieces, self.t)
         self.local = local
@@ -160,24 +102,40 @@ class Window:
         """Friction [-] at the window's points (or at ``local`` times since its start);
         NaN where the integration failed."""
         local = self.local if local is None else local
+        if self.history is not None:
+            shape = self.history.friction(self, a, k, states, local)
+        else:
+            shape = self.shape(a, k, states, local)
+        friction = shape + mu0
+        if slope:
+            displacement = self.displacement if local is self.local else None
+            friction = friction + slope * displacement
+        return friction
+
+    def shape(self, a, k, states, local):
+        """Friction minus mu0 [-] at the ``local`` times since the window's start (NaN
+        where the integration failed or the values are out of range)."""
         try:
-            model = self.model(mu0, a, k, states)
+            model = self.model(0.0, a, k, states)
         except InvalidParameterError:  # a trial step out of range: no value, LM steps back
             return np.full(local.shape, np.nan)
         thetas = model.steady_state(self.v_ref)
         y0 = np.array([0.0, *thetas, 0.0])
-        tiny = 1e-3 * _RTOL
-        atol = np.array(
-            [tiny * a]
-            + [tiny * Dc / self.v_scale for _, Dc in states]
-            + [tiny * min(Dc for _, Dc in states)]
-        )
-        _, out = _run(model.parameters(), self.pieces, y0, local, _RTOL, atol, 2_000_000)
-        displacement = self.displacement if local is self.local else None
-        friction = out[:, 0] + mu0
-        if slope:
-            friction = friction + slope * displacement
-        return friction
+        atol = absolute_tolerances(model, RELATIVE_TOLERANCE, self.v_scale)
+        out = run(
+            ode.RODAS4,
+            model.parameters(),
+            self.pieces,
+            y0,
+            local,
+            RELATIVE_TOLERANCE,
+            atol,
+            2_000_000,
+            False,
+            False,
+            1,
+        )[2]
+        return out[:, 0]
 
     def jacobian(self, mu0, a, k, states, slope, free):
         """(friction, d friction / d value) for the names in ``free`` (a, k, b1, Dc1, ...,
@@ -203,6 +161,41 @@ class Window:
                 moved = self.friction(mu0, values["a"], values["k"], changed, slope)
                 columns[name] = (moved - base) / h
         return base, columns
+
+
+class History:
+    """One simulation shared by the windows that start it at the same time (steady sliding
+    at the record's start): the friction of the slider does not depend on mu0 (it enters
+    as an offset), so one run over every window's points serves them all. The last few
+    runs are kept by their (a, k, states), which the windows and the difference quotients
+    of the Jacobian ask for in turn.
+
+    Parameters
+    ----------
+    windows : sequence of Window
+        The windows, all with the same ``start`` and the record's pieces.
+    """
+
+    _KEEP = 16
+
+    def __init__(self, windows):
+        self.times = np.unique(np.concatenate([w.local for w in windows]))
+        self.last = windows[-1]  # its pieces reach the furthest
+        self.runs = {}
+
+    def friction(self, window, a, k, states, local):
+        """Friction minus mu0 [-] of ``window`` at its ``local`` times [s]."""
+        key = (float(a), float(k), tuple((float(b), float(dc)) for b, dc in states))
+        shape = self.runs.get(key)
+        if shape is None:
+            shape = self.last.shape(a, k, states, self.times)
+            if len(self.runs) >= self._KEEP:
+                self.runs.pop(next(iter(self.runs)))
+            self.runs[key] = shape
+        index = np.clip(np.searchsorted(self.times, local), 0, self.times.size - 1)
+        if not np.array_equal(self.times[index], local):
+            return window.shape(a, k, states, local)
+        return shape[index]
 
 
 def noise_scatter(friction, width=25):

@@ -20,8 +20,8 @@ import numpy as np
 from granflow.errors import InvalidParameterError
 from granflow.families import Likelihood
 from granflow.fitting.likelihoods import require_points, scale_or_spread_prior
-from granflow.fitting.rsf_forward import Window
 from granflow.fitting.rsf_problem import Setup
+from granflow.fitting.rsf_record import fit_record
 
 if TYPE_CHECKING:
     from granflow.fitting.rsf_result import RateStateFitResult
@@ -33,13 +33,14 @@ _OPEN = (0.0, math.inf)
 _POSITIVE = ("a", "stiffness", "wavelength", "Dc")
 
 
-def _ranges(t, windows):
+def _ranges(t, windows, shared):
     """(first, stop, start time) of each window in the result's concatenated points: a
-    window runs from where the last one stopped to its last time."""
+    window runs from where the last one stopped to its last time; with ``shared``, each is
+    simulated from the record's first time."""
     ranges, first = [], 0
     for start, end in windows:
         last = first + int(np.flatnonzero(t[first:] == end)[0])
-        ranges.append((first, last + 1, float(start)))
+        ranges.append((first, last + 1, float(t[0]) if shared else float(start)))
         first = last + 1
     return ranges
 
@@ -53,9 +54,9 @@ def rebuilt_problem(result):
             "this fit had a known sigma but does not store it: fit the record again"
         )
     t, data = np.asarray(result.t), np.asarray(result.data)
-    ranges = _ranges(t, result.windows)
+    ranges = _ranges(t, result.windows, result.shared_start)
     count = len(result.laws)
-    record = [Window(t[lo:hi], result.load_point_history, result.laws, s) for lo, hi, s in ranges]
+    record = fit_record(t, result.load_point_history, result.laws, ranges, result.shared_start)
     multi = len(ranges) > 1
     local_names = [
         (f"mu0_{i}", f"slope_{i}") if multi else ("mu0", "slope") for i in range(1, len(ranges) + 1)

@@ -31,11 +31,16 @@ class Setup:
     """What the engine's problems of one fit share: the data, the windows, the names of the
     rate-and-state parameters (``names``), the held values and the search ranges."""
 
-    def __init__(self, data, record, ranges, names, local_names, count, fixed, search, sigma):
+    def __init__(
+        self, data, record, ranges, names, local_names, count, fixed, search, sigma, bounds=None
+    ):
         self.t, self.friction = data
         self.record, self.ranges = record, ranges
         self.names, self.local_names, self.count = list(names), local_names, count
         self.fixed, self.search, self.sigma = fixed, search, sigma
+        #: the caller's search ranges by name (min, max); an infinite side, or a lower bound
+        #: at or below 0 of a positive parameter, keeps the default
+        self.bounds = dict(bounds or {})
         #: passes of the model over the fit windows so far (values or values and Jacobian,
         #: every point or every few): the fit's count of model evaluations
         self.evaluations = 0
@@ -119,14 +124,18 @@ class Setup:
         parameters = []
         for i, name in enumerate(names):
             positive = name in ("a", "stiffness", "wavelength") or name.startswith("Dc")
+            lower, upper = self.search[name[:2]] if positive else (-math.inf, math.inf)
+            low, high = self.bounds.get(name, (-math.inf, math.inf))
+            lower = low if math.isfinite(low) and (low > 0 or not positive) else lower
+            upper = high if math.isfinite(high) else upper
             parameters.append(
                 GlobalParameter(
                     name=name,
-                    value=float(start[i]),
+                    value=min(max(float(start[i]), lower), upper),
                     log=positive,
                     fixed=name in fixed,
-                    lower=self.search[name[:2]][0] if positive else -math.inf,
-                    upper=self.search[name[:2]][1] if positive else math.inf,
+                    lower=lower,
+                    upper=upper,
                 )
             )
         weights = 1.0 / self.sigma if self.sigma is not None else 1.0

@@ -33,18 +33,6 @@ if TYPE_CHECKING:
 __all__ = ["RateStateFitResult"]
 
 
-#: The parameters a fit's figure names in its title: (mathtext symbol, factor, unit).
-_TITLE = {
-    "a": ("$a$", 1.0, ""),
-    "b": ("$b$", 1.0, ""),
-    "Dc": (r"$D_\mathrm{c}$", 1e6, " µm"),
-    "b1": ("$b_1$", 1.0, ""),
-    "Dc1": (r"$D_\mathrm{c1}$", 1e6, " µm"),
-    "b2": ("$b_2$", 1.0, ""),
-    "Dc2": (r"$D_\mathrm{c2}$", 1e6, " µm"),
-}
-
-
 @dataclass(frozen=True, eq=False)
 class RateStateFitResult(FitOutcome):
     """A rate-and-state fit of velocity steps.
@@ -70,7 +58,8 @@ class RateStateFitResult(FitOutcome):
     windows : tuple of (float, float)
         The fit windows [s].
     v_ref : tuple of float
-        Per window, its first load-point velocity [m/s] (mu0 is the steady friction there).
+        Per window, the load-point velocity where its simulation starts [m/s] (mu0 is the
+        steady friction there): the record's first by default, a given window's first.
     noise : float
         The record's high-frequency scatter [-] (about its running mean over 25 points).
     correlation_time : float
@@ -98,6 +87,15 @@ class RateStateFitResult(FitOutcome):
         :meth:`log_likelihood` simulates again).
     sigma : float or None
         The known noise of the friction [-] (``sigma_known``), else None.
+    shared_start : bool
+        Whether the windows were simulated from the record's first time in one shared run
+        (the default windows of several steps), rather than each from its own start.
+    convergence : mapping
+        The checks of the optimiser's end (:func:`granflow.fitting.rsf_convergence.verify`),
+        in chi-square units: ``gradient`` (the largest decrease a Newton step in one
+        parameter predicts), ``predicted`` (a Gauss-Newton step's), ``restart`` (what a
+        restart from the perturbed optimum gained), ``tolerance`` (what each must stay
+        below), ``chisqr``, ``restarts`` and ``passed``; empty for a result read from a file.
     """
 
     laws: tuple
@@ -121,6 +119,8 @@ class RateStateFitResult(FitOutcome):
     correlated_noise: bool = False
     load_point_history: np.ndarray = field(default_factory=lambda: np.empty((0, 4)))
     sigma: float | None = None
+    shared_start: bool = False
+    convergence: FrozenMap = field(default_factory=lambda: FrozenMap({}))
 
     ARRAYS = (
         "t",
@@ -277,6 +277,8 @@ class RateStateFitResult(FitOutcome):
                 "periodicity": dict(self.periodicity),
                 "correlated_noise": self.correlated_noise,
                 "sigma": self.sigma,
+                "shared_start": self.shared_start,
+                "convergence": dict(self.convergence),
                 **statistics(self),
                 **arrays(self, include_arrays),
             }
@@ -302,47 +304,17 @@ class RateStateFitResult(FitOutcome):
             periodicity=FrozenMap(d.get("periodicity", {})),
             correlated_noise=bool(d.get("correlated_noise", False)),
             sigma=None if d.get("sigma") is None else float(d["sigma"]),
+            shared_start=bool(d.get("shared_start", False)),
+            convergence=FrozenMap(d.get("convergence", {})),
             **read_arrays(cls, d),
         )
 
     def plot(self, axes: Sequence[Axes] | None = None) -> tuple[Axes, Axes]:
-        """The data with the fit (top) and the residuals (bottom); returns the two Axes.
-
-        With a fitted ripple (``harmonics``) the top also shows the fit without it (dashed).
+        """The data with the fit (top) and the residuals (bottom); returns the two Axes
+        (:func:`granflow.plotting.rsf.plot_rsf_fit`).
 
         ``axes``: two matplotlib Axes to draw into (default: a new figure).
         """
-        import matplotlib.pyplot as plt
+        from granflow.plotting.rsf import plot_rsf_fit
 
-        if axes is None:
-            _, axes = plt.subplots(
-                2, 1, sharex=True, figsize=(7, 5), gridspec_kw={"height_ratios": [3, 1]}
-            )
-        top, bottom = axes
-        top.plot(self.t, self.data, ".", ms=2, color="0.6", label="data")
-        top.plot(self.t, self.best_fit, "-", color="C3", lw=1.5, label=f"{'+'.join(self.laws)} fit")
-        if self.harmonics:
-            top.plot(
-                self.t,
-                self.best_fit - self.ripple,
-                "--",
-                color="k",
-                lw=1.0,
-                label=f"without the ripple (λ = {self.params['wavelength'] * 1e6:.3g} µm)",
-            )
-        from granflow.plotting._axes import plus_minus
-
-        top.set_ylabel(r"friction coefficient $\mu$ [-]")
-        text = ", ".join(
-            f"{symbol} = {plus_minus(self.params[n] * scale, self.stderr.get(n, np.nan) * scale)}"
-            f"{unit}"
-            for n, (symbol, scale, unit) in _TITLE.items()
-            if n in self.names
-        )
-        top.set_title(text, fontsize=9)
-        top.legend(loc="best", fontsize=8)
-        bottom.plot(self.t, self.residuals, ".", ms=2, color="C0")
-        bottom.axhline(0.0, color="k", lw=0.8)
-        bottom.set_xlabel("time [s]")
-        bottom.set_ylabel("residual [-]")
-        return top, bottom
+        return plot_rsf_fit(self, axes)

@@ -71,10 +71,6 @@ class FitSummary:
         fields = {f.name: getattr(self, f.name) for f in dataclasses.fields(FitSummary)}
         return {**fields, **changes}
 
-    #: Its old name, still called by ``fitting/rsf_fit.py`` (rewritten in parallel): delete
-    #: when that call reads ``fit_fields`` (issue 32). ``summary()`` is a result's text.
-    summary = fit_fields
-
 
 @dataclass(frozen=True, eq=False)
 class FitStatistics(FitSummary):

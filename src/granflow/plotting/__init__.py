@@ -4,7 +4,8 @@ matplotlib is imported inside the functions, so importing granflow stays light. 
 are plotted in their display units (:data:`granflow.model.units.QUANTITIES`: mN, µm, s) with
 the unit on every axis. Fig. 2a, 3a and 3b are in :mod:`granflow.plotting.paper`, Fig. 3c in
 :mod:`granflow.plotting.switch`, Fig. 2b and 2c in :mod:`granflow.plotting.fits`, simulations
-and stability maps in :mod:`granflow.plotting.simulation`, :func:`save_figure` in
+and stability maps in :mod:`granflow.plotting.simulation`, rate-and-state fits and runs in
+:mod:`granflow.plotting.rsf`, :func:`save_figure` in
 :mod:`granflow.plotting.files`.
 """
 
@@ -18,6 +19,7 @@ from granflow.plotting.fits import (
 )
 from granflow.plotting.forecast import plot_forecast
 from granflow.plotting.paper import plot_creep, plot_startup, plot_stress_ramp
+from granflow.plotting.rsf import plot_rsf_fit, plot_rsf_simulation
 from granflow.plotting.simulation import (
     plot_simulation,
     plot_simulation_force,
@@ -34,6 +36,8 @@ __all__ = [
     "plot_fit",
     "plot_fit_grid",
     "plot_forecast",
+    "plot_rsf_fit",
+    "plot_rsf_simulation",
     "plot_simulation",
     "plot_simulation_force",
     "plot_simulation_slip",

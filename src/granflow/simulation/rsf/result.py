@@ -185,22 +185,13 @@ class RateStateResult(HtmlReport):
         return "\n".join(lines)
 
     def plot(self, ax: Axes | None = None) -> Axes:
-        """Friction against time, with the steady state of the load-point velocity.
+        """Friction against time, with the steady state of the load-point velocity
+        (:func:`granflow.plotting.rsf.plot_rsf_simulation`).
 
         Returns
         -------
         matplotlib.axes.Axes
         """
-        import matplotlib.pyplot as plt
+        from granflow.plotting.rsf import plot_rsf_simulation
 
-        if ax is None:
-            _, ax = plt.subplots()
-        ax.plot(self.t, self.friction, label="friction")
-        moving = self.load_point_velocity > 0
-        steady = np.full(self.t.shape, np.nan)
-        steady[moving] = self.model.steady_state_friction(self.load_point_velocity[moving])
-        ax.plot(self.t, steady, "--", label="steady state")
-        ax.set_xlabel("time [s]")
-        ax.set_ylabel("friction [-]")
-        ax.legend()
-        return ax
+        return plot_rsf_simulation(self, ax)

@@ -16,13 +16,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from granflow import _validate as check
-from granflow.errors import InvalidParameterError, InvalidProtocolError
+from granflow.errors import InvalidParameterError
 from granflow.simulation import equations as eq
 from granflow.simulation import ode
 from granflow.simulation.options import check_choice
 from granflow.simulation.protocol import Protocol
 from granflow.simulation.results import Event
 from granflow.simulation.rsf.model import RateState
+from granflow.simulation.rsf.pieces import absolute_tolerances, load_point, protocol_pieces, run
 from granflow.simulation.rsf.result import RateStateResult
 
 if TYPE_CHECKING:
@@ -32,7 +33,7 @@ if TYPE_CHECKING:
     from granflow.simulation.rsf.result import RateStateResult
     from granflow.simulation.segments import Segment
 
-__all__ = ["run", "simulate"]
+__all__ = ["simulate"]
 
 _METHODS = {"rodas4": ode.RODAS4, "dop853": ode.DOP853}
 _MESSAGES = {
@@ -42,115 +43,12 @@ _MESSAGES = {
 
 
 @eq.compiled
-def run(method, p, pieces, y0, t_eval, rtol, atol, max_evaluations, peaks, capacity):
-    """Integrate the rate-and-state equations through every piece.
-
-    Parameters
-    ----------
-    method : int
-        :data:`granflow.simulation.ode.RODAS4` or :data:`~granflow.simulation.ode.DOP853`.
-    p : ndarray
-        Parameter vector (:meth:`RateState.parameters`); not modified.
-    pieces : ndarray, shape (m, 4)
-        Per piece: start time, end time, load-point velocity at the start, its slope.
-    y0 : ndarray
-        ``(mu - mu0, theta_1 .. theta_n, slip)`` at the first piece's start.
-    t_eval : ndarray
-        Increasing output times within the pieces.
-    rtol : float
-    atol : ndarray
-    max_evaluations : int
-    peaks : bool
-        Whether to locate the friction peaks (v falling through the load-point velocity).
-    capacity : int
-        At most this many peaks are kept.
-
-    Returns
-    -------
-    status, index of the last piece run, states at t_eval (NaN past the end), peak times,
-    peak states, number of peaks, counters
-    """
-    p = p.copy()
-    y = y0.copy()
-    n = y.size
-    out_y = np.full((t_eval.size, n), np.nan)
-    counters = ode.new_counters()
-    ev_t = np.empty(capacity)
-    ev_y = np.empty((capacity, n))
-    ev_k = np.empty(capacity, dtype=np.int64)
-    directions = np.zeros(eq.EVENTS, dtype=np.int64)
-    if peaks:
-        directions[0] = -1
-    terminal = np.zeros(eq.EVENTS, dtype=np.bool_)
-    no_t = np.empty(0)
-    no_y = np.empty((0, n))
-    status = ode.DONE
-    index = 0
-    for index in range(pieces.shape[0]):
-        p[eq.RSF_T_START] = pieces[index, 0]
-        p[eq.RSF_START] = pieces[index, 2]
-        p[eq.RSF_SLOPE] = pieces[index, 3]
-        status, _, _ = ode.solve(
-            method,
-            eq.RATE_STATE,
-            p,
-            pieces[index, 0],
-            y,
-            pieces[index, 1],
-            rtol,
-            atol,
-            0.0,
-            max_evaluations,
-            directions,
-            terminal,
-            t_eval,
-            out_y,
-            True,
-            no_t,
-            no_y,
-            ev_t,
-            ev_y,
-            ev_k,
-            counters,
-        )
-        if status != ode.DONE:
-            break
-    return status, index, out_y, ev_t, ev_y, counters[ode.COUNT_EVENTS], counters
-
-
-@eq.compiled
 def _velocities(p, states):
     """The slider's velocity at each row of ``states`` (a model with a spring)."""
     out = np.empty(states.shape[0])
     for i in range(states.shape[0]):
         out[i] = eq.rsf_velocity(0.0, states[i], p)[0]
     return out
-
-
-def _pieces(model, protocol):
-    """(pieces array, segment index per piece) of the protocol's load-point history."""
-    rows, owners = [], []
-    t = 0.0
-    for index, segment in enumerate(protocol):
-        where = f"segment {index + 1} ({segment.type_name})"
-        if segment.control != "rate":
-            raise InvalidProtocolError(
-                f"{where}: rate-and-state models take load-point velocity histories only "
-                "(Velocity, VelocitySteps, VelocityTable, Hold)"
-            )
-        if getattr(segment, "reset", False):
-            raise InvalidProtocolError(f"{where}: Hold(reset=True) has no meaning here")
-        for piece in segment.pieces():
-            if model.stiffness is None and min(piece.start, piece.end) <= 0:
-                raise InvalidParameterError(
-                    f"stiffness is missing: {where} stops the load point, which a slider "
-                    "without a spring cannot follow (its friction would be -inf)"
-                )
-            slope = (piece.end - piece.start) / piece.duration
-            rows.append((t, t + piece.duration, piece.start, slope))
-            owners.append(index)
-            t += piece.duration
-    return np.array(rows, dtype=float), np.array(owners, dtype=np.int64)
 
 
 def _times(t_eval, pieces, points):
@@ -231,7 +129,7 @@ def simulate(
     rtol = check.positive(rtol, "rtol")
     points = int(check.positive(points, "points"))
     max_evaluations = int(check.positive(max_evaluations, "max_evaluations"))
-    pieces, owners = _pieces(model, protocol)
+    pieces, owners = protocol_pieces(protocol, spring=model.stiffness is not None)
     times = _times(t_eval, pieces, points)
     if initial_velocity is None:
         initial_velocity = pieces[0, 2]
@@ -258,12 +156,7 @@ def simulate(
     y0 = np.array([mu_init, *thetas, 0.0])
     ends = pieces[:, 2] + pieces[:, 3] * (pieces[:, 1] - pieces[:, 0])
     v_scale = max(v0, float(np.max(pieces[:, 2])), float(np.max(ends)))
-    tiny = 1e-3 * rtol
-    atol = np.array(
-        [tiny * model.a]
-        + [tiny * state.Dc / v_scale for state in model.states]
-        + [tiny * min(state.Dc for state in model.states)]
-    )
+    atol = absolute_tolerances(model, rtol, v_scale)
     p = model.parameters()
     capacity = 4 * len(pieces) + 64
     status, last, out, peak_t, peak_y, found, counters = run(
@@ -275,16 +168,17 @@ def simulate(
         rtol,
         atol,
         max_evaluations,
+        True,
         model.stiffness is not None,
         capacity,
     )
     done = ~np.isnan(out[:, 0])
     times, out = times[done], out[done]
     piece_of = np.minimum(np.searchsorted(pieces[:, 1], times, side="left"), len(pieces) - 1)
-    load_point = pieces[piece_of, 2] + pieces[piece_of, 3] * (times - pieces[piece_of, 0])
+    load_point_velocity = load_point(pieces, times)[1]
     thetas_out = out[:, 1:-1].T
     if model.stiffness is None:
-        velocity = load_point
+        velocity = load_point_velocity
         friction = model.friction(velocity, thetas_out)
     else:
         velocity = _velocities(p, out)
@@ -292,7 +186,7 @@ def simulate(
     events = []
     for k in range(int(found)):
         when, state = float(peak_t[k]), peak_y[k]
-        owner = int(owners[min(np.searchsorted(pieces[:, 1], when), len(pieces) - 1)])
+        owner = int(owners[min(int(np.searchsorted(pieces[:, 1], when)), len(pieces) - 1)])
         mu = float(state[0]) + model.mu0
         events.append(
             Event("peak", when, float(state[-1]), mu, float(state[1]), owner, "friction maximum")
@@ -308,7 +202,7 @@ def simulate(
         velocity=velocity,
         friction=friction,
         states=thetas_out,
-        load_point_velocity=load_point,
+        load_point_velocity=load_point_velocity,
         segment=owners[piece_of],
         events=tuple(events),
         success=success,
