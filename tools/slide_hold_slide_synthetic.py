@@ -8,10 +8,11 @@ written here from the equations alone:
     slip:  dtheta/dt = -(v theta / Dc) ln(v theta / Dc)
 
 integrated in (mu, ln theta). The load point slides at ``velocity``, holds for each hold time
-(1 to 3000 s by default), and slides again; each slide is ``slide`` metres long. Sampling: 5
-Hz while sliding and for the first 10 s of a hold, then 1 Hz (a logger slowing down during
-long holds). Noise: Gaussian, ``noise`` on friction and ``displacement_noise`` [m] on the
-load point.
+(1 to 3000 s by default), and slides again; each slide is ``slide`` metres long (300 µm at
+2 µm/s by default: 30 Dc, so that each slide returns to steady sliding after the largest
+peak). Sampling: 4 Hz while sliding and for the first 10 s of a hold, then 1 Hz (a logger
+slowing down during long holds). Noise: Gaussian, ``noise`` on friction and
+``displacement_noise`` [m] on the load point.
 
     python tools/slide_hold_slide_synthetic.py out.txt --law aging --seed 1
 
@@ -39,7 +40,7 @@ class Slider:
     b: float = 0.015
     Dc: float = 10e-6
     k: float = 2e3
-    v0: float = 1e-6
+    v0: float = 2e-6
 
 
 def _rhs(law, p):
@@ -48,23 +49,20 @@ def _rhs(law, p):
         theta = math.exp(psi)
         v = p.v0 * math.exp((mu - p.mu0 - p.b * math.log(p.v0 * theta / p.Dc)) / p.a)
         omega = v * theta / p.Dc
-        if law == "aging":
-            dpsi = (1.0 - omega) / theta
-        else:
-            dpsi = -(v / p.Dc) * math.log(omega)
+        dpsi = (1.0 - omega) / theta if law == "aging" else -(v / p.Dc) * math.log(omega)
         return [p.k * (v_lp - v), dpsi]
 
     return rhs
 
 
-def sample_times(duration, hold, rate=5.0, slow_rate=1.0, fast=10.0):
+def sample_times(duration, hold, rate=4.0, slow_rate=1.0, fast=10.0):
     """Sampling times within a piece of ``duration`` [s] from its start (excluded) to its
     end (included): ``rate`` [Hz] throughout, or for a hold ``rate`` during the first
     ``fast`` seconds then ``slow_rate``."""
     if not hold or duration <= fast:
-        count = max(int(round(duration * rate)), 1)
+        count = max(round(duration * rate), 1)
         return np.linspace(0.0, duration, count + 1)[1:]
-    head = np.arange(1, int(round(fast * rate)) + 1) / rate
+    head = np.arange(1, round(fast * rate) + 1) / rate
     tail = np.arange(fast + 1.0 / slow_rate, duration + 1e-9, 1.0 / slow_rate)
     times = np.concatenate([head, tail])
     if times[-1] < duration - 1e-9:
@@ -72,7 +70,7 @@ def sample_times(duration, hold, rate=5.0, slow_rate=1.0, fast=10.0):
     return times
 
 
-def simulate(law, slider=Slider(), holds=HOLDS, *, velocity=1e-6, slide=100e-6, rate=5.0):
+def simulate(law, slider=Slider(), holds=HOLDS, *, velocity=2e-6, slide=300e-6, rate=4.0):
     """Noise-free record: (t [s], load-point displacement [m], friction [-], hold starts [s]).
 
     The slider starts at steady state at ``velocity``; slides and holds alternate, starting
