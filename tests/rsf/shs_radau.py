@@ -1,7 +1,7 @@
 """A small slide-hold-slide record for the tests, from an independent solver (not granflow's).
 
 scipy's Radau on the spring-slider, written from the equations alone (a copy of the
-generator ``tools/slide_hold_slide_synthetic.py``, smaller: three holds):
+generator ``tools/slide_hold_slide_synthetic.py``, smaller: five holds):
 
     dmu/dt = k (v_lp - v),   mu = mu0 + a ln(v / v0) + b ln(v0 theta / Dc)
     aging: dtheta/dt = 1 - v theta / Dc;   slip: dtheta/dt = -(v theta / Dc) ln(v theta / Dc)
@@ -15,7 +15,7 @@ from scipy.integrate import solve_ivp
 
 #: mu0, a, b, Dc [m], k [1/m], v0 = the sliding velocity [m/s].
 TRUTH = {"mu0": 0.6, "a": 0.01, "b": 0.015, "Dc": 5e-6, "k": 3e3, "v0": 10e-6}
-HOLDS = (1.0, 10.0, 100.0)
+HOLDS = (1.0, 3.0, 10.0, 30.0, 100.0)
 SLIDE = 150e-6  # 30 Dc: back to steady sliding after every peak
 RATE = 10.0  # samples per second
 

@@ -14,7 +14,7 @@ alone; a law that cannot be fitted is named in the record's ``problems`` and the
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -64,7 +64,9 @@ def _comparison(fits: Mapping[str, Any]) -> dict[str, Any]:
     return {"rows": rows, "best_aic": f"rsf_{best}"}
 
 
-def _record(path: Path, name: str, figures: Path, index: int, step_times: Any) -> dict[str, Any]:
+def _record(
+    path: Path, name: str, figures: Path, index: int, step_times: Any, laws: Sequence[str]
+) -> dict[str, Any]:
     """Everything :func:`analyse` keeps of one record."""
     import matplotlib
 
@@ -78,7 +80,7 @@ def _record(path: Path, name: str, figures: Path, index: int, step_times: Any) -
     record = rsf.read_slide_hold_slide(path, step_times=step_times)
     measured = rsf.healing(record)
     fits, problems = {}, []
-    for law in LAWS:
+    for law in laws:
         try:
             fits[law] = rsf.fit(record, law=law, windows=record.windows)
         except GranflowError as exc:
@@ -115,6 +117,7 @@ def analyse(
     *,
     folder: PathLike | None = None,
     figures_dir: str = "figures",
+    laws: Sequence[str] = LAWS,
 ) -> dict[str, Any]:
     """Analyse a campaign's slide-hold-slide records.
 
@@ -129,6 +132,9 @@ def analyse(
         The manifest's folder (default: the current one).
     figures_dir : str
         The figures' folder, relative to ``output``.
+    laws : sequence of str
+        The rate-and-state laws fitted to each record (default aging and slip; none: the
+        healing alone).
 
     Returns
     -------
@@ -148,7 +154,9 @@ def analyse(
     for index, entry in enumerate(entries, start=1):
         name = str(entry["file"])
         try:
-            records.append(_record(base / name, name, figures, index, entry.get("step_times")))
+            records.append(
+                _record(base / name, name, figures, index, entry.get("step_times"), laws)
+            )
         except Exception as exc:  # any error: the record fails alone, named
             failed.append(
                 {

@@ -56,10 +56,11 @@ __all__ = [
     "model_healing",
     "paper_beta",
     "paper_healing",
+    "scatter",
 ]
 
-#: Points on either side of the highest one in the parabola that locates a peak.
-PEAK_POINTS = 5
+#: A peak is located by a parabola through the points within this share of its height.
+TOP_SHARE = 0.05
 _LN10 = math.log(10.0)
 
 
@@ -218,12 +219,30 @@ class HealingResult(ValueEquality):
         )
 
 
-def _peak(t, friction, points):
-    """(time, value) of the friction peak: the vertex of the parabola through the highest
-    point and ``points`` on either side (the highest point itself where the parabola does
-    not open downwards or its vertex lies outside them)."""
+def scatter(friction: np.ndarray) -> float:
+    """The point-to-point noise of a friction record [-]: 1.4826 × the median absolute
+    deviation of its first differences, over √2."""
+    steps = np.diff(friction)
+    if steps.size < 2:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(steps - np.median(steps))) / math.sqrt(2.0))
+
+
+def _peak(t, friction, steady, noise):
+    """(time, value) of the friction peak of a re-slide: the vertex of the parabola through
+    the points around the highest one that lie within ``TOP_SHARE`` of the peak's height above
+    ``steady`` (or three times the ``noise``, if more) below it, at least two on either side;
+    the highest point itself where the parabola does not open downwards or its vertex lies
+    outside those points."""
     top = int(np.argmax(friction))
-    lo, hi = max(top - points, 0), min(top + points + 1, t.size)
+    depth = max(TOP_SHARE * (friction[top] - steady), 3.0 * noise)
+    low = friction >= friction[top] - depth
+    lo, hi = top, top + 1
+    while lo > 0 and low[lo - 1]:
+        lo -= 1
+    while hi < t.size and low[hi]:
+        hi += 1
+    lo, hi = max(min(lo, top - 2), 0), min(max(hi, top + 3), t.size)
     if hi - lo >= 5:
         centre = t[top]
         c2, c1, c0 = np.polyfit(t[lo:hi] - centre, friction[lo:hi], 2)
@@ -273,14 +292,16 @@ def _paper_fit(hold_times, hold_starts, delta):
     return solve(found.x)[0], float(10.0**found.x)
 
 
-def healing(record: Any, *, peak_points: int = PEAK_POINTS) -> HealingResult:
+def healing(record: Any) -> HealingResult:
     """Healing of a slide-hold-slide record: Δμ_peak per hold and β = dΔμ_peak/d log10 t_h.
 
     For each hold, the steady friction is the mean friction from the start of its fit
     window (the last quarter of the slide before it) to the hold's start; the peak is the
     highest friction of the re-slide (from the hold's end to the next hold or the record's
-    end), refined by a parabola through it and ``peak_points`` points on either side (so the
-    noise biases it less than the highest point does). β is the slope of the least-squares
+    end), refined by the vertex of a parabola through the points around it within 5 % of the
+    peak's height (or three times the record's point-to-point scatter, :func:`scatter`, if
+    more) below it, so that noise biases it less than the highest point does. β is the slope
+    of the least-squares
     line of Δμ_peak against log10 t_h; its 95 % interval is β ± t(0.975, n − 2) × its standard
     error from the line's residuals (n holds), so a curved healing law widens it.
 
@@ -288,8 +309,6 @@ def healing(record: Any, *, peak_points: int = PEAK_POINTS) -> HealingResult:
     ----------
     record : SlideHoldSlideRecord
         A record of :func:`granflow.rsf.read_slide_hold_slide`.
-    peak_points : int
-        Points on either side of the highest one in the peak's parabola.
 
     Returns
     -------
@@ -311,6 +330,7 @@ def healing(record: Any, *, peak_points: int = PEAK_POINTS) -> HealingResult:
     friction = np.asarray(record.friction, dtype=float)
     starts, ends = list(record.hold_starts), list(record.hold_ends)
     steady, peaks, times = [], [], []
+    noise = scatter(friction)
     for index, (start, end) in enumerate(zip(starts, ends, strict=True)):
         before = (t >= record.windows[index][0]) & (t < start)
         stop = starts[index + 1] if index + 1 < len(starts) else t[-1]
@@ -320,7 +340,7 @@ def healing(record: Any, *, peak_points: int = PEAK_POINTS) -> HealingResult:
                 f"hold {index + 1} (from {start:g} s): too few points of sliding before or after it"
             )
         steady.append(float(friction[before].mean()))
-        peak_time, peak = _peak(t[after], friction[after], int(peak_points))
+        peak_time, peak = _peak(t[after], friction[after], steady[-1], noise)
         times.append(peak_time)
         peaks.append(peak)
     hold_times = np.array(ends) - np.array(starts)
@@ -394,5 +414,5 @@ def model_healing(
             [[0.5 * lead, lead], lead + hold + np.linspace(0.0, length / velocity, points)[1:]]
         )
         mu = simulate(model, steps, t_eval=t).friction
-        out.append(_peak(t[2:], mu[2:], PEAK_POINTS)[1] - mu[1])
+        out.append(_peak(t[2:], mu[2:], mu[1], 0.0)[1] - mu[1])
     return np.array(out)
