@@ -29,6 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import slide_hold_slide_synthetic as synthetic
 
 from granflow import rsf
+from granflow.errors import GranflowError
 
 LAWS = ("aging", "slip")
 
@@ -60,28 +61,41 @@ def one_seed(law, clean, beta_true, seed, noise):
     }
 
 
+def summarise(law, rows, noise, beta_true):
+    """Print the coverage, AIC and beta lines of the seeds done so far."""
+    n = len(rows)
+    print(f"== {law} law: {n} seeds, noise {noise:g}, true beta {beta_true:.5g}/decade")
+    for name in rows[0]["covered"]:
+        share = sum(r["covered"][name] for r in rows) / n
+        error = math.sqrt(share * (1 - share) / n)
+        print(f"  95 % interval of {name:9s} covers the truth in {share:6.1%} ± {error:.1%}")
+    print(f"  AIC prefers the {law} law in {sum(r['aic_right'] for r in rows) / n:.1%}")
+    beta_share = sum(r["beta_covered"] for r in rows) / n
+    print(f"  beta's 95 % interval covers the truth in {beta_share:.1%}")
+    print(f"  fits successful: {sum(r['success'] for r in rows) / n:.1%}", flush=True)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=100)
     parser.add_argument("--noise", type=float, default=3e-4)
     parser.add_argument("--laws", nargs="+", default=list(LAWS), choices=LAWS)
+    parser.add_argument("--every", type=int, default=10, help="print the numbers so far")
     args = parser.parse_args(argv)
     for law in args.laws:
         clock = time.perf_counter()
         clean = synthetic.simulate(law)
         reference = rsf.parse_slide_hold_slide(synthetic.table(*clean[:3]), "noise-free")
         beta_true = rsf.healing(reference).beta
-        rows = [one_seed(law, clean, beta_true, seed, args.noise) for seed in range(args.seeds)]
-        n = len(rows)
-        print(f"== {law} law: {n} seeds, noise {args.noise:g}, true beta {beta_true:.5g}/decade")
-        for name in rows[0]["covered"]:
-            share = sum(r["covered"][name] for r in rows) / n
-            error = math.sqrt(share * (1 - share) / n)
-            print(f"  95 % interval of {name:9s} covers the truth in {share:6.1%} ± {error:.1%}")
-        print(f"  AIC prefers the {law} law in {sum(r['aic_right'] for r in rows) / n:.1%}")
-        beta_share = sum(r["beta_covered"] for r in rows) / n
-        print(f"  beta's 95 % interval covers the truth in {beta_share:.1%}")
-        print(f"  fits successful: {sum(r['success'] for r in rows) / n:.1%}")
+        rows = []
+        for seed in range(args.seeds):
+            try:
+                rows.append(one_seed(law, clean, beta_true, seed, args.noise))
+            except GranflowError as exc:  # counted, named, and the study goes on
+                print(f"  seed {seed}: {type(exc).__name__}: {exc}", flush=True)
+            if rows and (seed + 1 == args.seeds or (seed + 1) % args.every == 0):
+                print(f"  ({seed + 1 - len(rows)} of {seed + 1} seeds raised)")
+                summarise(law, rows, args.noise, beta_true)
         print(f"  {time.perf_counter() - clock:.0f} s")
     return 0
 

@@ -92,8 +92,9 @@ def _record(
     ax = plot_healing(measured, curves=curves)
     figures.mkdir(parents=True, exist_ok=True)
     png = f"slide_hold_slide_{index}.png"
-    ax.figure.savefig(figures / png, dpi=100)
-    plt.close(ax.figure)
+    figure: Any = ax.figure
+    figure.savefig(figures / png, dpi=100)
+    plt.close(figure)
     low, high = measured.beta_ci95
     return {
         "name": name,
