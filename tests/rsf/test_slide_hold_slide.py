@@ -116,9 +116,12 @@ def test_healing_measures_each_peak_and_fits_beta_by_least_squares():
 
 def test_the_aging_law_heals_more_than_the_slip_law():
     aging = rsf.healing(_record("aging")[0])
-    slip = rsf.healing(_record("slip")[0])
-    assert aging.delta_mu_peak[-1] > 1.3 * slip.delta_mu_peak[-1]
+    t, x, mu, _ = shs_radau.record("slip", holds=(1.0, 100.0))  # two holds: half the cost
+    slip = rsf.healing(rsf.parse_slide_hold_slide(shs_radau.table(t, x, mu)))
+    assert slip.hold_times == pytest.approx((1.0, 100.0), abs=1e-6)
+    assert aging.delta_mu_peak[-1] > 1.3 * slip.delta_mu_peak[-1] > 0
     assert aging.beta > slip.beta > 0
+    assert all(math.isnan(v) for v in slip.beta_ci95)  # no interval from two holds
 
 
 def test_betas_interval_on_a_noisy_record_covers_the_noise_free_beta():
@@ -183,3 +186,19 @@ def test_contract_fit_over_holds_covers_the_truth():
     for name, value in (("a", truth["a"]), ("b", truth["b"]), ("Dc", truth["Dc"])):
         low, high = f.ci95[name]
         assert low < value < high, name
+
+
+def test_model_healing_of_the_true_slider_matches_the_independent_record():
+    # granflow's curve of a (here: the true) slider against the Radau record's own peaks
+    from types import SimpleNamespace
+
+    from granflow.fitting.healing import model_healing
+
+    p = shs_radau.TRUTH
+    fit = SimpleNamespace(
+        params={"a": p["a"], "b": p["b"], "Dc": p["Dc"], "stiffness": p["k"]}, laws=("aging",)
+    )
+    curve = model_healing(fit, shs_radau.HOLDS, velocity=p["v0"], slide=30 * p["Dc"])
+    t, _, mu, starts = shs_radau.record("aging")
+    expected = _peaks_by_hand(t, mu, starts, shs_radau.HOLDS)
+    assert np.allclose(curve, expected, rtol=1e-2)
