@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import shared_data
 from scipy import stats
 from scipy.integrate import solve_ivp
 
@@ -202,3 +203,13 @@ def test_model_healing_of_the_true_slider_matches_the_independent_record():
     t, _, mu, starts = shs_radau.record("aging")
     expected = _peaks_by_hand(t, mu, starts, shs_radau.HOLDS)
     assert np.allclose(curve, expected, rtol=1e-2)
+
+
+@pytest.mark.parametrize(
+    "name", ["velstep3_TR2_exp013_sepiolite.txt", "velstep4_BRAVA_expb819_basalt.txt"]
+)
+def test_real_velocity_step_records_hold_no_hold_and_say_so(name):
+    # laboratory records no one here wrote: noisy load points that never stop
+    path = shared_data("rate-state-velocity-steps", name)
+    with pytest.raises(FileFormatError, match=rf"{name}: line \d+: no hold found"):
+        rsf.read_slide_hold_slide(path)

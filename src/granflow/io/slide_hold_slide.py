@@ -127,12 +127,41 @@ def _line(t, x):
     return float(slope), float(intercept)
 
 
-def find_holds(t, load_point, *, fraction=0.1, half_window=1):
+def _noise(t, x):
+    """The displacement's point-to-point noise [m]: each point against the chord of its
+    neighbours (1.4826 × the median absolute deviation, over √1.5)."""
+    w = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
+    chord = x[1:-1] - ((1 - w) * x[:-2] + w * x[2:])
+    return float(1.4826 * np.median(np.abs(chord - np.median(chord))) / np.sqrt(1.5))
+
+
+def _sliding_velocity(slopes):
+    top = np.percentile(slopes, 95)
+    if not top > 0:
+        raise InvalidDataError("the load point never slides: no slide to hold from")
+    return float(np.median(slopes[slopes > 0.5 * top]))
+
+
+def _half_window(t, x, fraction):
+    """Neighbours on either side in each point's velocity: the fewest whose slope noise
+    (σ √(12 / (m (m² − 1))) / Δt over m points) stays below a quarter of ``fraction`` × the
+    sliding velocity (found with a window of a hundredth of the record)."""
+    sliding = _sliding_velocity(_local_slopes(t, x, max(1, t.size // 200)))
+    step = float(np.median(np.diff(t)))
+    target = 0.25 * fraction * sliding * step / max(_noise(t, x), 1e-300)
+    m = 3
+    while m < t.size // 4 and np.sqrt(12.0 / (m * (m * m - 1.0))) > target:
+        m += 2
+    return (m - 1) // 2
+
+
+def find_holds(t, load_point, *, fraction=0.05):
     """The holds of a load-point displacement record: its flat stretches.
 
-    Each point's velocity is the slope of the line through it and its ``half_window``
-    neighbours on either side; the sliding velocity is the median of those above half the
-    95th percentile; a hold is a run of points slower than ``fraction`` times it. Each
+    Each point's velocity is the slope of the least-squares line through it and its
+    neighbours, as many as the displacement's noise needs (:func:`_half_window`: one on either
+    side for a clean record); the sliding velocity is the median of those above half the 95th
+    percentile; a hold is a run of at least two points slower than ``fraction`` times it. Each
     hold's start and end are where the lines of the slides before and after it cross the
     hold's level (the median displacement within it), so they do not depend on the sampling.
 
@@ -143,9 +172,8 @@ def find_holds(t, load_point, *, fraction=0.1, half_window=1):
     load_point : array_like
         Load-point displacement [m].
     fraction : float
-        A point is at rest where it moves slower than this share of the sliding velocity.
-    half_window : int
-        Neighbours on either side in each point's velocity (1: three points).
+        A point is at rest where it moves slower than this share of the sliding velocity
+        (a velocity step down by more than 1 / ``fraction`` would read as a hold).
 
     Returns
     -------
@@ -156,12 +184,9 @@ def find_holds(t, load_point, *, fraction=0.1, half_window=1):
     x = np.asarray(load_point, dtype=float)
     if not 0 < fraction < 1:
         raise InvalidParameterError(f"fraction must lie between 0 and 1, got {fraction!r}")
-    slopes = _local_slopes(t, x, int(half_window))
-    top = np.percentile(slopes, 95)
-    if not top > 0:
-        raise InvalidDataError("the load point never slides: no slide to hold from")
-    sliding = float(np.median(slopes[slopes > 0.5 * top]))
-    rest = np.abs(slopes) < fraction * sliding
+    half = _half_window(t, x, fraction)
+    slopes = _local_slopes(t, x, half)
+    rest = np.abs(slopes) < fraction * _sliding_velocity(slopes)
     edges = np.flatnonzero(np.diff(np.concatenate([[0], rest.astype(int), [0]])))
     runs = [(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)]
     runs = [(a, b) for a, b in runs if b - a >= 2]
@@ -169,16 +194,16 @@ def find_holds(t, load_point, *, fraction=0.1, half_window=1):
     for number, (a, b) in enumerate(runs):
         level = float(np.median(x[a:b]))
         start, end = float(t[a]), float(t[b - 1])
-        before = runs[number - 1][1] if number else 0
-        if a - before >= 3:
-            slope, intercept = _line(t[before + 1 : a - 1], x[before + 1 : a - 1])
+        before = runs[number - 1][1] + half if number else 0
+        if a - half - before >= 3:
+            slope, intercept = _line(t[before : a - half - 1], x[before : a - half - 1])
             start = (level - intercept) / slope if slope > 0 else start
-        after = runs[number + 1][0] if number + 1 < len(runs) else t.size
-        if after - b >= 3:
-            slope, intercept = _line(t[b + 1 : after - 1], x[b + 1 : after - 1])
+        after = runs[number + 1][0] - half if number + 1 < len(runs) else t.size
+        if after - b - half >= 3:
+            slope, intercept = _line(t[b + half + 1 : after], x[b + half + 1 : after])
             end = (level - intercept) / slope if slope > 0 else end
-        start = min(max(start, float(t[max(a - 1, 0)])), float(t[a]))
-        end = max(min(end, float(t[min(b, t.size - 1)])), float(t[b - 1]))
+        start = min(max(start, float(t[max(a - half - 1, 0)])), float(t[a]))
+        end = max(min(end, float(t[min(b + half, t.size - 1)])), float(t[b - 1]))
         holds.append((start, end))
     return holds
 
@@ -250,7 +275,7 @@ def parse_slide_hold_slide(
     source: str = "<text>",
     *,
     step_times: Sequence[float] | None = None,
-    fraction: float = 0.1,
+    fraction: float = 0.05,
 ) -> SlideHoldSlideRecord:
     """Parse a slide-hold-slide table (decoded text) into a :class:`SlideHoldSlideRecord`.
 
@@ -314,7 +339,7 @@ def read_slide_hold_slide(
     path: str | os.PathLike[str],
     *,
     step_times: Sequence[float] | None = None,
-    fraction: float = 0.1,
+    fraction: float = 0.05,
 ) -> SlideHoldSlideRecord:
     """Read a slide-hold-slide record file; see :func:`parse_slide_hold_slide`.
 
