@@ -78,6 +78,7 @@ def summarise(law, rows, noise, beta_true):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=100)
+    parser.add_argument("--first", type=int, default=0, help="the first seed")
     parser.add_argument("--noise", type=float, default=3e-4)
     parser.add_argument("--laws", nargs="+", default=list(LAWS), choices=LAWS)
     parser.add_argument("--every", type=int, default=10, help="print the numbers so far")
@@ -88,13 +89,15 @@ def main(argv=None):
         reference = rsf.parse_slide_hold_slide(synthetic.table(*clean[:3]), "noise-free")
         beta_true = rsf.healing(reference).beta
         rows = []
-        for seed in range(args.seeds):
+        for count, seed in enumerate(range(args.first, args.first + args.seeds), start=1):
             try:
                 rows.append(one_seed(law, clean, beta_true, seed, args.noise))
             except GranflowError as exc:  # counted, named, and the study goes on
                 print(f"  seed {seed}: {type(exc).__name__}: {exc}", flush=True)
-            if rows and (seed + 1 == args.seeds or (seed + 1) % args.every == 0):
-                print(f"  ({seed + 1 - len(rows)} of {seed + 1} seeds raised)")
+            if rows and (count == args.seeds or count % args.every == 0):
+                print(
+                    f"  ({count - len(rows)} of {count} seeds raised; seeds {args.first}..{seed})"
+                )
                 summarise(law, rows, args.noise, beta_true)
         print(f"  {time.perf_counter() - clock:.0f} s")
     return 0
