@@ -213,3 +213,13 @@ def test_real_velocity_step_records_hold_no_hold_and_say_so(name):
     path = shared_data("rate-state-velocity-steps", name)
     with pytest.raises(FileFormatError, match=rf"{name}: line \d+: no hold found"):
         rsf.read_slide_hold_slide(path)
+
+
+def test_model_healing_refuses_a_fit_it_cannot_simulate():
+    from types import SimpleNamespace
+
+    from granflow.fitting.healing import model_healing
+
+    two_states = SimpleNamespace(params={"a": 0.01, "b1": 0.01}, laws=("aging", "aging"))
+    with pytest.raises(InvalidParameterError, match="one-state"):
+        model_healing(two_states, [1.0], velocity=1e-6)

@@ -373,7 +373,8 @@ def model_healing(
 ) -> np.ndarray:
     """Δμ_peak of a fitted rate-and-state slider at ``hold_times``: each hold simulated
     (:func:`granflow.rsf.simulate`) from steady sliding at ``velocity`` and re-slid over
-    ``slide`` [m] (default 10 Dc), the peak taken as in :func:`healing`.
+    ``slide`` [m] (default 10 Dc beyond twice the elastic loading of the largest healing,
+    2 b ln(1 + v t_h / Dc) / k), the peak taken as in :func:`healing`.
 
     Parameters
     ----------
@@ -399,11 +400,18 @@ def model_healing(
     from granflow.simulation.segments import Hold, Velocity
 
     params = fit.params
+    if len(fit.laws) != 1 or any(name not in params for name in ("a", "b", "Dc", "stiffness")):
+        raise InvalidParameterError(
+            "fit must be a one-state rate-and-state fit with a, b, Dc and stiffness"
+        )
     law = fit.laws[0]
     model = RateState(
         0.0, params["a"], velocity, params["stiffness"], [State(params["b"], params["Dc"], law)]
     )
-    length = 10.0 * params["Dc"] if slide is None else float(slide)
+    if slide is None:  # past the peak: the elastic loading of the largest healing, then 10 Dc
+        largest = params["b"] * math.log1p(velocity * max(hold_times) / params["Dc"])
+        slide = 10.0 * params["Dc"] + 2.0 * largest / params["stiffness"]
+    length = float(slide)
     lead = 2.0 * params["Dc"] / velocity
     out = []
     for hold in hold_times:
