@@ -2,6 +2,7 @@
 and figure (records from the independent solver of ``tests/rsf/shs_radau.py``)."""
 
 import importlib
+import json
 import sys
 from pathlib import Path
 
@@ -23,10 +24,34 @@ def _write(folder, name="shs.txt"):
 
 def test_the_family_declares_its_test_kind_and_callables_that_resolve():
     assert FAMILY["test_kind"] == family_analysis.TEST_KIND == "slide_hold_slide"
-    for key in ("analyse", "section", *FAMILY["result_types"]):
-        dotted = FAMILY.get(key, key)
-        module, _, name = dotted.rpartition(".")
-        assert callable(getattr(importlib.import_module(module), name)), dotted
+    for key in ("entries", "analyse", "results", "section", *FAMILY["result_types"]):
+        module, _, name = FAMILY.get(key, key).partition(":")
+        assert callable(getattr(importlib.import_module(module), name)), key
+
+
+def test_the_manifest_names_the_familys_records(tmp_path):
+    name = _write(tmp_path)
+    manifest = tmp_path / "manifest.yaml"
+    manifest.write_text(f"runs:\n  - file: {name}\n    test: slide_hold_slide\n")
+    entries = family_analysis.slide_hold_slide_entries(manifest)
+    if not entries:  # this branch's manifest does not know the kind yet (the seam adds it)
+        pytest.xfail("the manifest's test kinds come from granflow.families after the merge")
+    assert entries == [{"file": name}]  # (analysing it fits both laws: the study's job)
+
+
+def test_the_results_class_and_the_report_section_of_an_analysis(tmp_path):
+    name = _write(tmp_path)
+    analysis = family_analysis.analyse([{"file": name}], tmp_path / "out", folder=tmp_path, laws=())
+    result = family_analysis.SlideHoldSlide.from_dict(json.loads(json.dumps(analysis)))
+    assert result and result == family_analysis.SlideHoldSlide.from_dict(result.to_dict())
+    assert not family_analysis.SlideHoldSlide.from_dict({})
+    part = family_analysis.report_section(result)
+    assert part["id"] == "slide-hold-slide" and 'id="slide-hold-slide"' in part["html"]
+    assert part["figures"][0]["png"] == analysis["records"][0]["figure"]
+    assert (
+        part["summary"].startswith("slide-hold-slide: 1 records analysed")
+        and "β" in part["summary"]
+    )
 
 
 def test_analyse_measures_healing_draws_it_and_fails_a_bad_record_alone(tmp_path):

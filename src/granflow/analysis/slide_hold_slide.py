@@ -22,8 +22,18 @@ from granflow._html import Html, table, text
 from granflow._json import json_safe
 from granflow._typing import PathLike
 from granflow.errors import GranflowError
+from granflow.fitting.results import FrozenMap
 
-__all__ = ["LAWS", "TEST_KIND", "analyse", "section"]
+__all__ = [
+    "LAWS",
+    "TEST_KIND",
+    "SlideHoldSlide",
+    "analyse",
+    "campaign_slide_hold_slide",
+    "report_section",
+    "section",
+    "slide_hold_slide_entries",
+]
 
 #: The manifest's ``test`` of a slide-hold-slide record.
 TEST_KIND = "slide_hold_slide"
@@ -251,3 +261,128 @@ def section(analysis: Mapping[str, Any]) -> Html:
         parts.append(Html(f"<p>failed: {text(failure['name'])}: {text(failure['reason'])}</p>"))
     parts.append(Html("</section>"))
     return Html("\n".join(parts))
+
+
+# --------------------------------------------------------------------------- the seam's shapes
+
+
+def slide_hold_slide_entries(
+    manifest: PathLike | None, allow_outside: bool = False
+) -> list[dict[str, Any]]:
+    """The manifest's slide-hold-slide records (``test: slide_hold_slide``), in manifest order:
+    ``file`` (relative to the manifest's folder). None (a Campaign): none."""
+    if manifest is None:
+        return []
+    from granflow.io.manifest import BadEntry, read_manifest
+
+    return [
+        {"file": str(entry["file"])}
+        for entry in read_manifest(manifest, errors="collect", allow_outside=allow_outside)
+        if not isinstance(entry, BadEntry) and entry.get("test") == TEST_KIND
+    ]
+
+
+def campaign_slide_hold_slide(
+    manifest: PathLike | None,
+    output: PathLike,
+    figures_dir: str = "figures",
+    allow_outside: bool = False,
+) -> dict[str, Any]:
+    """:func:`analyse` of the records a campaign's manifest names
+    (:func:`slide_hold_slide_entries`), one after the other in this process."""
+    entries = slide_hold_slide_entries(manifest, allow_outside)
+    if not entries:
+        return {}
+    folder = Path(manifest).parent  # type: ignore[arg-type]
+    return analyse(entries, output, folder=folder, figures_dir=figures_dir)
+
+
+class SlideHoldSlide:
+    """The slide-hold-slide records of a campaign, as :func:`analyse` returned them.
+
+    Attributes
+    ----------
+    records : tuple of mapping
+        Per record: ``name``, ``healing``, ``fits``, ``comparison``, ``curves``, ``figure``,
+        ``caption``, ``problems`` (see :func:`analyse`).
+    failed : tuple of mapping
+        ``name``, ``source``, ``interval``, ``stage``, ``reason`` of each record that failed.
+    """
+
+    __slots__ = ("failed", "records")
+
+    def __init__(self, records: Iterable[Any] = (), failed: Iterable[Any] = ()) -> None:
+        self.records = tuple(FrozenMap(r) for r in records)
+        self.failed = tuple(FrozenMap(f) for f in failed)
+
+    def __bool__(self) -> bool:
+        return bool(self.records or self.failed)
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, SlideHoldSlide):
+            return NotImplemented
+        return self.to_dict() == other.to_dict()
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        return f"SlideHoldSlide({len(self.records)} records, {len(self.failed)} failed)"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Empty without records, else ``{"records", "failed"}`` (JSON-safe)."""
+        if not self:
+            return {}
+        return json_safe(
+            {
+                "records": [_plain(r) for r in self.records],
+                "failed": [_plain(f) for f in self.failed],
+            }
+        )
+
+    @classmethod
+    def from_dict(cls, saved: Mapping[str, Any] | None) -> SlideHoldSlide:
+        """The records of :meth:`to_dict` (or of :func:`analyse`)."""
+        saved = saved or {}
+        return cls(saved.get("records", ()), saved.get("failed", ()))
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    return value
+
+
+def report_section(result: SlideHoldSlide) -> dict[str, Any]:
+    """The family's part of a campaign report: ``id`` (the anchor), ``title``, ``html``
+    (:func:`section`), ``figures`` (``name``, ``title``, ``caption``, ``png`` relative to the
+    output folder) and ``summary`` (one line, "" without records)."""
+    analysis = result.to_dict()
+    figures = [
+        {
+            "name": Path(str(r["figure"])).stem,
+            "title": f"{r['name']}: healing",
+            "caption": r["caption"],
+            "png": r["figure"],
+        }
+        for r in analysis.get("records", ())
+    ]
+    betas = [
+        f"{r['name']} β = {_number(r['healing']['beta'], 3)}/decade"
+        for r in analysis.get("records", ())
+    ]
+    summary = ""
+    if analysis:
+        summary = f"slide-hold-slide: {len(betas)} records analysed" + (
+            f" ({'; '.join(betas)})" if betas else ""
+        )
+        if analysis.get("failed"):
+            summary += f", {len(analysis['failed'])} failed"
+    return {
+        "id": "slide-hold-slide",
+        "title": "Slide-hold-slide healing",
+        "html": str(section(analysis)),
+        "figures": figures,
+        "summary": summary,
+    }

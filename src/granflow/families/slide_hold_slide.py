@@ -18,15 +18,20 @@ from types import MappingProxyType
 
 __all__ = ["FAMILY"]
 
-#: The declaration the seam reads: name, result types, the manifest's test kind, and the
-#: dotted callables of the campaign analysis (``analyse(entries, output, *, folder,
-#: figures_dir) -> dict``) and the report section (``section(analysis) -> HTML``).
+#: The declaration the seam reads, in the fields of the seam's ``Family`` (branch i32-seam:
+#: ``FAMILY = Family(**FAMILY)`` there), every callable a ``"module:attribute"`` reference
+#: imported when first used: ``entries(manifest, allow_outside)``, ``analyse(manifest, output,
+#: figures_dir, allow_outside) -> dict``, ``results`` (the class that holds the analysis) and
+#: ``section(results) -> dict`` (``id``, ``title``, ``html``, ``figures``, ``summary``).
 FAMILY = MappingProxyType(
     {
         "name": "slide_hold_slide",
-        "result_types": ("granflow.fitting.healing.HealingResult",),
+        "description": "friction healing over slide-hold-slide records, fitted by rate-and-state",
+        "result_types": ("granflow.fitting.healing:HealingResult",),
         "test_kind": "slide_hold_slide",
-        "analyse": "granflow.analysis.slide_hold_slide.analyse",
-        "section": "granflow.analysis.slide_hold_slide.section",
+        "entries": "granflow.analysis.slide_hold_slide:slide_hold_slide_entries",
+        "analyse": "granflow.analysis.slide_hold_slide:campaign_slide_hold_slide",
+        "results": "granflow.analysis.slide_hold_slide:SlideHoldSlide",
+        "section": "granflow.analysis.slide_hold_slide:report_section",
     }
 )
