@@ -82,6 +82,10 @@ def test_bad_records_are_refused_naming_the_file_and_the_reason(tmp_path):
         )
     with pytest.raises(InvalidParameterError, match="step_times"):
         rsf.parse_slide_hold_slide("Time(s)\tDispl(microns)\tFriction\n" + rows, step_times=[5])
+    with pytest.raises(InvalidParameterError, match="strictly increasing"):
+        rsf.parse_slide_hold_slide(
+            "Time(s)\tDispl(microns)\tFriction\n" + rows, step_times=[5, 5, 8, 9]
+        )
 
 
 def _peaks_by_hand(t, mu, starts, holds):

@@ -214,8 +214,10 @@ def _holds_given(step_times, t):
         raise InvalidParameterError(
             f"step_times must give each hold's start and end (an even count), got {len(times)}"
         )
-    if any(not np.isfinite(s) for s in times) or times != sorted(times):
-        raise InvalidParameterError("step_times must be finite and increasing [s]")
+    if any(not np.isfinite(s) for s in times) or any(b <= a for a, b in itertools.pairwise(times)):
+        raise InvalidParameterError(
+            f"step_times must be finite and strictly increasing [s], got {times}"
+        )
     if times[0] < 0 or times[-1] > t[-1]:
         raise InvalidParameterError(f"step_times must lie inside the record, 0 .. {t[-1]:g} s")
     return list(zip(times[::2], times[1::2], strict=True))
