@@ -16,8 +16,14 @@ from typing import TYPE_CHECKING
 from granflow._lazy import attach
 
 if TYPE_CHECKING:  # the public names as type checkers and editors see them
+    from granflow.fitting.healing import HealingResult as HealingResult
+    from granflow.fitting.healing import healing as healing
+    from granflow.fitting.healing import paper_healing as paper_healing
     from granflow.fitting.rsf_fit import fit as fit
     from granflow.fitting.rsf_result import RateStateFitResult as RateStateFitResult
+    from granflow.io.slide_hold_slide import SlideHoldSlideRecord as SlideHoldSlideRecord
+    from granflow.io.slide_hold_slide import parse_slide_hold_slide as parse_slide_hold_slide
+    from granflow.io.slide_hold_slide import read_slide_hold_slide as read_slide_hold_slide
     from granflow.io.velocity_steps import VelocityStepRecord as VelocityStepRecord
     from granflow.io.velocity_steps import parse_velocity_steps as parse_velocity_steps
     from granflow.io.velocity_steps import read_velocity_steps as read_velocity_steps
@@ -35,6 +41,12 @@ __getattr__, __dir__, __all__ = attach(
         "granflow.simulation.rsf.result": ["RateStateResult"],
         "granflow.fitting.rsf_fit": ["fit"],
         "granflow.fitting.rsf_result": ["RateStateFitResult"],
+        "granflow.fitting.healing": ["HealingResult", "healing", "paper_healing"],
+        "granflow.io.slide_hold_slide": [
+            "SlideHoldSlideRecord",
+            "parse_slide_hold_slide",
+            "read_slide_hold_slide",
+        ],
         "granflow.io.velocity_steps": [
             "VelocityStepRecord",
             "parse_velocity_steps",

@@ -35,8 +35,10 @@ from granflow.model.protocol import Protocol
 from granflow.model.segments import Velocity
 
 __all__ = [
+    "FrictionTable",
     "VelocityStepRecord",
     "is_velocity_step_file",
+    "parse_friction_table",
     "parse_velocity_steps",
     "read_velocity_steps",
     "segment_velocity",
@@ -174,6 +176,85 @@ def parse_velocity_steps(
         No header, no time, displacement or friction column, an unknown unit, or a cell that
         is not a number (naming the line and column).
     """
+    table = parse_friction_table(text, source)
+    t, displacement, last = table.t, table.displacement, table.last_line
+    try:
+        breaks, velocities = segment_velocity(
+            t, displacement, step_times=step_times, min_change=min_change
+        )
+    except InvalidDataError as exc:
+        if step_times is not None:  # the caller's step times, not the file
+            raise
+        # too few rows for two pieces: the record ends too soon
+        raise FileFormatError(f"{source}: line {last}: {exc}") from None
+    edges = [0.0, *breaks, float(t[-1])]
+    protocol = Protocol(
+        [
+            Velocity(v, end - start)
+            for v, start, end in zip(velocities, edges, edges[1:], strict=False)
+        ]
+    )
+    return VelocityStepRecord(
+        t=t,
+        displacement=displacement,
+        friction=table.friction,
+        normal_stress=table.normal_stress,
+        protocol=protocol,
+        step_times=tuple(breaks),
+        velocities=tuple(velocities),
+        time_offset=table.time_offset,
+        meta={"source": source, "columns": table.columns, "problems": list(table.problems)},
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class FrictionTable:
+    """The columns of a friction table in SI units (what :func:`parse_friction_table` reads).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Time since the first row [s].
+    displacement : numpy.ndarray
+        Load-point displacement since the first row [m].
+    friction : numpy.ndarray
+        Friction coefficient [-].
+    normal_stress : numpy.ndarray or None
+        Normal stress [Pa] where the file has it.
+    time_offset : float
+        The file's first time [s].
+    columns : dict
+        The header cell read for each role.
+    problems : tuple of str
+        What was left out, one sentence each (a last line cut short).
+    last_line : int
+        The number of the file's last line read (for error messages).
+    """
+
+    t: np.ndarray
+    displacement: np.ndarray
+    friction: np.ndarray
+    normal_stress: np.ndarray | None
+    time_offset: float
+    columns: dict
+    problems: tuple
+    last_line: int
+
+
+def parse_friction_table(text: str, source: str = "<text>") -> FrictionTable:
+    """Read the columns of a friction table (decoded text): time, load-point displacement,
+    friction and optionally normal stress, in SI, time and displacement from 0.
+
+    The table format of :func:`parse_velocity_steps` (and of the slide-hold-slide reader,
+    :func:`granflow.io.slide_hold_slide.parse_slide_hold_slide`).
+
+    Raises
+    ------
+    FileFormatError
+        No header, no time, displacement or friction column, an unknown unit, fewer than 10
+        rows, a cell that is not a number or not finite, or a time that does not increase
+        (naming the line and column).
+    """
     lines = text.splitlines()
     if not lines or not lines[0].strip():
         raise FileFormatError(f"{source}: line 1: expected a header of column names, got nothing")
@@ -227,34 +308,15 @@ def parse_velocity_steps(
         index = int(np.argmax(np.diff(t) <= 0))
         raise FileFormatError(f"{source}: line {index + 3}: time does not increase")
     offset = float(t[0])
-    t = t - offset
-    displacement = values["displacement"] - values["displacement"][0]
-    try:
-        breaks, velocities = segment_velocity(
-            t, displacement, step_times=step_times, min_change=min_change
-        )
-    except InvalidDataError as exc:
-        if step_times is not None:  # the caller's step times, not the file
-            raise
-        # too few rows for two pieces: the record ends too soon
-        raise FileFormatError(f"{source}: line {last}: {exc}") from None
-    edges = [0.0, *breaks, float(t[-1])]
-    protocol = Protocol(
-        [
-            Velocity(v, end - start)
-            for v, start, end in zip(velocities, edges, edges[1:], strict=False)
-        ]
-    )
-    return VelocityStepRecord(
-        t=t,
-        displacement=displacement,
+    return FrictionTable(
+        t=t - offset,
+        displacement=values["displacement"] - values["displacement"][0],
         friction=values["friction"],
         normal_stress=values.get("normal_stress"),
-        protocol=protocol,
-        step_times=tuple(breaks),
-        velocities=tuple(velocities),
         time_offset=offset,
-        meta={"source": source, "columns": found, "problems": problems},
+        columns=found,
+        problems=tuple(problems),
+        last_line=last,
     )
 
 
