@@ -14,7 +14,7 @@ alone; a law that cannot be fitted is named in the record's ``problems`` and the
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -30,8 +30,8 @@ __all__ = [
     "SlideHoldSlide",
     "analyse",
     "campaign_slide_hold_slide",
+    "record_body",
     "report_section",
-    "section",
     "slide_hold_slide_entries",
 ]
 
@@ -187,79 +187,64 @@ def _number(value: Any, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
 
-def section(analysis: Mapping[str, Any]) -> Html:
-    """The report's HTML section of :func:`analyse`'s result (empty without records).
-
-    Per record: the figure with its caption, the holds (t_h, Δμ_peak), β with its interval and
-    the paper's prediction, the comparison of the laws and each law's parameters.
-    """
-    if not analysis:
-        return Html("")
-    parts = [Html('<section id="slide-hold-slide"><h3>Slide-hold-slide healing</h3>')]
-    for record in analysis.get("records", ()):
-        h = record["healing"]
-        low, high = h["beta_ci95"]
-        parts += [
-            Html(f"<h4>{text(record['name'])}</h4>"),
-            Html(
-                f'<figure><img src="{text(record["figure"])}" alt="healing of '
-                f'{text(record["name"])}"><figcaption>{text(record["caption"])}</figcaption>'
-                "</figure>"
-            ),
+def record_body(record: Mapping[str, Any]) -> Html:
+    """The HTML of one record of :func:`analyse` below its figure: the holds (t_h,
+    Δμ_peak), β with its interval and the paper's prediction, the comparison of the laws and
+    each law's parameters, the record's problems."""
+    h = record["healing"]
+    low, high = h["beta_ci95"]
+    parts = [
+        table(
+            [
+                (_number(t, 4), _number(d, 4))
+                for t, d in zip(h["hold_times"], h["delta_mu_peak"], strict=True)
+            ],
+            header=("hold time [s]", "Δμ_peak [–]"),
+        ),
+        Html(
+            f"<p>β = {text(_number(h['beta']))} per decade of hold time "
+            f"(95 %: {text(_number(low))} .. {text(_number(high))}; {text(h['method'])}). "
+            f"The paper's time clock, Δμ_peak = μ_a ln(1 + t_h/t_s), fitted: μ_a = "
+            f"{text(_number(h['paper_mu_a']))}, the sample's age at the record's start "
+            f"{text(_number(h['paper_age']))} s.</p>"
+        ),
+    ]
+    rows = record["comparison"]["rows"]
+    if rows:
+        parts.append(
             table(
                 [
-                    (_number(t, 4), _number(d, 4))
-                    for t, d in zip(h["hold_times"], h["delta_mu_peak"], strict=True)
+                    (
+                        r["model"],
+                        r["nfree"],
+                        _number(r["aic"], 6),
+                        _number(r["delta_aic"], 4),
+                        _number(r["bic"], 6),
+                        _number(r["residual_rms"], 3),
+                    )
+                    for r in rows
                 ],
-                header=("hold time [s]", "Δμ_peak [–]"),
-            ),
-            Html(
-                f"<p>β = {text(_number(h['beta']))} per decade of hold time "
-                f"(95 %: {text(_number(low))} .. {text(_number(high))}; {text(h['method'])}). "
-                f"The paper's time clock, Δμ_peak = μ_a ln(1 + t_h/t_s), fitted: μ_a = "
-                f"{text(_number(h['paper_mu_a']))}, the sample's age at the record's start "
-                f"{text(_number(h['paper_age']))} s.</p>"
-            ),
-        ]
-        rows = record["comparison"]["rows"]
-        if rows:
-            parts.append(
-                table(
-                    [
-                        (
-                            r["model"],
-                            r["nfree"],
-                            _number(r["aic"], 6),
-                            _number(r["delta_aic"], 4),
-                            _number(r["bic"], 6),
-                            _number(r["residual_rms"], 3),
-                        )
-                        for r in rows
-                    ],
-                    header=("model", "free", "AIC", "ΔAIC", "BIC", "RMS [–]"),
-                )
+                header=("model", "free", "AIC", "ΔAIC", "BIC", "RMS [–]"),
             )
-        for law, parameters in record["fits"].items():
-            parts.append(Html(f"<h5>{text(law)} law</h5>"))
-            parts.append(
-                table(
-                    [
-                        (
-                            p["name"],
-                            _number(p["value"], 5),
-                            _number(p["stderr"], 2),
-                            f"{_number(p['ci95'][0], 5)} .. {_number(p['ci95'][1], 5)}",
-                            p["unit"] or "–",
-                        )
-                        for p in parameters
-                    ],
-                    header=("parameter", "value", "stderr", "95 % interval", "unit"),
-                )
+        )
+    for law, parameters in record["fits"].items():
+        parts.append(Html(f"<h4>{text(law)} law</h4>"))
+        parts.append(
+            table(
+                [
+                    (
+                        p["name"],
+                        _number(p["value"], 5),
+                        _number(p["stderr"], 2),
+                        f"{_number(p['ci95'][0], 5)} .. {_number(p['ci95'][1], 5)}",
+                        p["unit"] or "–",
+                    )
+                    for p in parameters
+                ],
+                header=("parameter", "value", "stderr", "95 % interval", "unit"),
             )
-        parts += [Html(f"<p>{text(p)}</p>") for p in record["problems"]]
-    for failure in analysis.get("failed", ()):
-        parts.append(Html(f"<p>failed: {text(failure['name'])}: {text(failure['reason'])}</p>"))
-    parts.append(Html("</section>"))
+        )
+    parts += [Html(f"<p>{text(p)}</p>") for p in record["problems"]]
     return Html("\n".join(parts))
 
 
@@ -354,35 +339,64 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def report_section(result: SlideHoldSlide) -> dict[str, Any]:
-    """The family's part of a campaign report: ``id`` (the anchor), ``title``, ``html``
-    (:func:`section`), ``figures`` (``name``, ``title``, ``caption``, ``png`` relative to the
-    output folder) and ``summary`` (one line, "" without records)."""
+def report_section(
+    result: SlideHoldSlide, figures: Callable[[list[dict[str, Any]]], list[dict[str, Any]]]
+) -> dict[str, Any]:
+    """The family's part of a campaign report (the seam's ``section``).
+
+    Parameters
+    ----------
+    result : SlideHoldSlide
+        The campaign's slide-hold-slide records.
+    figures : callable
+        ``figures(entries) -> views``: the report's embedding of figure entries (``name``,
+        ``title``, ``caption``, ``png`` relative to the output folder).
+
+    Returns
+    -------
+    dict
+        ``id`` (the anchor), ``title``, ``template`` (``slide_hold_slide.html.j2``), ``view``
+        (``records``: name, embedded figure, body; ``failed``: (name, reason) pairs) and
+        ``summary`` (the verdict line, or None).
+    """
     analysis = result.to_dict()
-    figures = [
+    entries = [
         {
-            "name": Path(str(r["figure"])).stem,
+            "name": f"slide-hold-slide-{index}",
             "title": f"{r['name']}: healing",
             "caption": r["caption"],
             "png": r["figure"],
         }
-        for r in analysis.get("records", ())
+        for index, r in enumerate(analysis.get("records", ()), start=1)
     ]
+    shown = {f["name"]: f for f in figures(entries)}
+    records = [
+        {
+            "name": r["name"],
+            "figure": shown.get(f"slide-hold-slide-{index}"),
+            "body": record_body(r),
+        }
+        for index, r in enumerate(analysis.get("records", ()), start=1)
+    ]
+    failed = [(str(f.get("name")), str(f.get("reason"))) for f in analysis.get("failed", ())]
     betas = [
         f"{r['name']} β = {_number(r['healing']['beta'], 3)}/decade"
         for r in analysis.get("records", ())
     ]
-    summary = ""
-    if analysis:
-        summary = f"slide-hold-slide: {len(betas)} records analysed" + (
-            f" ({'; '.join(betas)})" if betas else ""
+    summary = None
+    if records or failed:
+        summary = (
+            "warn" if failed else "ok",
+            f"Slide-hold-slide ({len(records)} record{'s' if len(records) != 1 else ''}): "
+            + ("; ".join(betas) if betas else "none analysed")
+            + (f"; {len(failed)} failed" if failed else "")
+            + ".",
+            "#slide-hold-slide",
         )
-        if analysis.get("failed"):
-            summary += f", {len(analysis['failed'])} failed"
     return {
         "id": "slide-hold-slide",
         "title": "Slide-hold-slide healing",
-        "html": str(section(analysis)),
-        "figures": figures,
+        "template": "slide_hold_slide.html.j2",
+        "view": {"records": records, "failed": failed},
         "summary": summary,
     }

@@ -14,24 +14,17 @@ The rate-and-state fits over the holds are :func:`granflow.rsf.fit` itself (its 
 :class:`~granflow.fitting.rsf_result.RateStateFitResult`, belongs to the rate-and-state family).
 """
 
-from types import MappingProxyType
+from granflow.families._seam import Family
 
 __all__ = ["FAMILY"]
 
-#: The declaration the seam reads, in the fields of the seam's ``Family`` (branch i32-seam:
-#: ``FAMILY = Family(**FAMILY)`` there), every callable a ``"module:attribute"`` reference
-#: imported when first used: ``entries(manifest, allow_outside)``, ``analyse(manifest, output,
-#: figures_dir, allow_outside) -> dict``, ``results`` (the class that holds the analysis) and
-#: ``section(results) -> dict`` (``id``, ``title``, ``html``, ``figures``, ``summary``).
-FAMILY = MappingProxyType(
-    {
-        "name": "slide_hold_slide",
-        "description": "friction healing over slide-hold-slide records, fitted by rate-and-state",
-        "result_types": ("granflow.fitting.healing:HealingResult",),
-        "test_kind": "slide_hold_slide",
-        "entries": "granflow.analysis.slide_hold_slide:slide_hold_slide_entries",
-        "analyse": "granflow.analysis.slide_hold_slide:campaign_slide_hold_slide",
-        "results": "granflow.analysis.slide_hold_slide:SlideHoldSlide",
-        "section": "granflow.analysis.slide_hold_slide:report_section",
-    }
+FAMILY = Family(
+    name="slide_hold_slide",
+    description="friction healing over slide-hold-slide records, fitted by rate-and-state",
+    result_types=("granflow.fitting.healing:HealingResult",),
+    test_kind="slide_hold_slide",
+    entries="granflow.analysis.slide_hold_slide:slide_hold_slide_entries",
+    analyse="granflow.analysis.slide_hold_slide:campaign_slide_hold_slide",
+    results="granflow.analysis.slide_hold_slide:SlideHoldSlide",
+    section="granflow.analysis.slide_hold_slide:report_section",
 )
