@@ -17,7 +17,7 @@ from scipy import stats
 from scipy.integrate import solve_ivp
 
 from granflow import rsf
-from granflow.errors import FileFormatError, InvalidDataError, InvalidParameterError
+from granflow.errors import FileFormatError, InvalidParameterError
 
 sys.path.insert(0, str(Path(__file__).parent))
 import shs_radau
@@ -179,11 +179,6 @@ def test_the_papers_time_clock_prediction_against_its_own_equation():
     assert predicted == pytest.approx((peak - first.y[0, -1]) / normal_load, rel=1e-7)
 
 
-@pytest.mark.xfail(
-    raises=InvalidDataError,
-    strict=False,
-    reason="needs rsf.fit over holds (issue 32, branch i32-rsf); remove this mark after merge",
-)
 def test_contract_fit_over_holds_covers_the_truth():
     record, _ = _record(noise=3e-4, seed=5)
     f = rsf.fit(record, law="aging")  # the record's own windows, one per hold
