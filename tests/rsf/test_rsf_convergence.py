@@ -193,3 +193,43 @@ def test_fit_and_simulate_refuse_a_protocol_with_the_same_words():
         with pytest.raises(gf.InvalidProtocolError, match=r"segment [12]") as fitted:
             rsf.fit(t, np.full(t.size, 0.6), gf.Protocol(protocol))
         assert str(fitted.value) == str(simulated.value)
+
+
+def test_gauss_newton_steps_finish_what_the_optimiser_left():
+    # just short of the minimum, where a step of Levenberg-Marquardt gains little: the
+    # restarts (one step each, from 0.1 away) end higher, and the checks take the step
+    problem = _exponential_problem()
+    near = problem.internal([2.0 * (1 + 3e-4), 0.3 * (1 - 3e-4)])
+    done, checks = verify(problem, Solution(near, 1, "converged", 0), floor=1e-20, max_steps=1)
+    assert checks["restart"] <= checks["tolerance"]  # the restarts found nothing lower
+    assert done.status == 1 and checks["passed"] and not checks["rough"], done.message
+    assert problem.values(done.x) == pytest.approx([2.0, 0.3], rel=1e-9)
+    assert checks["improved"] > 0 and checks["predicted"] <= checks["tolerance"]
+
+
+class _Rough:
+    """A problem whose residuals carry an offset of the kind an integrator's error leaves:
+    1e-9 at the truth and more anywhere else, varying on a scale of 1e-10 in the parameters,
+    far below the differences' step. The differences see the offset as a slope and promise
+    a Gauss-Newton decrease that no step delivers."""
+
+    def __init__(self, problem):
+        self.problem = problem
+
+    def __getattr__(self, name):
+        return getattr(self.problem, name)
+
+    def evaluate(self, values, with_jacobian=False):
+        r, *rest = self.problem.evaluate(values, with_jacobian=with_jacobian)
+        away = 1e10 * float(np.sum(np.asarray(values) - (2.0, 0.3)))
+        return (r + 1e-9 * (2.0 - math.cos(away)), *rest)
+
+
+def test_a_promise_no_step_keeps_is_the_residuals_roughness():
+    smooth = _exponential_problem()
+    rough = _Rough(smooth)
+    at = smooth.internal([2.0, 0.3])
+    done, checks = verify(rough, Solution(at, 1, "converged", 0), floor=1e-20, max_steps=1)
+    assert checks["predicted"] > checks["tolerance"]  # the differences promise a decrease
+    assert checks["rough"] and done.status == 1 and checks["passed"], done.message
+    assert rough.values(done.x) == pytest.approx([2.0, 0.3], rel=1e-6)

@@ -12,7 +12,11 @@ the forward differences' few 1e-4 that Levenberg-Marquardt steps with):
     each parameter's curvature).
 ``predicted``
     The decrease of chi-square a full Gauss-Newton step predicts, ``|J s|^2`` with ``s`` the
-    least-squares solution of ``J s = -r``.
+    least-squares solution of ``J s = -r``. While it is above the tolerance, the step is
+    taken (halved until chi-square falls; at most four steps). Where no fraction of it lowers
+    chi-square, the promise lies in the residuals' roughness (the integrator's error seen
+    through the differences), not in the valley: ``rough`` is then True and this check and
+    the gradient's (read from the same differences) are passed; the restart's stands.
 ``restart``
     How much lower chi-square a Levenberg-Marquardt run from the optimum, every free
     coordinate moved by 0.1 (10 % for a, Dc and k), ends; a lower end becomes the optimum
@@ -37,6 +41,7 @@ RESTART_MOVE = 0.1
 _DIFFERENCE = 1e-3  # relative step of the central differences
 _RESTARTS = 2
 _NOISE_SHARE = 1e-3
+_POLISH = 4  # Gauss-Newton steps after the optimiser's end
 
 
 def _jacobian(problem, u):
@@ -58,25 +63,70 @@ def _jacobian(problem, u):
 
 def measure(problem, u):
     """(chi-square, gradient, predicted) at the free internal coordinates ``u``."""
+    return _measured(problem, u)[:3]
+
+
+def _measured(problem, u):
+    """(chi-square, gradient, predicted, Gauss-Newton step over ``u``, zero where a
+    coordinate is pinned at a bound) at the free internal coordinates ``u``."""
     r, J = _jacobian(problem, u)
     chisqr = float(r @ r)
+    none = np.zeros_like(u)
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-        return chisqr, math.inf, math.inf
+        return chisqr, math.inf, math.inf, none
     if J.shape[1] == 0:
-        return chisqr, 0.0, 0.0
+        return chisqr, 0.0, 0.0, none
     # a parameter held at a bound by the gradient drops out of the checks
     g = J.T @ r
     bounds = np.array([problem.parameters[i].internal_bounds() for i in problem.free])
     pinned = ((u <= bounds[:, 0] + 1e-9) & (g > 0)) | ((u >= bounds[:, 1] - 1e-9) & (g < 0))
     J, g = J[:, ~pinned], g[~pinned]
     if J.shape[1] == 0:
-        return chisqr, 0.0, 0.0
+        return chisqr, 0.0, 0.0, none
     curvature = np.einsum("ij,ij->j", J, J)
     safe = np.where(curvature > 0, curvature, 1.0)
     gradient = float(np.max(np.where(curvature > 0, g**2 / safe, 0.0)))
     step = np.linalg.lstsq(J, -r, rcond=None)[0]
     predicted = float(np.sum((J @ step) ** 2))
-    return chisqr, gradient, predicted
+    full = none.copy()
+    full[~pinned] = step
+    return chisqr, gradient, predicted, full
+
+
+def _polished(problem, u, floor, dof):
+    """``u`` after Gauss-Newton steps (each halved until chi-square falls, at most
+    :data:`_POLISH` of them) while a step promises more than the tolerance
+    (:func:`_limit`): the last few hundredths of a standard error that Levenberg-Marquardt,
+    stopping when a step gains little, leaves.
+
+    Returns (u, chi-square, gradient, predicted, what the steps gained, rough): ``rough``
+    when the last step promised more than the tolerance and no fraction of it lowered
+    chi-square (the promise then lies in the residuals' own roughness, the integrator's
+    error seen through the differences, not in the valley)."""
+    chisqr, gradient, predicted, step = _measured(problem, u)
+    gained, rough = 0.0, False
+    for _ in range(_POLISH):
+        if not (math.isfinite(predicted) and predicted > _limit(floor, chisqr, dof)):
+            break
+        for fraction in (1.0, 0.5, 0.25, 0.125):
+            trial = u + fraction * step
+            value = float(np.sum((problem.evaluate(problem.values(trial), with_jacobian=False)[0]
+                                  * problem.force_scale) ** 2))  # fmt: skip
+            if math.isfinite(value) and value < chisqr:
+                break
+        else:
+            rough = True  # no step lowers chi-square: the promise is the residuals' roughness
+            break
+        gained += chisqr - value
+        u = trial
+        chisqr, gradient, predicted, step = _measured(problem, u)
+    return u, chisqr, gradient, predicted, gained, rough
+
+
+def _limit(floor, chisqr, dof):
+    """The tolerance of every check: the integration's ``floor`` or a thousandth of the
+    noise variance, ``chisqr / dof``, whichever is larger."""
+    return max(floor, _NOISE_SHARE * chisqr / dof)
 
 
 def integration_floor(ndata, friction_range, relative_error, sigma):
@@ -103,7 +153,7 @@ def verify(problem, solution, floor, max_steps):
     dof = max(problem.ndata - len(problem.free), 1)
     hessian, nfev, improved, gain, restarts = solution.hessian, solution.nfev, 0.0, 0.0, 0
     chisqr, gradient, predicted = measure(problem, u)
-    limit = max(floor, _NOISE_SHARE * chisqr / dof)
+    limit = _limit(floor, chisqr, dof)
     signs = np.where(np.arange(u.size) % 2 == 0, 1.0, -1.0)
     while restarts <= _RESTARTS and math.isfinite(chisqr) and u.size:
         restarts += 1
@@ -115,13 +165,19 @@ def verify(problem, solution, floor, max_steps):
         improved += gain
         u, hessian = np.asarray(x, dtype=float), H
         chisqr, gradient, predicted = measure(problem, u)
-        limit = max(floor, _NOISE_SHARE * chisqr / dof)
+        limit = _limit(floor, chisqr, dof)
         signs = -signs
+    if u.size and math.isfinite(chisqr):
+        u, chisqr, gradient, predicted, polish, rough = _polished(problem, u, floor, dof)
+        improved += polish
+        limit = _limit(floor, chisqr, dof)
+    else:
+        rough = False
     failed = [
         text
         for text, value in (
-            (f"the gradient promises {gradient:.3g}", gradient),
-            (f"a Gauss-Newton step promises {predicted:.3g}", predicted),
+            (f"the gradient promises {gradient:.3g}", 0.0 if rough else gradient),
+            (f"a Gauss-Newton step promises {predicted:.3g}", 0.0 if rough else predicted),
             (f"a restart from the optimum found {gain:.3g} lower", gain),
         )
         if not value <= limit
@@ -132,6 +188,7 @@ def verify(problem, solution, floor, max_steps):
         "predicted": predicted,
         "restart": gain,
         "tolerance": limit,
+        "rough": rough,
         "restarts": restarts,
         "improved": improved,
         "passed": not failed,

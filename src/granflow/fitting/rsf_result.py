@@ -95,7 +95,8 @@ class RateStateFitResult(FitOutcome):
         in chi-square units: ``gradient`` (the largest decrease a Newton step in one
         parameter predicts), ``predicted`` (a Gauss-Newton step's), ``restart`` (what a
         restart from the perturbed optimum gained), ``tolerance`` (what each must stay
-        below), ``chisqr``, ``restarts`` and ``passed``; empty for a result read from a file.
+        below), ``rough`` (the Gauss-Newton promise lay in the residuals' roughness),
+        ``chisqr``, ``restarts`` and ``passed``; empty for a result read from a file.
     """
 
     laws: tuple
