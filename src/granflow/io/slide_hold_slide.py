@@ -33,6 +33,8 @@ import numpy as np
 
 from granflow.errors import FileFormatError, InvalidDataError, InvalidParameterError
 from granflow.io.velocity_steps import parse_friction_table
+from granflow.model.protocol import Protocol
+from granflow.model.segments import Hold, Velocity
 
 __all__ = [
     "SlideHoldSlideRecord",
@@ -224,11 +226,7 @@ def _holds_given(step_times, t):
 
 
 def _protocol(pieces):
-    """The Protocol of (velocity, duration) pieces (0: a hold). simulation is imported here,
-    where a record is made, so that importing :mod:`granflow.io` does not load it."""
-    from granflow.simulation.protocol import Protocol
-    from granflow.simulation.segments import Hold, Velocity
-
+    """The Protocol of (velocity, duration) pieces (0: a hold)."""
     return Protocol([Hold(d) if v == 0 else Velocity(v, d) for v, d in pieces])
 
 
