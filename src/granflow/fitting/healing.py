@@ -42,12 +42,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
+from granflow._codec import Codec
 from granflow.errors import InvalidDataError, InvalidParameterError
-from granflow.fitting.results import ValueEquality, decode, encode, number
 
 __all__ = [
     "HealingResult",
@@ -107,7 +107,7 @@ def aging_law_healing(hold_times: Any, b: float, cutoff: float) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class HealingResult(ValueEquality):
+class HealingResult(Codec):
     """The healing of a slide-hold-slide record.
 
     Attributes
@@ -138,20 +138,23 @@ class HealingResult(ValueEquality):
         The record's file, where known.
     """
 
-    hold_times: tuple
-    delta_mu_peak: tuple
-    steady_friction: tuple
-    peak_times: tuple
+    hold_times: tuple[float, ...]
+    delta_mu_peak: tuple[float, ...]
+    steady_friction: tuple[float, ...]
+    peak_times: tuple[float, ...]
     beta: float
     beta_stderr: float
-    beta_ci95: tuple
+    beta_ci95: tuple[float, ...]
     intercept: float
     paper_mu_a: float
     paper_age: float
-    hold_starts: tuple = ()
+    hold_starts: tuple[float, ...] = ()
     source: str = ""
 
-    method = "ordinary least squares of Δμ_peak on log10 t_h; 95 % interval from Student's t"
+    method: ClassVar[str] = (
+        "ordinary least squares of Δμ_peak on log10 t_h; 95 % interval from Student's t"
+    )
+    JSON_EXTRA: ClassVar[Mapping[str, Any]] = {"method": method}
 
     def __repr__(self) -> str:
         return f"HealingResult({len(self.hold_times)} holds, beta={self.beta:.4g}/decade)"
@@ -174,49 +177,6 @@ class HealingResult(ValueEquality):
             starts = self.hold_starts if hold_times is None else self.hold_starts[-1:]
             hold_starts = np.asarray(starts, dtype=float)
         return paper_healing(t_h, self.paper_mu_a, self.paper_age + np.asarray(hold_starts))
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe mapping (:meth:`from_dict` reads it back equal)."""
-        return encode(
-            {
-                "hold_times": list(self.hold_times),
-                "delta_mu_peak": list(self.delta_mu_peak),
-                "steady_friction": list(self.steady_friction),
-                "peak_times": list(self.peak_times),
-                "beta": self.beta,
-                "beta_stderr": self.beta_stderr,
-                "beta_ci95": list(self.beta_ci95),
-                "intercept": self.intercept,
-                "paper_mu_a": self.paper_mu_a,
-                "paper_age": self.paper_age,
-                "hold_starts": list(self.hold_starts),
-                "source": self.source,
-                "method": self.method,
-            }
-        )
-
-    @classmethod
-    def from_dict(cls, saved: Mapping[str, Any]) -> HealingResult:
-        """The result of :meth:`to_dict`."""
-        d = decode(saved, cls)
-
-        def column(name):
-            return tuple(number(v) for v in d.get(name) or ())
-
-        return cls(
-            hold_times=column("hold_times"),
-            delta_mu_peak=column("delta_mu_peak"),
-            steady_friction=column("steady_friction"),
-            peak_times=column("peak_times"),
-            beta=number(d["beta"]),
-            beta_stderr=number(d["beta_stderr"]),
-            beta_ci95=tuple(number(v) for v in d["beta_ci95"]),
-            intercept=number(d["intercept"]),
-            paper_mu_a=number(d["paper_mu_a"]),
-            paper_age=number(d["paper_age"]),
-            hold_starts=column("hold_starts"),
-            source=str(d.get("source") or ""),
-        )
 
 
 def scatter(friction: np.ndarray) -> float:
