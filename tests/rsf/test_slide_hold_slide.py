@@ -188,6 +188,14 @@ def test_contract_fit_over_holds_covers_the_truth(law):
     for name, value in (("a", truth["a"]), ("b", truth["b"]), ("Dc", truth["Dc"])):
         low, high = f.ci95[name]
         assert low < value < high, name
+    # read back from JSON, the fit's likelihood is rebuilt over its holds (what
+    # gf.sample_posterior samples): the fit's own chi-square at its optimum
+    back = type(f).from_dict(json.loads(json.dumps(f.to_dict())))
+    likelihood = back.log_likelihood()
+    at_optimum = [likelihood.values[n] for n in likelihood.names]
+    assert -2 * likelihood.function(np.array(at_optimum)) * f.redchi == pytest.approx(
+        f.chisqr, rel=1e-9
+    )
 
 
 def test_model_healing_of_the_true_slider_matches_the_independent_record():
