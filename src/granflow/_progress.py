@@ -152,11 +152,13 @@ def progress_bar(
 #: (52 runs, 2 workers): warm, the runs take 4 % of its 22 s, the joint analyses with the
 #: forecasts 32 %, the figures 50 %; on a first run the Numba compilation makes the runs
 #: 37 % of 60 s. The shares lie between the two. A stage a campaign lacks passes at once.
+#: "records" stands for the record families' stages (each named by its manifest ``test``
+#: kind in words: "velocity steps", "slide hold slide"), one after the other.
 STAGES = (
     ("reading", 8.0),
     ("runs", 20.0),
     ("joint analyses, predictions and forecasts", 27.0),
-    ("velocity steps", 2.0),
+    ("records", 2.0),
     ("tables", 5.0),
     ("figures", 33.0),
     ("report", 5.0),
@@ -189,7 +191,9 @@ class RunProgress:
         self._order = [name for name, _ in STAGES]
 
     def _before(self, stage: str) -> float:
-        """The share of the bar before ``stage`` [%]."""
+        """The share of the bar before ``stage`` [%] (a record family's stage: before the
+        records)."""
+        stage = stage if stage in self._weights else "records"
         return sum(self._weights[name] for name in self._order[: self._order.index(stage)])
 
     def _advance(self, percent: float) -> None:
@@ -199,8 +203,8 @@ class RunProgress:
         self.percent = percent
 
     def stage(self, name: str) -> None:
-        """The analysis enters stage ``name`` (one of :data:`STAGES`): the stages before it are
-        done."""
+        """The analysis enters stage ``name`` (one of :data:`STAGES`, or a record family's):
+        the stages before it are done."""
         if self.quiet:
             return
         if self._bar is None and self._stage is None and interactive(self.stream):

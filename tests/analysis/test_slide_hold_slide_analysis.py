@@ -113,6 +113,9 @@ def test_the_section_tables_the_comparison_of_the_laws():
         },
     ]
     parameter = {"name": "a", "value": 0.01, "stderr": 1e-4, "ci95": [0.0098, 0.0102], "unit": ""}
+    length = {"name": "Dc", "value": 5e-6, "stderr": 1e-8, "ci95": [4.98e-6, 5.02e-6], "unit": "m"}
+    trend = {"name": "slope_1", "value": 0.0, "stderr": 0.0, "ci95": [0, 0], "unit": "1/m"}
+    trend["held"] = True
     analysis = {
         "records": [
             {
@@ -121,13 +124,15 @@ def test_the_section_tables_the_comparison_of_the_laws():
                 "figure": "figures/x.png",
                 "caption": "c",
                 "comparison": {"rows": rows, "best_aic": "rsf_aging"},
-                "fits": {"aging": [parameter]},
+                "fits": {"aging": [parameter, length, trend]},
                 "problems": ["the slip law could not be fitted"],
             }
         ]
     }
     html = family_analysis.record_body(analysis["records"][0])
     assert "rsf_slip" in html and "1000" in html and "0.0098 .. 0.0102" in html
+    assert "4.98 .. 5.02" in html and "µm" in html  # lengths in µm
+    assert "<td>slope_1</td><td>0 (held)</td><td>–</td><td>–</td>" in html
     assert "the slip law could not be fitted" in html
 
 

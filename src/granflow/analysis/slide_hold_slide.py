@@ -49,6 +49,7 @@ def _parameters(fit: Any) -> list[dict[str, Any]]:
             "stderr": fit.stderr[name],
             "ci95": list(fit.ci95[name]),
             "unit": fit.units[name],
+            "held": name in fit.fixed,
         }
         for name in fit.names
     ]
@@ -187,6 +188,22 @@ def _number(value: Any, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
 
+def _parameter_row(p: Mapping[str, Any]) -> tuple[str, ...]:
+    """A parameter's row: value, standard error, 95 % interval and unit, lengths in µm; a
+    held parameter (the trend of each window, when not fitted) says so."""
+    scale, unit = (1e6, "µm") if p["unit"] == "m" else (1.0, p["unit"] or "–")
+    if p.get("held"):
+        return (p["name"], f"{_number(p['value'] * scale, 5)} (held)", "–", "–", unit)
+    low, high = (v * scale for v in p["ci95"])
+    return (
+        p["name"],
+        _number(p["value"] * scale, 5),
+        _number(p["stderr"] * scale, 2),
+        f"{_number(low, 5)} .. {_number(high, 5)}",
+        unit,
+    )
+
+
 def record_body(record: Mapping[str, Any]) -> Html:
     """The HTML of one record of :func:`analyse` below its figure: the holds (t_h,
     Δμ_peak), β with its interval and the paper's prediction, the comparison of the laws and
@@ -231,16 +248,7 @@ def record_body(record: Mapping[str, Any]) -> Html:
         parts.append(Html(f"<h4>{text(law)} law</h4>"))
         parts.append(
             table(
-                [
-                    (
-                        p["name"],
-                        _number(p["value"], 5),
-                        _number(p["stderr"], 2),
-                        f"{_number(p['ci95'][0], 5)} .. {_number(p['ci95'][1], 5)}",
-                        p["unit"] or "–",
-                    )
-                    for p in parameters
-                ],
+                [_parameter_row(p) for p in parameters],
                 header=("parameter", "value", "stderr", "95 % interval", "unit"),
             )
         )
@@ -309,6 +317,21 @@ class SlideHoldSlide:
         return self.to_dict() == other.to_dict()
 
     __hash__ = None  # type: ignore[assignment]
+
+    def summary_lines(self) -> list[str]:
+        """One line per record for :meth:`granflow.AnalysisResult.summary`: the healing rate
+        with its interval, the law best by AIC."""
+        lines = []
+        for record in self.records:
+            healing = record["healing"]
+            low, high = healing["beta_ci95"]
+            best = record["comparison"].get("best_aic") or "none fitted"
+            lines.append(
+                f"slide-hold-slide {record['name']}: beta = {_number(healing['beta'])} per "
+                f"decade of hold time (95 %: {_number(low)} .. {_number(high)}), best by AIC: "
+                f"{best}"
+            )
+        return lines
 
     def __repr__(self) -> str:
         return f"SlideHoldSlide({len(self.records)} records, {len(self.failed)} failed)"

@@ -57,12 +57,16 @@ class Family:
     results : str or None
         The class that holds the analysis in an :class:`granflow.AnalysisResult`: its
         ``from_dict`` reads ``analyse``'s output (and its own ``to_dict``'s), it is true
-        when it holds anything, and it has ``failed`` (and ``records`` with ``figure``).
+        when it holds anything, it has ``failed`` (and ``records`` with ``figure``) and
+        ``summary_lines()`` (its lines in :meth:`granflow.AnalysisResult.summary`).
     section : str or None
-        ``section(result, output_dir, report_dir, problems) -> dict``: the family's part of
-        the campaign report, with ``id``, ``title``, ``html`` (a fragment, from this
-        family's own template), ``figures`` (the figure entries it shows) and ``summary``
-        (a line for the report's summary, or "").
+        ``section(result, figures) -> dict``: the family's part of the campaign report, from
+        its ``results`` and ``figures(entries) -> views`` (the report's embedding of figure
+        entries: ``name``, ``title``, ``caption``, ``png`` relative to the output folder),
+        with ``id`` (the anchor), ``title`` (in the contents), ``template`` (this family's
+        own template in ``granflow/analysis/templates``, a new file), ``view`` (what the
+        template reads) and ``summary`` (the report summary's verdict, ``(status, text,
+        link)``, or None).
     """
 
     name: str
