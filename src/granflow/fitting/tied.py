@@ -308,7 +308,22 @@ def fit_joint(
     datasets = list(datasets)
     if not datasets:
         raise InvalidParameterError("fit_joint needs at least one run")
-    if domain == "time":  # the slip names (the defaults) stand for their time-domain twins
+    roles = _roles(model_names, domain, shared, per_run, per_group)
+    if per_group and (groups is None or len(groups) != len(datasets)):
+        raise InvalidParameterError("per_group needs groups: one label per run")
+    prepared, fits = individual_fits(datasets, domain, sigma, window)
+    labels = [str(g) for g in groups] if groups is not None else [""] * len(datasets)
+    spec, order = _tied_spec(fits, model_names, roles, labels)
+    fixed, ranges = _held_and_ranges(spec, order, fixed, params)
+    fields = solve_joint(spec, prepared, fits, domain, fixed, sigma is not None, order, ranges)
+    return JointFitResult(run_names=run_names(datasets, fits), **fields)
+
+
+def _roles(model_names, domain, shared, per_run, per_group):
+    """The role (``shared``, ``per_run`` or ``per_group``) of each model parameter; an
+    error names an unknown parameter, one given two roles, or one given none. In the time
+    domain the slip names (the defaults) stand for their time-domain twins."""
+    if domain == "time":
         shared, per_run, per_group = (
             tuple(_TIME_ALIASES.get(name, name) for name in names)
             for names in (shared, per_run, per_group)
@@ -329,31 +344,43 @@ def fit_joint(
         raise InvalidParameterError(
             f"every parameter must be shared, per_run or per_group; missing: {', '.join(missing)}"
         )
-    if per_group and (groups is None or len(groups) != len(datasets)):
-        raise InvalidParameterError("per_group needs groups: one label per run")
-    prepared, fits = individual_fits(datasets, domain, sigma, window)
-    labels = [str(g) for g in groups] if groups is not None else [""] * len(datasets)
+    return roles
+
+
+def _tied_spec(fits, model_names, roles, labels):
+    """``(spec, order)``: the joint problem's global parameters, each started at the median
+    of its members' separate fits, and each run's links to them; ``order`` the global names
+    in the order they first appear."""
     spec = JointSpec(globals={}, links=[])
     order = []
-    for index, _result in enumerate(fits):
+    for index in range(len(fits)):
         links = []
         for slot, name in enumerate(model_names):
-            role = roles[name]
-            if role == "shared":
-                key = name
-                members = range(len(fits))
-            elif role == "per_run":
-                key = f"{name}_{index}"
-                members = [index]
-            else:
-                key = f"{name}_{labels[index]}"
-                members = [i for i, label in enumerate(labels) if label == labels[index]]
+            key, members = _global_name(name, roles[name], index, labels)
             if key not in spec.globals:
                 start = float(np.median([fits[i].params[name] for i in members]))
                 spec.globals[key] = (slot, start)
                 order.append(key)
             links.append((key, 1.0))
         spec.links.append(tuple(links))
+    return spec, order
+
+
+def _global_name(name, role, index, labels):
+    """``(key, members)``: the global name of parameter ``name`` of run ``index`` (``alpha``,
+    ``x0_3``, ``alpha_v1``) and the indices of the runs that share it."""
+    if role == "shared":
+        return name, range(len(labels))
+    if role == "per_run":
+        return f"{name}_{index}", [index]
+    group = labels[index]
+    return f"{name}_{group}", [i for i, label in enumerate(labels) if label == group]
+
+
+def _held_and_ranges(spec, order, fixed, params):
+    """``(fixed, ranges)``: the global parameters held fixed, by name, and the search ranges
+    of the others, from ``fixed`` or from ``params`` (whose starts replace the separate
+    fits' medians in ``spec``); an error names an unknown one."""
     ranges = {}
     if params is not None:
         if fixed is not None:
@@ -369,5 +396,4 @@ def fit_joint(
             raise InvalidParameterError(
                 f"fixed: unknown parameter {key!r}; the parameters are {', '.join(order)}"
             )
-    fields = solve_joint(spec, prepared, fits, domain, fixed, sigma is not None, order, ranges)
-    return JointFitResult(run_names=run_names(datasets, fits), **fields)
+    return fixed, ranges

@@ -145,64 +145,23 @@ def estimate(
     Estimate
     """
     first = rough if sigma is None else sigma
-    problem = build(first, starts[0] if warm is None else warm[0])
-    held = [] if nuisance is None else list(range(nuisance, len(problem.parameters)))
-    for index in held:
-        problem.parameters[index].fixed = True
-    if held:
-        problem = type(problem)(
-            problem.curves, problem.parameters, model=problem.model, penalty=problem.penalty
-        )
+    problem = _nuisance_held(build(first, starts[0] if warm is None else warm[0]), nuisance)
     rtol = _PRECISION / max(size, 1)
-    solution = None
-    if warm is not None:
-        # the previous optimum first; the grid only where it has gone implausible
-        solution = multistart(problem, [warm[0]], 1.0, rtol=rtol, tries=1)
-        cost = problem.chisqr(problem.values(solution.x))
-        if not cost <= 2.0 * max(size - _SHAPE, 1):
-            solution = None
-    candidates = [] if warm is None or len(warm) < 3 else [(v, None) for v in warm[2]]
-    if solution is None:
-        chosen = starts if branch is None else _diverse(problem, starts, branch)
-        least = _LEAST if branch is None else len(chosen)
-        solution = multistart(problem, chosen, 1.0, rtol=rtol, tries=tries, least=least)
-        candidates = [(problem.values(u), cost) for u, cost in solution.optima]
+    solution, candidates = _first_stage(
+        problem, starts, size=size, rtol=rtol, tries=tries, warm=warm, branch=branch
+    )
     first_values = problem.values(solution.x)
-    nfev = solution.nfev
     if not np.all(np.isfinite(first_values)):
         raise FitError("the forecast's fit did not converge to finite values")
-    dof = None
-    if sigma is None:
-        dof = max(size - _SHAPE, 1)
-        squares = data_chisqr(problem, first_values) * first**2 + within
-        sigma = max(math.sqrt(squares / dof), 1e-300)
+    sigma, dof = _noise(problem, first_values, first, sigma=sigma, size=size, within=within)
     # the residuals' verdict (granflow.forecast.discrepancy): correlated ones widen the noise
     check = check_fit(problem, first_values, first, size, within, rough)
     sigma *= math.sqrt(check.inflation)
-    start = first_values if warm is None else np.asarray(warm[1], dtype=float)
-    problem = build(sigma, start)
-    values, chisqr, _, steps = _solve_at(problem, start, rtol)
-    if warm is not None and not chisqr <= problem.chisqr(
-        problem.values(problem.internal(first_values))
-    ):
-        # the previous optimum has drifted onto a poorer branch: the stage-1 optimum's
-        other, other_chisqr, _, more = _solve_at(problem, first_values, rtol)
-        steps += more
-        if other_chisqr < chisqr:
-            values, chisqr = other, other_chisqr
-    # polished to the optimum (Levenberg-Marquardt converges quadratically there), then the
-    # problem rebuilt about it: what follows depends on the optimum, not on the path to it
-    problem = build(sigma, values)
-    u, polished, *_ = problem.lm(problem.internal(values), max_iter=50, rtol=1e-15)
-    if polished <= chisqr and np.all(np.isfinite(u)):
-        values = problem.values(u)
-        problem = build(sigma, values)
-    chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
+    values, chisqr, steps = _second_stage(build, sigma, first_values, warm, rtol)
+    problem, values, chisqr, hessian = _polished(build, sigma, values, chisqr)
     # the first stage's other optima, by their chi-square at the first noise level: those
     # near enough to the best to matter, polished in the whole problem
-    scale = (first / sigma) ** 2
-    lowest = min((cost for _, cost in candidates if cost is not None), default=0.0)
-    near = [v for v, cost in candidates if cost is None or (cost - lowest) * scale < 2 * _REACH]
+    near = _near(candidates, (first / sigma) ** 2)
     minima, more = _other_minima(problem, values, float(chisqr), near, rtol)
     steps += more
     if minima[0][1] < chisqr:
@@ -217,11 +176,97 @@ def estimate(
         sigma,
         dof,
         hessian,
-        nfev + steps,
+        solution.nfev + steps,
         first_values,
         check,
         others,
     )
+
+
+def _nuisance_held(problem, nuisance):
+    """``problem`` with its nuisance slots (``nuisance`` on) held fixed at their values, for
+    the first stage; ``problem`` itself where it has none."""
+    held = [] if nuisance is None else list(range(nuisance, len(problem.parameters)))
+    for index in held:
+        problem.parameters[index].fixed = True
+    if held:
+        problem = type(problem)(
+            problem.curves, problem.parameters, model=problem.model, penalty=problem.penalty
+        )
+    return problem
+
+
+def _first_stage(problem, starts, *, size, rtol, tries, warm, branch):
+    """``(solution, candidates)``: the first stage's multistart solution, from the previous
+    optimum where it is still plausible and else from ``starts``, and the candidates for the
+    other minima as ``(values, chisqr)`` (chisqr None for a previous estimate's minima)."""
+    solution = None if warm is None else _warm_solution(problem, warm, size, rtol)
+    candidates = [] if warm is None or len(warm) < 3 else [(v, None) for v in warm[2]]
+    if solution is None:
+        chosen = starts if branch is None else _diverse(problem, starts, branch)
+        least = _LEAST if branch is None else len(chosen)
+        solution = multistart(problem, chosen, 1.0, rtol=rtol, tries=tries, least=least)
+        candidates = [(problem.values(u), cost) for u, cost in solution.optima]
+    return solution, candidates
+
+
+def _warm_solution(problem, warm, size, rtol):
+    """The multistart solution from the previous first-stage optimum ``warm[0]``; None where
+    it has gone implausible (chi-square beyond twice the degrees of freedom), so that the
+    grid is solved instead."""
+    solution = multistart(problem, [warm[0]], 1.0, rtol=rtol, tries=1)
+    cost = problem.chisqr(problem.values(solution.x))
+    if not cost <= 2.0 * max(size - _SHAPE, 1):
+        return None
+    return solution
+
+
+def _noise(problem, first_values, first, *, sigma, size, within):
+    """``(sigma, dof)``: the known noise and None, or the noise estimated from the first
+    stage's residuals (at noise ``first``) with ``n - 4`` degrees of freedom [data unit]."""
+    if sigma is not None:
+        return sigma, None
+    dof = max(size - _SHAPE, 1)
+    squares = data_chisqr(problem, first_values) * first**2 + within
+    return max(math.sqrt(squares / dof), 1e-300), dof
+
+
+def _second_stage(build, sigma, first_values, warm, rtol):
+    """``(values, chisqr, steps)``: the whole problem at noise ``sigma`` solved from the
+    first stage's optimum; where ``warm``, from the previous estimate's optimum instead, and
+    from the first stage's too where that one does worse."""
+    start = first_values if warm is None else np.asarray(warm[1], dtype=float)
+    problem = build(sigma, start)
+    values, chisqr, _, steps = _solve_at(problem, start, rtol)
+    if warm is not None and not chisqr <= problem.chisqr(
+        problem.values(problem.internal(first_values))
+    ):
+        # the previous optimum has drifted onto a poorer branch: the stage-1 optimum's
+        other, other_chisqr, _, more = _solve_at(problem, first_values, rtol)
+        steps += more
+        if other_chisqr < chisqr:
+            values, chisqr = other, other_chisqr
+    return values, chisqr, steps
+
+
+def _polished(build, sigma, values, chisqr):
+    """``(problem, values, chisqr, hessian)``: the optimum polished (Levenberg-Marquardt
+    converges quadratically there), then the problem rebuilt about it: what follows depends
+    on the optimum, not on the path to it."""
+    problem = build(sigma, values)
+    u, polished, *_ = problem.lm(problem.internal(values), max_iter=50, rtol=1e-15)
+    if polished <= chisqr and np.all(np.isfinite(u)):
+        values = problem.values(u)
+        problem = build(sigma, values)
+    chisqr, _, hessian = problem.state(problem.internal(values), problem.free)
+    return problem, values, chisqr, hessian
+
+
+def _near(candidates, scale):
+    """The candidates' values within reach of the lowest: chi-square (times ``scale``, to
+    the final noise level) less than twice the reach above it, or of unknown chi-square."""
+    lowest = min((cost for _, cost in candidates if cost is not None), default=0.0)
+    return [v for v, cost in candidates if cost is None or (cost - lowest) * scale < 2 * _REACH]
 
 
 def _other_minima(problem, values, chisqr, candidates, rtol):
