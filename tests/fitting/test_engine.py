@@ -73,6 +73,8 @@ def test_decay_matches_curve_fit_with_weights_and_known_sigma():
     assert result.covar["rate"]["rate"] == pytest.approx(covar[1, 1], rel=1e-5)
     assert result.covar["amplitude"]["rate"] == pytest.approx(covar[0, 1], rel=1e-5)
     assert result.sigma_known
+    back = type(result).from_dict(result.to_dict())  # the per-point noise is kept
+    assert np.array_equal(back.sigma, sigma) and back == result
 
 
 def test_tied_parameters_and_held_values_in_the_engine():

@@ -76,8 +76,9 @@ class CurveFitResult(FitOutcome):
     function : str
         The engine :class:`~granflow.fitting.Model` fitted, as ``"module:NAME"`` (what
         :meth:`log_likelihood` evaluates); "" where unknown.
-    sigma : float or None
-        The known noise of the data [unit of the data] (``sigma_known``), else None.
+    sigma : float, numpy.ndarray or None
+        The known noise of the data [unit of the data] (``sigma_known``): one number, or one
+        per point; None where it was estimated from the residuals.
     """
 
     model: str
@@ -90,7 +91,7 @@ class CurveFitResult(FitOutcome):
     residuals: np.ndarray
     fixed: tuple = ()
     function: str = ""
-    sigma: float | None = None
+    sigma: float | np.ndarray | None = None
 
     #: The per-point arrays, which the compact ``to_dict(include_arrays=False)`` leaves out.
     ARRAYS = ("x", "data", "best_fit", "residuals")
@@ -179,7 +180,7 @@ class CurveFitResult(FitOutcome):
         if self.function:
             out["function"] = self.function
         if self.sigma is not None:
-            out["sigma"] = self.sigma
+            out["sigma"] = self.sigma if np.ndim(self.sigma) == 0 else list(self.sigma)
         return encode(out)
 
     @classmethod
@@ -195,7 +196,7 @@ class CurveFitResult(FitOutcome):
             **read_arrays(cls, d),
             fixed=tuple(d.get("fixed", ())),
             function=str(d.get("function", "")),
-            sigma=None if d.get("sigma") is None else float(d["sigma"]),
+            sigma=_noise(d.get("sigma")),
         )
 
 
@@ -225,7 +226,8 @@ def fit_curve(
     Jacobian, scaled by the residual variance unless ``sigma`` (the known noise) is given.
     ``held``: values [SI] of parameters held fixed; ``ranges``: (min, max) search ranges
     [SI] by name (the start is moved inside); ``function``: the model as ``"module:NAME"``
-    (kept for the result's :meth:`~CurveFitResult.log_likelihood`); ``sigma``: a number.
+    (kept for the result's :meth:`~CurveFitResult.log_likelihood`); ``sigma``: the known noise,
+    a number or one per point.
     """
     held, ranges = held or {}, ranges or {}
     weights = np.ones_like(y) if sigma is None else 1.0 / np.broadcast_to(sigma, y.shape)
@@ -272,8 +274,17 @@ def fit_curve(
         residuals=read_only(stats.residuals),
         fixed=tuple(slot for slot in model.slots if slot in held),
         function=function,
-        sigma=None if sigma is None else float(sigma),
+        sigma=_noise(sigma),
     )
+
+
+def _noise(sigma: Any) -> float | np.ndarray | None:
+    """The known noise as the result keeps it: None, a float, or a read-only array of floats."""
+    if sigma is None:
+        return None
+    if np.ndim(sigma) == 0:
+        return float(sigma)
+    return read_only(np.asarray(sigma, dtype=float))
 
 
 def _creep(t, B, tau_c):

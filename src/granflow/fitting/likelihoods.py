@@ -110,7 +110,7 @@ def curve_likelihood(result: CurveFitResult) -> Likelihood:
     model = resolve(result.function)
     x = np.ascontiguousarray(result.x)
     data = np.asarray(result.data)
-    weight = np.float64(1.0 if result.sigma is None else 1.0 / result.sigma)
+    weight = 1.0 / np.asarray(1.0 if result.sigma is None else result.sigma, dtype=float)
     free = [n for n in result.names if n not in result.fixed]
     log = dict(zip(model.slots, model.log, strict=True))
     priors = {n: scale_or_spread_prior(n, result.params[n], result.stderr[n], log[n]) for n in free}
