@@ -12,6 +12,7 @@ likelihood as the one fitted. See :class:`granflow.families.Likelihood`.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -75,12 +76,18 @@ def gaussian_likelihood(result, free, priors, model, x, data, weights):
         residual = scaled * (model(x, *values) - data)
         return -0.5 * float(residual @ residual)
 
+    return fit_likelihood(result, free, priors, log_likelihood)
+
+
+def fit_likelihood(result: Any, free: Sequence[str], priors: Any, function: Any) -> Likelihood:
+    """The :class:`Likelihood` of ``result``'s free parameters ``free`` (their fitted values
+    and standard errors from the result) with ``priors`` and ``function(natural) -> float``."""
     return Likelihood(
         names=tuple(free),
         values={n: result.params[n] for n in free},
         stderr={n: result.stderr[n] for n in free},
         priors=priors,
-        function=log_likelihood,
+        function=function,
     )
 
 

@@ -19,7 +19,11 @@ import numpy as np
 
 from granflow.errors import InvalidParameterError
 from granflow.families import Likelihood
-from granflow.fitting.likelihoods import require_points, scale_or_spread_prior
+from granflow.fitting.likelihoods import (
+    fit_likelihood,
+    require_points,
+    scale_or_spread_prior,
+)
 from granflow.fitting.rsf_problem import Setup
 from granflow.fitting.rsf_record import fit_record
 
@@ -99,10 +103,4 @@ def rate_state_likelihood(result: RateStateFitResult) -> Likelihood:
         n: scale_or_spread_prior(n, result.params[n], result.stderr[n], n.startswith(_POSITIVE))
         for n in free
     }
-    return Likelihood(
-        names=tuple(free),
-        values={n: result.params[n] for n in free},
-        stderr={n: result.stderr[n] for n in free},
-        priors=priors,
-        function=log_likelihood,
-    )
+    return fit_likelihood(result, free, priors, log_likelihood)
