@@ -60,6 +60,46 @@ def markdown(cells):
     return "\n".join(lines)
 
 
+def goals(cells):
+    """The goals of the issue's point 5, cell by cell: granflow's coverage of the intervals it
+    gave, how often it declined or gave no date, its CRPS against the best reference of the
+    cell (paired over the same records: granflow's minus the reference's, with its standard
+    error) and the verdict: on granflow's own records it must beat every reference, elsewhere
+    be no worse than the best (a difference within two standard errors counts as no worse)."""
+    lines = [
+        "| family | lead | granflow's 90 % coverage (issued) | declined or no date | "
+        "granflow CRPS [s] | best reference, its CRPS [s] | granflow's CRPS against it |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for family in FAMILIES:
+        for lead in LEADS:
+            own = cells.get((family, lead, "granflow"))
+            others = {m: cells.get((family, lead, m)) for m in METHODS if m != "granflow"}
+            others = {m: s for m, s in others.items() if s is not None}
+            if own is None or not others:
+                continue
+            best = min(others, key=lambda m: others[m].crps)
+            paired = np.asarray(own.crps_values) - np.asarray(others[best].crps_values)
+            difference = float(np.mean(paired))
+            se = float(np.std(paired, ddof=1) / math.sqrt(paired.size)) if paired.size > 1 else 0
+            if family == FAMILIES[0]:
+                verdict = (
+                    "beats every reference" if difference < 0 else "does not beat every reference"
+                )
+            else:
+                verdict = "not worse" if difference <= 2 * se else "worse"
+            coverage = (
+                f"{own.coverage:.1%} ± {own.coverage_se:.1%}" if own.issued else "– (none issued)"
+            )
+            reference = _pm(others[best].crps, others[best].crps_se)
+            lines.append(
+                f"| {family} | {lead:.0%} | {coverage} | {own.declined:.1%} | "
+                f"{_pm(own.crps, own.crps_se)} | {best}, {reference} "
+                f"| {difference:+.3g} ± {se:.2g} s: {verdict} |"
+            )
+    return "\n".join(lines)
+
+
 def declining(entries):
     """granflow's declining rule, family by family: forecasts, declined, the would-be misses
     (declined forecasts that would have missed, issued ones that missed) and the share of them
@@ -206,9 +246,11 @@ def report(entries, elapsed=None, processes=None):
         f"cell" + (f", {elapsed:.0f} s wall on {processes} processes" if elapsed else "")
         + f" (load average {load})"
     )  # fmt: skip
-    print(markdown(cells))
+    print(goals(cells))
     print()
     print(declining(entries))
+    print()
+    print(markdown(cells))
     print()
     print(cpu_summary(entries))
     figures(cells)
