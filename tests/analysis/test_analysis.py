@@ -350,6 +350,8 @@ def test_progress_lines_and_quiet(campaign, tmp_path, capsys):
     analyze(campaign, tmp_path / "loud", jobs=1)
     err = capsys.readouterr().err
     assert "fitted 1/2: run2.5e-07#1" in err and "fitted 2/2: run3.5e-07#1" in err
+    # a record family the campaign has no records of is no stage of its progress
+    assert "velocity steps" not in err and "slide hold slide" not in err
     seen = []
     analyze(campaign, tmp_path / "quiet", jobs=1, quiet=True, progress=lambda *a: seen.append(a))
     assert capsys.readouterr().err == ""

@@ -191,9 +191,14 @@ def test_python_m_granflow(tmp_path):
 # outside on the clock. Instead the subprocess stops at a known point: the fourth run's
 # analysis opens a named pipe for reading, which blocks until a writer opens it, and the test
 # opens it only after the signal has been sent. So exactly three runs are saved when the
-# signal arrives, whatever the load of the machine; no hook in the production code.
+# signal arrives, whatever the load of the machine; no hook in the production code. A process
+# started in the background of a shell without job control inherits SIGINT ignored (POSIX),
+# and Python then leaves it ignored: the subprocess takes Ctrl-C's default handling, as the
+# command has it when started from a terminal.
 _BLOCKING_CLI = """
+import signal
 import sys
+signal.signal(signal.SIGINT, signal.default_int_handler)
 import granflow.analysis.engine as analysis
 analyse_run = analysis.analyse_run
 started = 0

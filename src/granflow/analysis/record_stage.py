@@ -28,7 +28,8 @@ def analyse_records(manifest, output, allow_outside, executor, reporter, stages)
     executor : granflow._parallel.Executor
         Where each family's analysis runs (one task per family, workers recycled after).
     reporter : granflow._progress.RunProgress
-        Announces each family's stage (its ``test`` kind in words).
+        Announces the stage of each family the manifest has records of (its ``test`` kind
+        in words).
     stages : dict
         Gets each family's duration [s] as ``<test>_s``.
     """
@@ -37,10 +38,10 @@ def analyse_records(manifest, output, allow_outside, executor, reporter, stages)
         if family.entries is None or family.analyse is None:
             continue
         kind = str(family.test_kind)
-        reporter.stage(kind.replace("_", " "))
         clock = time.perf_counter()
         listed = resolve(family.entries)(manifest, allow_outside)
-        if listed:
+        if listed:  # a family the campaign has no records of is no stage of it
+            reporter.stage(kind.replace("_", " "))
             task = (family.name, manifest, output, allow_outside)
             analysed[kind] = executor.call(_record_analysis, task)
             executor.recycle()
