@@ -2,13 +2,15 @@
 and 10 %, scored as forecasts are scored; run by ``python benchmarks/bench_forecast.py league
 [SEEDS] [PROCESSES] [FIRST_SEED]`` from the repository root.
 
-Writes the entries to ``benchmarks/league_entries.pkl`` after each family (``league --from
-benchmarks/league_entries.pkl`` redraws from them without forecasting), prints the table in
-markdown (each score with its standard error; skill against inverse velocity) and the
-declining rule's record, and draws the figures into ``docs/_static/league/``: reliability
-diagrams of ``probability_within``, PIT histograms and the CRPS against the lead.
+Writes the entries to ``benchmarks/league_entries.pkl.gz`` (a gzipped pickle) after each
+round of seeds (``league --from benchmarks/league_entries.pkl.gz`` redraws from them without
+forecasting), prints the table in markdown (each score with its standard error; skill
+against inverse velocity) and the declining rule's record, and draws the figures into
+``docs/_static/league/``: reliability diagrams of ``probability_within``, PIT histograms and
+the CRPS against the lead.
 """
 
+import gzip
 import math
 import os
 import pickle
@@ -22,7 +24,7 @@ from granflow.forecast.families import FAMILIES
 from granflow.forecast.league import LEADS, METHODS, league, table
 
 ROOT = Path(__file__).resolve().parents[1]
-ENTRIES = ROOT / "benchmarks" / "league_entries.pkl"
+ENTRIES = ROOT / "benchmarks" / "league_entries.pkl.gz"
 FIGURES = ROOT / "docs" / "_static" / "league"
 REFERENCE = "inverse velocity"
 
@@ -266,7 +268,7 @@ def main(seeds=500, processes=2, first=29000, chunk=25):
         for start in range(first, first + seeds, chunk):
             stop = min(start + chunk, first + seeds)
             entries += league(range(start, stop), FAMILIES, executor=pool)
-            with open(ENTRIES, "wb") as handle:
+            with gzip.open(ENTRIES, "wb") as handle:
                 pickle.dump(entries, handle)
             print(f"{stop - first} seeds: {time.perf_counter() - wall:.0f} s", flush=True)
     cpu = sum(e.cpu for e in entries)
@@ -277,5 +279,6 @@ def main(seeds=500, processes=2, first=29000, chunk=25):
 
 
 def redraw(path):
-    with open(path, "rb") as handle:
+    opener = gzip.open if str(path).endswith(".gz") else open
+    with opener(path, "rb") as handle:
         report(pickle.load(handle))
