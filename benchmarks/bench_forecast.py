@@ -10,10 +10,11 @@ Run from the repository root:
   time), forecast by this checkout and by ``PATH/src`` (a checkout of the code at the start
   of issue 27, e.g. ``git worktree add /tmp/granflow-old f4a6afb``), each in its own
   process on the same saved records; the ratio printed.
-* ``python benchmarks/bench_forecast.py agree [SEEDS] [--old PATH] [--designs A,B]``: the
-  two codes' intervals on SEEDS records of each design (or of those named) at leads 50, 25
-  and 10 %: how often their ends lie within 2 % of the interval's width, and how often each
-  code's interval holds the truth.
+* ``python benchmarks/bench_forecast.py agree [SEEDS] [--old PATH] [--designs A,B]
+  [--leads 0.5,0.25] [--save OUT.npz]``: the two codes' intervals on SEEDS records of each
+  design (or of those named) at leads 50, 25 and 10 % (or those named): how often their ends
+  lie within 2 % of the interval's width, and how often each code's interval holds the
+  truth; ``--save`` keeps both codes' answers and the truths.
 * ``python benchmarks/bench_forecast.py running``: the CPU time of each
   :class:`granflow.RunningForecast` update as a 10 Hz ramp arrives a second at a time.
 * ``python benchmarks/bench_forecast.py study CELLS SEEDS PROCESSES FIRST [OUT]``: the
@@ -107,9 +108,10 @@ def record(seed, design, lead=0.25):
     return kind, t, slip, force, (1 - lead) * truth, 0.0, truth
 
 
-def _side(records, source):
+def _side(records, source, once=False):
     """Forecast ``records`` with the granflow at ``source`` (a ``src`` folder) in a process
-    of its own: per record (CPU [s], t_f, interval, force interval)."""
+    of its own: per record (CPU [s], t_f, interval, force interval); ``once``: each record
+    forecast once, not timed with a warm-up and repeats."""
     with tempfile.TemporaryDirectory() as folder:
         inputs, outputs = Path(folder) / "records.npz", Path(folder) / "out.npz"
         arrays = {"count": len(records)}
@@ -127,7 +129,8 @@ def _side(records, source):
         np.savez(inputs, **arrays)
         environment = {**os.environ, "PYTHONPATH": str(source)}
         subprocess.run(
-            [sys.executable, str(HERE / "forecast_side.py"), str(inputs), str(outputs)],
+            [sys.executable, str(HERE / "forecast_side.py"), str(inputs), str(outputs)]
+            + (["--once"] if once else []),
             check=True,
             env=environment,
         )
@@ -168,17 +171,31 @@ def _designs(arguments):
     return DESIGNS
 
 
+def _leads(arguments):
+    """The leads named by ``--leads 0.5,0.25`` (default 50, 25 and 10 %)."""
+    if "--leads" in arguments:
+        return tuple(float(v) for v in arguments[arguments.index("--leads") + 1].split(","))
+    return LEADS
+
+
 def agree(arguments):
     seeds = int(arguments[0]) if arguments and arguments[0].isdigit() else 100
     old = _old(arguments)
+    save = arguments[arguments.index("--save") + 1] if "--save" in arguments else None
+    saved = {}
     print(f"{seeds} records a design and lead; load average {_load()}")
     print("| record | lead | both ends within 2 % of the width | old covers | new covers |")
     print("|---|---|---|---|---|")
     for design in _designs(arguments):
-        for lead in LEADS:
+        for lead in _leads(arguments):
             records = [record(2000 + seed, design, lead) for seed in range(seeds)]
-            before, after = _side(records, old), _side(records, ROOT / "src")
+            before = _side(records, old, once=True)
+            after = _side(records, ROOT / "src", once=True)
             truths = np.array([r[-1] for r in records])
+            if save:
+                saved[f"{design}|{lead}|old"], saved[f"{design}|{lead}|new"] = before, after
+                saved[f"{design}|{lead}|truth"] = truths
+                np.savez(save, **saved)
             width = np.abs(after[:, 3] - after[:, 2])
             close = (np.abs(before[:, 2] - after[:, 2]) <= 0.02 * width) & (
                 np.abs(before[:, 3] - after[:, 3]) <= 0.02 * width
