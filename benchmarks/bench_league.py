@@ -64,10 +64,11 @@ def markdown(cells):
 
 def goals(cells):
     """The goals of the issue's point 5, cell by cell: granflow's coverage of the intervals it
-    gave, how often it declined or gave no date, its CRPS against the best reference of the
-    cell (paired over the same records: granflow's minus the reference's, with its standard
-    error) and the verdict: on granflow's own records it must beat every reference, elsewhere
-    be no worse than the best (a difference within two standard errors counts as no worse)."""
+    gave (with their number where it gave fewer than the cell's records), how often it
+    declined or gave no date, its CRPS against the best reference of the cell (paired over the
+    same records: granflow's minus the reference's, with its standard error) and the verdict:
+    on granflow's own records it must beat every reference, elsewhere be no worse than the
+    best (a difference within two standard errors counts as no worse)."""
     lines = [
         "| family | lead | granflow's 90 % coverage (issued) | declined or no date | "
         "granflow CRPS [s] | best reference, its CRPS [s] | granflow's CRPS against it |",
@@ -93,6 +94,8 @@ def goals(cells):
             coverage = (
                 f"{own.coverage:.1%} ± {own.coverage_se:.1%}" if own.issued else "– (none issued)"
             )
+            if 0 < own.issued < own.count:
+                coverage += f" ({own.issued} of {own.count})"
             reference = _pm(others[best].crps, others[best].crps_se)
             lines.append(
                 f"| {family} | {lead:.0%} | {coverage} | {own.declined:.1%} | "

@@ -378,7 +378,10 @@ def test_the_old_names_warn_and_name_the_new_ones():
     params = ff.to_params()
     assert isinstance(params, gf.Params)
     assert params.a == ff.params["a"]
-    with pytest.raises(InvalidDataError, match="not both"):
+    with (
+        pytest.warns(DeprecationWarning, match="sigma="),
+        pytest.raises(InvalidDataError, match="not both"),
+    ):
         gf.forecast_failure(t, slip, force, noise=1e-9, sigma=1e-9)
 
 
