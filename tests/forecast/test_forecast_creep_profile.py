@@ -163,3 +163,22 @@ def test_a_fit_on_the_family_edge_is_profiled_below_it():
     ff = gf.forecast_failure(t, slip, force, until=0.5 * truth, direct_effect=True)
     assert ff.force_interval[0] <= _strength(7040) <= ff.force_interval[1]
     assert ff.time_interval[0] <= truth <= ff.time_interval[1]
+
+
+@pytest.mark.parametrize("seed", [2063, 2037])
+def test_a_profile_stranded_at_the_curves_box_finds_the_branch_beyond(seed):
+    """Creeping ramps cut half-way to failure, where the record does not yet bound the
+    strength from above: the profile is flat far above the best fit, on another branch of the
+    creep curve. The conditional fits' warm starts left the curve's box just above the best
+    fit (no Eq. 3 parameters give that shape: a flat penalty) and read it as a wall, so both
+    intervals ended at the point forecast (seed 2063: t_f in (185.3, 186.4) s, truth 203.7 s;
+    F_peak in (4.57, 6.22) mN, truth 6.77 mN). Restarted from the creep curve's shapes, the
+    strength's profile goes on (its upper end well beyond the point) and both intervals hold
+    the truth. (The failure time's profile is restarted too, but its upper end can still
+    stop at the point where the truth lies below it: seed 2037, benchmarks/README.md.)"""
+    t, slip, force, truth = creep_record(seed, "ramp")
+    ff = gf.forecast_failure(t, slip, force, until=0.5 * truth, direct_effect=True)
+    assert ff.time is not None
+    assert ff.time_interval[0] <= truth <= ff.time_interval[1]
+    assert ff.force_interval[0] <= _strength(seed) <= ff.force_interval[1]
+    assert ff.force_interval[1] > 1.2 * ff.force

@@ -339,7 +339,9 @@ class CreepModel:
         key = values.tobytes()
         if key in self._cache:
             return self._cache[key]
-        found = self._evaluate(values)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            # a far start's curve overflows: not finite, so outside the box (None)
+            found = self._evaluate(values)
         if len(self._cache) > 64:
             self._cache.clear()
         self._cache[key] = found
@@ -415,6 +417,11 @@ class CreepModel:
 
     def function_and_jacobian(self, values, log):
         """(slip, d slip / d slots); a flat penalty outside the box."""
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+            # a far start's curve overflows; the engine takes what is not finite as no step
+            return self._function_and_jacobian(values, log)
+
+    def _function_and_jacobian(self, values, log):
         size, n = self.time.size, values.size
         base, state = self.evaluate(values)
         if base is None:

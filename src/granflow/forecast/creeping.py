@@ -30,6 +30,9 @@ _PEAK_FACTORS = (1.05, 1.3, 2.0)  # F_peak over the largest force held
 _RATIOS = (0.5, 0.8)
 _INITIAL_STATES = (3e-3, 3e-2)
 _NO_FAILURE = 20.0  # a strength this many times the largest force held: no failure in sight
+_PROFILE_RATIOS = (0.1, 0.3, 0.5, 0.8)  # the profiles' restarts' shapes (see _profile_starts)
+_PROFILE_PEAKS = (0.5, 0.7, 1.0, 1.5, 3.0)  # F_peak over the best fit's, in the time's restarts
+_PROFILE_AMPLITUDE = 0.01  # A over F_peak, beside the best fit's, in the restarts
 _PRECISION = 2e-3  # of the profiles' ends' signed roots (not followed live: no need of 1e-4)
 
 
@@ -54,6 +57,44 @@ def _starts(model, quasi_static, floor):
             if factor is not None:
                 slots["amplitude"] = factor * peak_force
             starts.append([slots[name] for name in model.names])
+    return starts
+
+
+def _profile_starts(model, best, peak_force):
+    """``starts(value)`` for the profile of ``model``'s profiled slot (F_peak, or the gap to
+    failure in the timed variant) pinned at ``value``: global slot values at the best fit's
+    shape and at a grid of shapes, A at the best fit's fraction of F_peak and at 1 % of it,
+    and in the timed variant F_peak at a few multiples of the best fit's. The conditional
+    fits follow one branch by warm starts; where the creep curve leaves its box (no
+    parameters in Eq. 3 give that shape: a flat penalty) the warm start is stranded, while
+    the record may well allow the value on another branch (a strength a creeping record
+    does not yet bound: the profile flat far above the best fit), so that the profile
+    would read a wall where there is none."""
+    names = model.names
+    fraction = best["amplitude"] / best["peak_force"]
+    shapes = [(best["ratio"], best["s0"])]
+    shapes += [(ratio, s0) for ratio in _PROFILE_RATIOS for s0 in _INITIAL_STATES]
+    fractions = (None,) if model.fixed is not None else (fraction, _PROFILE_AMPLITUDE)
+    forces = (None,) if not model.timed else tuple(peak_force * f for f in _PROFILE_PEAKS)
+    pinned = names[model.profiled]
+
+    def starts(value):
+        out = []
+        for force in forces:
+            for ratio, s0 in shapes:
+                for share in fractions:
+                    slots = dict(best)
+                    slots.update(ratio=ratio, s0=s0)
+                    if force is not None:
+                        slots["peak_force"] = force
+                    slots[pinned] = value
+                    if "lag" in slots:
+                        slots["lag"] = 0.0
+                    if share is not None:
+                        slots["amplitude"] = share * slots["peak_force"]
+                    out.append([slots[name] for name in names])
+        return out
+
     return starts
 
 
@@ -91,7 +132,12 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     if state is None:
         text = "the creep model fits no curve to this record: no sign of approaching failure"
         return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
-    force_profile, strength = scan(fit, 0, level, precision=_PRECISION)
+    best = dict(zip(model.names, fit.values, strict=True))
+    if model.fixed is not None:
+        best["amplitude"] = model.fixed
+    force_profile, strength = scan(
+        fit, 0, level, precision=_PRECISION, starts=_profile_starts(model, best, state.peak_force)
+    )
     if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
         # no date, but the lower end the record gives of the strength (its one-sided
         # quantile); not of the time: a creeping layer can fail before the force reaches
@@ -104,7 +150,7 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     timed = CreepModel(
         time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True
     )
-    values = dict(zip(model.names, fit.values, strict=True))
+    values = dict(best)
     values["gap"] = max(state.failure_time - until, 1e-9)
     timed_values = np.array([values[name] for name in timed.names])
     time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
@@ -116,6 +162,7 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         problem=time_problem,
         values=timed_values,
         precision=_PRECISION,
+        starts=_profile_starts(timed, values, state.peak_force),
     )
     time_interval = timing.interval(level)
     force_interval = strength.interval(level)
