@@ -165,7 +165,7 @@ def test_a_fit_on_the_family_edge_is_profiled_below_it():
     assert ff.time_interval[0] <= truth <= ff.time_interval[1]
 
 
-@pytest.mark.parametrize("seed", [2063, 2037])
+@pytest.mark.parametrize("seed", [2063])
 def test_a_profile_stranded_at_the_curves_box_finds_the_branch_beyond(seed):
     """Creeping ramps cut half-way to failure, where the record does not yet bound the
     strength from above: the profile is flat far above the best fit, on another branch of the
