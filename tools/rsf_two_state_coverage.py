@@ -1,4 +1,5 @@
-"""Coverage of the 95 % intervals of two-state rate-and-state fits (aging law, k = 1200 /m).
+"""Coverage of the 95 % intervals of two-state rate-and-state fits (k = 1200 /m; aging law,
+or the slip law with ``--law slip``).
 
 The synthetic record comes from an independent solver (scipy's Radau at rtol 1e-10 on the
 equations written out by hand: tests/rsf/radau_slider.py), not from granflow: load-point
@@ -12,7 +13,7 @@ those whose chi-square is above the one at the true parameters (an optimiser tha
 short) and the time taken.
 
 Run from the repository root: ``python tools/rsf_two_state_coverage.py [--seeds 100]
-[--first 0]``.
+[--first 0] [--law aging|slip]`` (both states follow the law given).
 """
 
 import argparse
@@ -46,13 +47,15 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=100, help="how many seeds")
     parser.add_argument("--first", type=int, default=0, help="the first seed")
+    parser.add_argument("--law", default="aging", choices=("aging", "slip"), help="the law")
     args = parser.parse_args(argv)
     duration = sum(d for _, d in SEGMENTS)
     t = np.arange(0.0, duration + 1e-9, 0.2)
     protocol = gf.Protocol([gf.Velocity(v, d) for v, d in SEGMENTS])
-    states = [(TRUTH["b1"], TRUTH["Dc1"], "aging"), (TRUTH["b2"], TRUTH["Dc2"], "aging")]
+    law = args.law
+    states = [(TRUTH["b1"], TRUTH["Dc1"], law), (TRUTH["b2"], TRUTH["Dc2"], law)]
     clean = slider_friction(TRUTH["mu0"], TRUTH["a"], V1, TRUTH["stiffness"], states, SEGMENTS, t)
-    noise_free = rsf.fit(t, clean, protocol, law="aging", states=2, profile=False)
+    noise_free = rsf.fit(t, clean, protocol, law=law, states=2, profile=False)
     print(
         f"noise-free: success {noise_free.success}, RMS {noise_free.residual_rms:.3g}, "
         + ", ".join(
@@ -66,7 +69,7 @@ def main(argv=None):
     failures, worse, start, done = [], [], time.time(), 0
     for seed in range(args.first, args.first + args.seeds):
         mu = clean + np.random.default_rng(seed).normal(0.0, NOISE, t.size)
-        fit = rsf.fit(t, mu, protocol, law="aging", states=2)
+        fit = rsf.fit(t, mu, protocol, law=law, states=2)
         done += 1
         if not fit.success:
             failures.append((seed, fit.message))
