@@ -297,3 +297,35 @@ def test_bad_arguments_name_the_culprit(tmp_path, capsys):
         == 2
     )
     assert "--serve takes [HOST:]PORT" in capsys.readouterr().err
+
+
+def test_the_watch_keeps_unused_libraries_out_of_its_process(tmp_path):
+    """A watch runs all day: pandas' pyarrow and pint's dask (42 MiB of resident memory
+    together) stay out of its process, and the forecasts are made without them; a caller's
+    interpreter that runs the command in-process keeps both importable."""
+    export, log = tmp_path / "ramp.txt", tmp_path / "watch.jsonl"
+    record(export, dt=1.0)
+    code = (
+        "import sys\n"
+        "from granflow.cli.app import main\n"
+        f"sys.argv = ['granflow', 'watch', {str(export)!r}, '--log', {str(log)!r},"
+        " '--until-end', '--horizon', '30s', '--stall', '1s']\n"
+        "code = main()\n"
+        "print(sorted(n for n in ('pyarrow', 'dask', 'pandas', 'pint') if sys.modules.get(n)))\n"
+        "sys.exit(code)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=environment(), capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip().splitlines()[-1] == "['pandas', 'pint']"
+    entries = read_log(log)
+    assert entries[-1]["event"] == "end"
+    assert [e for e in entries if e["event"] == "forecast"][-1]["probability_within_horizon"] > 0.5
+
+    from granflow.cli import main
+
+    # in-process (a caller's interpreter): the command runs as far as its arguments' check
+    assert main(["watch", str(export), "--log", str(tmp_path / "l.jsonl"), "--speed", "3"]) == 2
+    assert sys.modules.get("dask", False) is not None  # nothing kept out here
+    import pyarrow  # noqa: F401  (still importable in the caller's interpreter)

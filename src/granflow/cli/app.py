@@ -79,7 +79,7 @@ def main(argv=None):
     """Run the command line; returns the exit code (0 ok, 1 some work failed, 2 bad input,
     141 the output pipe was closed)."""
     try:
-        code = _main(argv)
+        code = _main(argv, own_process=argv is None)
         sys.stdout.flush()
     except BrokenPipeError:
         _discard_stdout()
@@ -87,7 +87,7 @@ def main(argv=None):
     return code
 
 
-def _main(argv):
+def _main(argv, own_process=False):
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -96,6 +96,8 @@ def _main(argv):
     if args.command is None:
         parser.print_help()
         return 2
+    if own_process and args.command == "watch":
+        _keep_out(_WATCH_UNUSED)
     try:
         return args.run(args)
     except BrokenPipeError:
@@ -107,6 +109,20 @@ def _main(argv):
         return _error(args, _file_error(exc), 2)
     except Exception as exc:  # a bug: one line, the traceback with --debug
         return _error(args, exc, 1, internal=True)
+
+
+#: Libraries that load with the watch's and never serve it: pandas loads pyarrow (34 MiB of
+#: resident memory) for string columns the readers do not keep, pint loads dask (8 MiB) for
+#: arrays it never sees. A watch runs all day beside the instrument software.
+_WATCH_UNUSED = ("pyarrow", "dask")
+
+
+def _keep_out(names):
+    """Make ``names`` unimportable in this process, where nothing has imported them yet
+    (pandas and pint take them as not installed). Only for a command that owns its process
+    (``granflow watch`` from the shell): never inside a caller's interpreter."""
+    for name in names:
+        sys.modules.setdefault(name, None)
 
 
 def _file_error(error):
