@@ -20,6 +20,9 @@ and cleared when it falls back. Scores:
 * **false alarms**: an alarm raised on a record that never fails, or more than one horizon
   before the failure; the *false-alarm ratio* is their share of all alarms raised, and the
   records with one are counted too;
+* **on at failure**: a failing record whose alarm was on when the failure came, however
+  early it was raised (an alarm raised more than a horizon early and kept on is a false
+  alarm and not in time, but it did warn);
 * the inverse-velocity alarm: raised when the method's failure date lies within
   ``theta * horizon`` of the cut, theta the largest (most eager) setting whose false-alarm
   ratio on the fleet stays at or under 5 %.
@@ -275,17 +278,22 @@ def episodes(flags_and_times):
     return raises
 
 
-def model_flags(forecasts, threshold=THRESHOLD, confirm=1, min_rows=0, bounded=True):
+def model_flags(forecasts, threshold=THRESHOLD, confirm=1, min_rows=0, bounded=True, hold=None):
     """(t, alarm on) of the watch's alarm rule on a record's forecasts: raised when P reaches
     the threshold on ``confirm`` forecasts in a row of at least ``min_rows`` rows each whose
-    F_peak interval is bounded above (``bounded``; as the watch's engine does)."""
-    out, run, on = [], 0, False
+    F_peak interval is bounded above (``bounded``; as the watch's engine does); with
+    ``hold`` [s], as the engine's ``confirm``: once every forecast over that much record
+    time has reached it."""
+    out, run, on, since = [], 0, False, None
     for t, p, *rest in forecasts:
         p = 0.0 if p is None else p
         rows, force_interval = rest[-1], rest[4]
         closed = bool(force_interval) and force_interval[1] is not None
-        run = run + 1 if p >= threshold and rows >= min_rows and (closed or not bounded) else 0
-        on = (run >= confirm) if not on else p >= threshold
+        reached = p >= threshold and rows >= min_rows and (closed or not bounded)
+        run = run + 1 if reached else 0
+        since = (since if since is not None else t) if reached else None
+        ready = (t - since >= hold) if hold is not None and reached else run >= confirm
+        on = ready if not on else p >= threshold
         out.append((t, on))
     return out
 
@@ -298,12 +306,16 @@ def iv_flags(result, theta):
 def score(results, flags_of):
     """In-time share, median lead, false alarms (ratio and records) over the fleet."""
     failing = [r for r in results if r["failure"] is not None]
-    in_time, leads, false, alarms, false_records = 0, [], 0, 0, 0
+    in_time, leads, false, alarms, false_records, on_at_failure = 0, [], 0, 0, 0, 0
     for result in results:
         if result["kind"] == "start-up":
             continue
-        raises = episodes(flags_of(result))
+        flags = flags_of(result)
+        raises = episodes(flags)
         failure = result["failure"]
+        if failure is not None:
+            before = [on for t, on in flags if t < failure]
+            on_at_failure += bool(before and before[-1])
         if failure is not None:
             raises = [t for t in raises if t < failure]
         alarms += len(raises)
@@ -322,6 +334,7 @@ def score(results, flags_of):
         "alarms": alarms,
         "false_ratio": false / max(alarms, 1),
         "false_records": false_records / max(len(counted), 1),
+        "on_at_failure": on_at_failure / max(len(failing), 1),
     }
 
 
@@ -340,7 +353,7 @@ def table(results, confirm, min_rows=0):
     kinds = [k for k in KINDS if any(r["kind"] == k for r in results)]
     header = (
         f"{'records':<12}{'n':>4}  {'alarm':<30}{'in time':>8}{'lead (med.)':>12}"
-        f"{'false/alarms':>14}{'records w/ false':>18}"
+        f"{'false/alarms':>14}{'records w/ false':>18}{'on at failure':>15}"
     )
     lines.append(header)
     theta = iv_setting(results)
@@ -361,9 +374,10 @@ def table(results, confirm, min_rows=0):
             s = score(subset, flags)
             lead = "-" if math.isnan(s["median_lead"]) else f"{s['median_lead']:.0f} s"
             timely = "-" if not s["failing"] else f"{s['in_time']:.1%}"
+            on = "-" if not s["failing"] else f"{s['on_at_failure']:.1%}"
             lines.append(
                 f"{kind:<12}{len(subset):>4}  {name:<30}{timely:>8}{lead:>12}"
-                f"{s['false_ratio']:>13.1%} {s['false_records']:>17.1%}"
+                f"{s['false_ratio']:>13.1%} {s['false_records']:>17.1%}{on:>15}"
             )
     startups = [r for r in results if r["kind"] == "start-up"]
     if startups:
@@ -428,6 +442,18 @@ def policies(results):
                     f"{s['in_time']:>8.1%} {s['median_lead']:>6.0f} {s['false_ratio']:>13.1%} "
                     f"{s['false_records']:>17.1%}"
                 )
+    lines.append("the engine's --confirm (every forecast over that much record time):")
+    for threshold in (0.5, 0.7, 0.9):
+        for hold in (10.0, 20.0):
+            s = score(
+                results,
+                lambda r, a=threshold, h=hold: model_flags(r["forecasts"], a, 1, MIN_ROWS, True, h),
+            )
+            lines.append(
+                f"{threshold:>9} {f'{hold:g} s':>8} {MIN_ROWS:>9} {'True':>8} "
+                f"{s['in_time']:>8.1%} {s['median_lead']:>6.0f} {s['false_ratio']:>13.1%} "
+                f"{s['false_records']:>17.1%}"
+            )
     return "\n".join(lines)
 
 

@@ -276,6 +276,11 @@ def test_bad_arguments_name_the_culprit(tmp_path, capsys):
         == 2
     )
     assert "--horizon needs a unit" in capsys.readouterr().err
+    log = str(tmp_path / "l.jsonl")
+    assert main(["watch", str(tmp_path / "x.txt"), "--log", log, "--confirm", "10"]) == 2
+    assert "--confirm needs a unit" in capsys.readouterr().err
+    assert main(["watch", str(tmp_path / "x.txt"), "--log", log, "--confirm", "-5s"]) == 2
+    assert "confirm must be zero or positive, got -5 s" in capsys.readouterr().err
     assert main(["watch", str(tmp_path), "--log", str(tmp_path / "l.jsonl"), "--replay"]) == 2
     assert "--replay needs a finished export" in capsys.readouterr().err
     assert (

@@ -60,6 +60,37 @@ def test_an_alarm_clears_when_the_probability_falls_back():
     assert log[-1]["alarm"] is False and log[-3]["alarm"] is True
 
 
+def test_a_confirmed_alarm_waits_for_the_probability_to_hold():
+    """With ``confirm=10`` s the alarm is raised at the first forecast 10 s of record after
+    the probability first reached the threshold, never on a forecast that reached it once,
+    and a fall below starts the wait again."""
+    log = []
+    watch = Watch(Settings(horizon=60.0, alarm=0.5, confirm=10.0), log.append)
+    t, slip, force, _ = ramp_record(PARAMS, rate=0.065e-3, noise=2e-9, seed=1, dt=1.0)
+    watch.take([_rows(t[:150], slip[:150], force[:150])])
+    watch.forecast()
+    stream = watch.current
+    assert stream.bounded()
+    events = []
+    for when, probability in [
+        (150, 0.9),  # reached: the wait begins
+        (155, 0.1),  # fell back: no alarm, the wait ends
+        (160, 0.9),
+        (165, 0.95),
+        (170, 0.9),  # 10 s at or above: raised
+        (175, 0.2),  # cleared
+        (180, 0.9),
+        (185, 0.9),
+    ]:
+        stream.t, stream.probability = float(when), probability
+        before = len(log)
+        watch._after(stream)
+        events += [(when, e["event"]) for e in log[before:] if e["event"] != "forecast"]
+    assert events == [(170, "alarm"), (175, "clear")]
+    with pytest.raises(InvalidParameterError, match="confirm must be zero or positive"):
+        Settings(confirm=-1.0)
+
+
 def test_rows_out_of_order_or_without_force_are_left_out_and_said():
     log = []
     watch = Watch(Settings(), log.append)

@@ -46,6 +46,12 @@ def add_watch(subparsers):
         help="raise the alarm when P(failure within the horizon) reaches this (default 0.5)",
     )
     parser.add_argument(
+        "--confirm",
+        default="0s",
+        help="raise the alarm only once P has stayed at or above --alarm this long, e.g. 10s "
+        "[s] (default 0 s: at the first forecast that reaches it)",
+    )
+    parser.add_argument(
         "--test",
         choices=("ramp", "staircase", "creep", "startup"),
         help="what the record is (default: from the file's control mode)",
@@ -97,6 +103,7 @@ def _run_watch(args):
     settings = Settings(
         horizon=quantity(args.horizon, "t", "--horizon"),
         alarm=args.alarm,
+        confirm=quantity(args.confirm, "t", "--confirm"),
         test=args.test,
         level=args.level,
         prior=_prior(args.prior) if args.prior else None,

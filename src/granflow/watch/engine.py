@@ -16,7 +16,8 @@ first rows hold steadier): force control gets the failure forecast, rate control
 The alarm: ``P(failure within horizon)`` from the forecast's own distribution
 (:meth:`~granflow.forecast.results.FailureForecast.probability_within`) reaching the
 threshold raises it, once the record holds ``min_rows`` samples and the forecast bounds the
-failure (an interval open above is no ground for an alarm); falling below clears it. Where
+failure (an interval open above is no ground for an alarm), and has stayed there for
+``confirm`` seconds of record where that is set; falling below clears it. Where
 the force stops rising during a ramp (held), the quasi-static layer cannot fail while it is
 held: the probability is 0 and the record says why. Rows with missing or damaged values are
 never fitted: they are left out, and the notice that names them is in the log.
@@ -82,6 +83,12 @@ class Settings:
         Warm-start each update from the last (:class:`~granflow.RunningForecast`); off by
         default: on a growing ramp the warm-started forecast was seen to stay on an open,
         undated profile where the one-shot forecast of the same points gives a date.
+    confirm : float
+        How long [s] of record the probability must stay at or above ``alarm`` (on every
+        forecast of that stretch) before the alarm is raised; 0 (default): at the first
+        forecast that reaches it. A forecast made every few seconds can be over-sure once
+        and not again; waiting for a second look removes most such alarms, at the cost of
+        that much lead (``benchmarks/README.md``, the watch's fleet).
     """
 
     horizon: float = 60.0
@@ -92,6 +99,7 @@ class Settings:
     prior: Any = None
     warm_start: bool = False
     min_rows: int = 100
+    confirm: float = 0.0
 
     def __post_init__(self):
         if not (math.isfinite(self.horizon) and self.horizon > 0):
@@ -99,6 +107,10 @@ class Settings:
         if not 0 < self.alarm <= 1:
             raise InvalidParameterError(
                 f"alarm must be a probability in (0, 1], got {self.alarm:g}"
+            )
+        if not (math.isfinite(self.confirm) and self.confirm >= 0):
+            raise InvalidParameterError(
+                f"confirm must be zero or positive, got {self.confirm:g} s"
             )
         if self.test is not None and self.test not in TESTS:
             raise InvalidParameterError(
@@ -174,6 +186,7 @@ class Stream:
         self.forecast = None
         self.probability = None
         self.alarm = False
+        self.since = None  # record time [s] since which every forecast reached the alarm
         self.message = ""
         self.failed = None  # the observed failure time [s]
         self.held = False
@@ -495,7 +508,12 @@ class Watch:
                 and stream.rows >= self.settings.min_rows
                 and stream.bounded()
             )
-            if raised and not stream.alarm and stream.failed is None:
+            if not raised:
+                stream.since = None
+            elif stream.since is None:
+                stream.since = stream.t
+            confirmed = raised and stream.t - stream.since >= self.settings.confirm
+            if confirmed and not stream.alarm and stream.failed is None:
                 stream.alarm = True
                 alarm = stream.record(
                     "alarm",
