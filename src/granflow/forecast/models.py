@@ -112,29 +112,62 @@ def group_points(base, error, slip):
 @dataclass(frozen=True)
 class Continuation:
     """How the continued history's error moves F_peak at a given P (the time variant):
-    ``F_peak = P + c0 + c1 (P - anchor) / slope`` with (c0, c1) = ``offset @ z``,
-    ``tilt @ z`` [N, N per unit of the history's abscissa]."""
+    ``F_peak = P + c0 + c1 g((P - anchor) / slope)`` with (c0, c1) = ``offset @ z``,
+    ``tilt @ z`` [N, N per unit of the history's abscissa].
+
+    ``g(u) = u`` where the history's error grows linearly (a ramp's or a regular
+    staircase's line, and any u <= 1). An irregular staircase's steps to come are new
+    draws: k of them spread about k times the record's median height as ``k s^2 + k^2
+    s_m^2`` (s^2 the heights' variance, s_m^2 = ``growth`` s^2 the median's), so beyond
+    the first step ``g(u) = sqrt((u + growth u^2) / (1 + growth))``, 1 at u = 1, where c1's
+    variance is the next height's (:func:`granflow.forecast.loading.continuing_growth`)."""
 
     anchor: float
     slope: float
     offset: np.ndarray
     tilt: np.ndarray
+    growth: float | None = None
+
+    def _g(self, along):
+        """(g(u), g'(u)) at u = ``along``."""
+        if self.growth is None or along <= 1.0:
+            return along, 1.0
+        b = self.growth
+        g = math.sqrt((along + b * along * along) / (1.0 + b))
+        return g, (1.0 + 2.0 * b * along) / (2.0 * (1.0 + b) * g)
 
     def peak_force(self, level, nuisance):
         """(F_peak [N], dF_peak/dP, dF_peak/dz) at P = ``level`` [N]."""
         c0 = float(self.offset @ nuisance)
         c1 = float(self.tilt @ nuisance)
-        along = (level - self.anchor) / self.slope
-        return level + c0 + c1 * along, 1.0 + c1 / self.slope, self.offset + self.tilt * along
+        g, slope_g = self._g((level - self.anchor) / self.slope)
+        return level + c0 + c1 * g, 1.0 + c1 * slope_g / self.slope, self.offset + self.tilt * g
 
     def level(self, peak_force, nuisance):
         """The inverse: P [N] at which the fitted history stands when the true one reaches
-        ``peak_force`` [N]; inf where the true continuation does not rise."""
+        ``peak_force`` [N]; inf where the true continuation does not rise (``slope + c1 <=
+        0``; g' <= 1 everywhere, so otherwise it rises)."""
         c0 = float(self.offset @ nuisance)
         c1 = float(self.tilt @ nuisance)
         if not self.slope + c1 > 0:
             return math.inf
-        return self.anchor + self.slope * (peak_force - self.anchor - c0) / (self.slope + c1)
+        rest = peak_force - self.anchor - c0
+        along = rest / (self.slope + c1)
+        if self.growth is not None and along > 1.0:
+            # slope u + c1 g(u) = rest for u > 1: it rises, and g(u) <= u bounds the root
+            from scipy.optimize import brentq
+
+            def excess(u):
+                return self.slope * u + c1 * self._g(u)[0] - rest
+
+            high = max(rest / (self.slope + min(c1, 0.0)), 1.0)
+            if c1 == 0.0 or excess(high) <= 0.0:  # the bound is the root (c1 = 0: exactly)
+                along = high
+            elif excess(1.0) >= 0.0:  # u = 1 within rounding
+                along = 1.0
+            else:
+                along = brentq(excess, 1.0, high, xtol=1e-12, rtol=1e-14)
+        return self.anchor + self.slope * along
 
 
 class BranchCurve:

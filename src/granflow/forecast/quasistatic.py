@@ -20,6 +20,7 @@ from granflow.forecast.branch import branch_values
 from granflow.forecast.coordinates import natural
 from granflow.forecast.discrepancy import review
 from granflow.forecast.inference import data_chisqr, estimate, scan
+from granflow.forecast.loading import continuing_growth
 from granflow.forecast.models import Continuation, branch_problem, group_points, projects
 from granflow.forecast.results import FailureForecast
 from granflow.forecast.steps import step_cdf, step_table
@@ -203,7 +204,9 @@ def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
     groups = group_points(base, basis @ root, slip_cut)
     floor = float(np.max(base))
     m = root.shape[1]
-    continuation = Continuation(anchor, slope, root[-2].copy(), root[-1].copy())
+    continuation = Continuation(
+        anchor, slope, root[-2].copy(), root[-1].copy(), continuing_growth(loading)
+    )
     project = projects(prior)
     shape = 3 if project else 4
 
