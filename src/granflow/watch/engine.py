@@ -109,9 +109,7 @@ class Settings:
                 f"alarm must be a probability in (0, 1], got {self.alarm:g}"
             )
         if not (math.isfinite(self.confirm) and self.confirm >= 0):
-            raise InvalidParameterError(
-                f"confirm must be zero or positive, got {self.confirm:g} s"
-            )
+            raise InvalidParameterError(f"confirm must be zero or positive, got {self.confirm:g} s")
         if self.test is not None and self.test not in TESTS:
             raise InvalidParameterError(
                 f"test must be one of {', '.join(TESTS)}, got {self.test!r}"
