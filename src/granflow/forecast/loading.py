@@ -290,10 +290,10 @@ def _next_height_variance(heights):
     as at least 3). 0 with fewer than two heights.
 
     With 10 heights the factor is 1.16 x 1.29 = 1.49: the sample variance alone made the
-    next step's height 18 % too sure, and near failure, where that step decides which one
-    fails, the step probabilities of irregular staircases too narrow (their PIT's central
-    90 % held 84.4 % at 10 % lead over 2000 seeds). The steps after it grow as k new draws
-    (:func:`continuing_growth`), not k times this one."""
+    next step's height 18 % too sure. The steps after it grow as k new draws
+    (:func:`continuing_growth`), not k times this one. Over the calibration study's 2000
+    irregular staircases the step PIT's central 90 % at 10 % lead held 84.4 % before these
+    two and 85.5 % after (87-93 % asked): the next height is a small part of that miss."""
     n = heights.size
     if n < 2:
         return 0.0
