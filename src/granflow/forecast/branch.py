@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from granflow.model.kernel import curve_start, point, point_value
+from granflow.model.kernel import curve_start, point
 from granflow.model.special import compiled
 
 __all__ = ["branch_slip", "branch_values"]
@@ -26,21 +26,35 @@ _BEYOND = 1e3  # the slope of the penalty past the peak, in units of the branch'
 
 
 @compiled
-def _invert(h, lo, x_peak, peak_force, a, alpha, fd, s0, start):
-    """The root x in [lo, x_peak] of F(x) = h (F(lo) <= h < F_peak).
+def _invert(h, lo, x_peak, peak_force, a, alpha, fd, x0, s0, start, f_lo, slope_lo):
+    """The root x in [lo, x_peak] of F(x) = h (F(lo) <= h < F_peak); ``f_lo`` and
+    ``slope_lo`` are F and F' at ``lo`` where they are known (the previous point's root),
+    else NaN.
 
     Each step takes the larger of Newton's step on F (from the left of the root it stays
     left: F is concave) and Newton's step on ``sqrt(F_peak - F)`` (linear at the peak, where
     F is flat) while the latter stays inside the bracket; it stops when the step is below
     1e-13 of x or below what the rounding of F allows there (1e-15 F_peak / F'(x)).
+
+    Returns ``(x, at, values)``: the root, the point ``at`` of the last evaluation and
+    :func:`~granflow.model.kernel.point`'s values there (F and its derivatives: ``at`` is
+    within the tolerance of x, so they serve for x's Jacobian without another pass; ``at``
+    NaN where the root was not reached by such a step).
     """
     hi = x_peak
     target = math.sqrt(peak_force - h)
     x = lo
-    for _ in range(60):
-        s = alpha * x
-        f = point_value(s, math.exp(s0 - s), a, fd, 0.0, True, False, start)
-        derivative = a / x - alpha * (f - fd)
+    f, derivative = f_lo, slope_lo
+    at = math.nan
+    values = (math.nan, math.nan, math.nan, math.nan, math.nan, math.nan)
+    for iteration in range(60):
+        known = iteration == 0 and not (math.isnan(f) or math.isnan(derivative))
+        if not known:
+            s = alpha * x
+            values = point(x, s, math.exp(s0 - s), a, alpha, fd, x0, 0.0, True, False, start)
+            f = values[0]
+            derivative = a / x - alpha * (f - fd)
+            at = x
         if f <= h:
             lo = x
         else:
@@ -48,7 +62,15 @@ def _invert(h, lo, x_peak, peak_force, a, alpha, fd, s0, start):
         if not derivative > 0.0:
             x_new = 0.5 * (lo + hi)
         else:
-            x_new = x + (h - f) / derivative
+            # F'' = -a / x^2 - alpha F', from F' = a / x - alpha (F - Fd)
+            curvature = -a / (x * x) - alpha * derivative
+            newton = (h - f) / derivative
+            x_new = x + newton
+            if known:  # from the last root: the second-order step, to where the next
+                # evaluation's Newton step lands on this root to the tolerance
+                discriminant = derivative * derivative + 2.0 * curvature * (h - f)
+                if discriminant > 0.0:
+                    x_new = x + 2.0 * (h - f) / (derivative + math.sqrt(discriminant))
             gap = peak_force - f
             if gap > 0.0:
                 w = math.sqrt(gap)
@@ -58,12 +80,21 @@ def _invert(h, lo, x_peak, peak_force, a, alpha, fd, s0, start):
             if not (x_new >= lo and x_new <= hi):
                 x_new = 0.5 * (lo + hi)
             tolerance = 1e-13 * x + 1e-15 * peak_force / derivative
-            if abs(x_new - x) <= tolerance:
-                return x_new
+            step = x_new - x
+            if abs(step) <= tolerance:
+                return x_new, at, values
+            # Newton's error after this step, |F'' / 2F'| step^2 (quadratic convergence),
+            # ten times under the tolerance: the step lands on the root
+            if (
+                not known
+                and step == newton
+                and abs(curvature) * step * step <= (0.2 * derivative * tolerance)
+            ):
+                return x_new, at, values
         x = x_new
         if hi - lo <= 1e-15 * x_peak:
-            return x
-    return x
+            return x, math.nan, values
+    return x, math.nan, values
 
 
 @compiled
@@ -105,6 +136,7 @@ def branch_values(base, error, nuisance, params, peak, transform, slip, jacobian
     held = -math.inf
     argmax = 0
     lo = x0
+    f_lo = slope_lo = math.nan  # F and F' at lo, once lo is a root
     beyond = _BEYOND * (peak_slip - x0) / max(peak_force - f0, 1e-300)
     for i in range(n):
         h = base[i]
@@ -125,14 +157,22 @@ def branch_values(base, error, nuisance, params, peak, transform, slip, jacobian
             for q in range(m):
                 jacobian[i, k + q] = beyond * error[argmax, q]
             lo = peak_slip
+            f_lo = slope_lo = math.nan
             continue
         if lo >= peak_slip:
             lo = x0
-        x = _invert(h, lo, peak_slip, peak_force, a, alpha, fd, s0, start)
+            f_lo = slope_lo = math.nan
+        x, at, values = _invert(
+            h, lo, peak_slip, peak_force, a, alpha, fd, x0, s0, start, f_lo, slope_lo
+        )
         lo = x
-        s = alpha * x
-        values = point(x, s, math.exp(s0 - s), a, alpha, fd, x0, 0.0, True, False, start)
-        derivative = a / x - alpha * (values[0] - fd)
+        if math.isnan(at):  # the root came by bisection or the bracket: evaluate it
+            at = x
+            s = alpha * x
+            values = point(x, s, math.exp(s0 - s), a, alpha, fd, x0, 0.0, True, False, start)
+        derivative = a / at - alpha * (values[0] - fd)
+        # F and F' at the root (the last evaluation lies within the tolerance of it)
+        f_lo, slope_lo = values[0] + derivative * (x - at), derivative
         slip[i] = x - x0
         # dx/d(a, alpha, Fd, x0) = -dF/d(...) / F'(x); then through the coordinates
         for j in range(k):

@@ -55,6 +55,11 @@ _GAP_RANGE = (1e-9, 20.0)
 #: The shape's search range: r = Fd / F_peak and s0 = alpha x0 (about 0.01 for the paper's
 #: curves; 5 is a layer that starts nearly rejuvenated).
 RATIO_RANGE = (0.0, 0.999)
+#: Evaluations a :class:`BranchCurve` keeps whole (slip and Jacobian): a fit's state, its
+#: polish and the profile that starts there ask for the same point again.
+_CACHED = 4
+#: Curves (Eq. 3's parameters and the peak) it keeps per evaluated point, until cleared.
+_CURVES = 4096
 S0_RANGE = (1e-9, 5.0)
 
 
@@ -170,6 +175,49 @@ class Continuation:
         return self.anchor + self.slope * along
 
 
+@compiled
+def _finish(unit, full, d_level, d_nuisance, shape, project, weights, mean, fallback):
+    """The slip and Jacobian of :class:`BranchCurve` from the kernel's, in place: the
+    nuisance columns take F_peak's move (``full[:, 0] d_nuisance``), F_peak's column its
+    factor ``d_level``; with ``project`` the unit slip ``unit`` becomes ``x* unit`` and the
+    Jacobian ``x* d unit + unit d x*``, x* = sum(w u y) / sum(w u^2) the least-squares scale
+    (Golub and Pereyra's variable projection; ``fallback`` where it is not positive, held).
+    Returns x* (1.0 without ``project``; 0.0 where the unit slip has no norm)."""
+    size, columns = full.shape
+    for i in range(size):
+        first = full[i, 0]
+        for j in range(shape, columns):
+            full[i, j] += first * d_nuisance[j - shape]
+        full[i, 0] = first * d_level
+    if not project:
+        return 1.0
+    norm = 0.0
+    cross = 0.0
+    for i in range(size):
+        weighted = weights[i] * unit[i]
+        norm += weighted * unit[i]
+        cross += weighted * mean[i]
+    if not norm > 0.0:
+        return 0.0
+    scale = cross / norm
+    d_scale = np.zeros(columns)
+    if scale > 0.0:
+        for i in range(size):
+            factor = weights[i] * (mean[i] - 2.0 * scale * unit[i])
+            for j in range(columns):
+                d_scale[j] += factor * full[i, j]
+        for j in range(columns):
+            d_scale[j] /= norm
+    else:
+        scale = fallback
+    for i in range(size):
+        u = unit[i]
+        for j in range(columns):
+            full[i, j] = scale * full[i, j] + u * d_scale[j]
+        unit[i] = scale * u
+    return scale
+
+
 class BranchCurve:
     """The branch model of a record at slot values: the slip and its Jacobian, and the curve
     (Eq. 3's parameters, the peak) they belong to.
@@ -190,8 +238,13 @@ class BranchCurve:
         self.error = np.ascontiguousarray(groups.error)
         self.size, self.m = self.error.shape
         self.shape = 3 if project else 4  # slots before the nuisance
-        self.weights = groups.count  # (sqrt(count) / sigma)^2 up to sigma^-2
-        self._cache = {}
+        # (sqrt(count) / sigma)^2 up to sigma^-2
+        self.weights = np.ascontiguousarray(groups.count, dtype=float)
+        self.mean = np.ascontiguousarray(groups.mean, dtype=float)
+        # x_peak where the unit slip's best scale is not positive (a penalty's flat value)
+        self.fallback = 1e-3 * max(float(np.max(np.abs(groups.mean))), 1e-12)
+        self._cache = {}  # the last few evaluations, newest last
+        self._curves = {}  # the curve of every evaluation (small): the profiles' points
 
     def peak_force(self, values):
         """(F_peak [N], dF_peak / d slot 0, dF_peak / dz) at ``values``."""
@@ -204,11 +257,25 @@ class BranchCurve:
         """(slip, jacobian, curve) at the slot ``values``: curve is ``((a, alpha, Fd, x0),
         (F_peak, x_peak))``, or None (the slip then a flat penalty) outside the box."""
         key = values.tobytes()
-        if key in self._cache:
-            return self._cache[key]
-        self._cache.clear()
-        self._cache[key] = found = self._evaluate(values)
+        found = self._cache.pop(key, None)
+        if found is None:
+            found = self._evaluate(values)
+            if len(self._cache) >= _CACHED:
+                del self._cache[next(iter(self._cache))]
+            if len(self._curves) >= _CURVES:
+                self._curves.clear()
+            self._curves[key] = found[2]
+        self._cache[key] = found
         return found
+
+    def found(self, values):
+        """The curve ``((a, alpha, Fd, x0), (F_peak, x_peak))`` at ``values`` (None outside
+        the box), without a new pass over the data where it was evaluated there before."""
+        values = np.asarray(values, dtype=float)
+        key = values.tobytes()
+        if key in self._curves:
+            return self._curves[key]
+        return self(values)[2]
 
     def _evaluate(self, values):
         shape, m, size = self.shape, self.m, self.size
@@ -238,28 +305,26 @@ class BranchCurve:
         if not np.all(np.isfinite(unit)):
             penalty = np.full(size, 1e3 * (np.max(np.abs(self.groups.mean)) + 1e-12))
             return penalty, np.zeros((size, slots)), None
-        # slot 0 is F_peak's (or P's) gap; z also moves F_peak in the time variant
-        if m:
-            full[:, shape:] += np.outer(full[:, 0], d_nuisance)
-        full[:, 0] *= d_level
-        if not self.project:
-            return unit, full, ((a, alpha, fd, x0), (peak_force, peak_slip))
-        weight = self.weights
-        norm = float(np.sum(weight * unit * unit))
-        if not norm > 0:
+        # slot 0 is F_peak's (or P's) gap; z also moves F_peak in the time variant; with
+        # ``project``, x_peak is the least-squares scale of the unit slip
+        scale = _finish(
+            unit,
+            full,
+            d_level,
+            np.ascontiguousarray(d_nuisance, dtype=float),
+            shape,
+            self.project,
+            self.weights,
+            self.mean,
+            self.fallback,
+        )
+        if not scale > 0:
             penalty = np.full(size, 1e3 * (np.max(np.abs(self.groups.mean)) + 1e-12))
             return penalty, np.zeros((size, slots)), None
-        scale = float(np.sum(weight * unit * self.groups.mean)) / norm
-        if not scale > 0:
-            scale = 1e-3 * max(float(np.max(np.abs(self.groups.mean))), 1e-12)
-            d_scale = np.zeros(slots)
-        else:
-            d_scale = (weight * self.groups.mean) @ full - 2.0 * scale * ((weight * unit) @ full)
-            d_scale /= norm
-        slip = scale * unit
-        jacobian = scale * full + np.outer(unit, d_scale)
+        if not self.project:
+            return unit, full, ((a, alpha, fd, x0), (peak_force, peak_slip))
         params = (a, alpha / scale, fd, x0 * scale)
-        return slip, jacobian, (params, (peak_force, scale))
+        return unit, full, (params, (peak_force, scale))
 
     def subset(self, index, values):
         """The slip at the groups ``index`` only (the engine ranks starts on every k-th
@@ -303,7 +368,7 @@ class BranchCurve:
 
     def natural(self, values):
         """((a, alpha, Fd, x0), d(a, alpha, Fd, x0) / d slots) at ``values``, or None."""
-        curve = self(np.asarray(values, dtype=float))[2]
+        curve = self.found(values)
         if curve is None:
             return None
         shape, m = self.shape, self.m
@@ -377,7 +442,7 @@ def ratio_parameter(value):
     return parameter
 
 
-def branch_problem(groups, floor, sigma, values, *, prior=None, continuation=None):
+def branch_problem(groups, floor, sigma, values, *, prior=None, continuation=None, curve=None):
     """The engine's :class:`~granflow.fitting.engine.Problem` of a force-controlled record on
     the rising branch, and its :class:`BranchCurve`.
 
@@ -397,6 +462,9 @@ def branch_problem(groups, floor, sigma, values, *, prior=None, continuation=Non
         Gaussian priors on a, alpha, Fd.
     continuation : Continuation, optional
         The time variant: the first slot is P's gap above ``floor``, not F_peak's.
+    curve : BranchCurve, optional
+        The curve of an earlier problem of the same record, ``prior`` and ``continuation``
+        (at another noise level, from other values), whose evaluations it keeps: reused.
 
     Returns
     -------
@@ -404,7 +472,8 @@ def branch_problem(groups, floor, sigma, values, *, prior=None, continuation=Non
     """
     m = groups.error.shape[1]
     project = projects(prior)
-    curve = BranchCurve(groups, floor, continuation, project)
+    if curve is None:
+        curve = BranchCurve(groups, floor, continuation, project)
     shape = curve.shape
 
     def function(z, *current):

@@ -210,15 +210,20 @@ def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
     project = projects(prior)
     shape = 3 if project else 4
 
+    curves = {}  # one curve per variant, whatever the noise: its evaluations carry over
+
     def build(noise, values, timed=False):
-        return branch_problem(
+        problem, curve = branch_problem(
             groups,
             floor,
             noise,
             values,
             prior=prior,
             continuation=continuation if timed else None,
+            curve=curves.get(timed),
         )
+        curves[timed] = curve
+        return problem, curve
 
     fit = estimate(
         lambda noise, values: build(noise, values)[0],
@@ -325,12 +330,12 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         message = message or "the record does not yet bound the failure: no date"
     elif math.isinf(time_interval[1]):
         message = message or "the record does not yet bound the failure from above"
-    best = curve(values)[2]
+    best = curve.found(values)
     params = None if best is None else Params(*best[0])
     slips = [] if best is None else [best[1][1] - params.x0]
     for point in force_profile.points:
         if force_interval[0] <= floor + point.value <= force_interval[1]:
-            found = curve(point.values)[2]
+            found = curve.found(point.values)
             if found is not None:
                 slips.append(found[1][1] - found[0][3])
     slip_interval = (min(slips), max(slips)) if slips else _NAN_PAIR

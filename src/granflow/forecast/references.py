@@ -245,27 +245,32 @@ def current_rate_forecast(
     return _velocity_forecast("current rate", t, slip, until, level, window, _CURRENT)
 
 
-def _ffm_rss(time, slip, until, leads, powers, log_ratio=None):
+def _ffm_rss(time, slip, until, leads, powers, log_ratio=None, out=None):
     """The residual sum of squares of the slip's power law at each (lead, p) pair [m^2],
     offset and amplitude (non-negative) in closed form; ``log_ratio``, ln((until + lead -
-    time) / until) for these leads, may be given when it is already known."""
+    time) / until) for these leads, may be given when it is already known, and ``out``, an
+    array of its shape to work in."""
     centred = slip - slip.mean()
     if log_ratio is None:
         log_ratio = _log_ratio(time, until, leads)
     exponent = 1.0 - np.asarray(powers, dtype=float)
     near, zero = np.abs(exponent) < 0.1, np.abs(exponent) < 1e-9  # one (lead, p) a row
-    # (tau / T)^(1 - p) / (p - 1): the slip of v = (tau / T)^(-p) / T up to a constant, which
-    # the offset takes; near p = 1 with the constant -1 / (p - 1) kept (expm1), whose digits
-    # the varying part would lose; -ln(tau / T) at p = 1
-    basis = exponent[:, None] * log_ratio
-    with np.errstate(over="ignore"):
-        basis[~near] = np.exp(basis[~near])
-        basis[near] = np.expm1(basis[near])
-    basis /= np.where(zero, 1.0, -exponent)[:, None]
-    basis[zero] = -log_ratio[zero]
-    basis -= basis.mean(axis=1, keepdims=True)
-    norm = np.sum(basis * basis, axis=1)
-    projection = basis @ centred
+    # the slip of v = (tau / T)^(-p) / T is (tau / T)^(1 - p) / (p - 1) up to a constant,
+    # which the offset takes: each row's basis is taken up to its factor 1 / (p - 1), whose
+    # sign alone matters (the gain, projection^2 / norm, does not see a row's scale); near
+    # p = 1 with the constant -1 kept (expm1), whose digits the varying part would lose;
+    # -ln(tau / T) at p = 1
+    basis = np.multiply(exponent[:, None], log_ratio, out=out)
+    with np.errstate(over="ignore", invalid="ignore"):
+        if near.any():
+            basis[~near] = np.exp(basis[~near])
+            basis[near] = np.expm1(basis[near])
+            basis[zero] = -log_ratio[zero]
+        else:
+            np.exp(basis, out=basis)
+        basis -= basis.mean(axis=1, keepdims=True)
+        norm = np.einsum("ij,ij->i", basis, basis)
+        projection = (basis @ centred) * np.where(zero, 1.0, -np.sign(exponent))
     ok = (projection > 0) & np.isfinite(norm) & (norm > 0)
     gain = np.where(ok, projection**2 / np.where(ok, norm, 1.0), 0.0)
     return np.maximum(float(centred @ centred) - gain, 0.0)
@@ -287,8 +292,10 @@ def _ffm_profile(time, slip, until):
     def solve(leads):
         log_ratio = _log_ratio(time, until, leads)
 
+        work = np.empty_like(log_ratio)
+
         def rss(log_power):
-            return _ffm_rss(time, slip, until, leads, np.exp(log_power), log_ratio)
+            return _ffm_rss(time, slip, until, leads, np.exp(log_power), log_ratio, work)
 
         values = np.array([rss(np.full(leads.size, g)) for g in grid])
         k = np.argmin(values, axis=0)
