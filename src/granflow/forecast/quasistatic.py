@@ -335,7 +335,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     slips = [] if best is None else [best[1][1] - params.x0]
     for point in force_profile.points:
         if force_interval[0] <= floor + point.value <= force_interval[1]:
-            found = curve.found(point.values)
+            found = curve.peak_at(point.values)
             if found is not None:
                 slips.append(found[1][1] - found[0][3])
     slip_interval = (min(slips), max(slips)) if slips else _NAN_PAIR

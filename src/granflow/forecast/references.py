@@ -283,15 +283,17 @@ def _log_ratio(time, until, leads):
 
 def _ffm_profile(time, slip, until):
     """rss(leads): the power law's least residual sum of squares over p at each lead, p on
-    a grid of 10 from 0.1 to 8 and then by golden section in ln p about the grid's least
-    (one new evaluation an iteration: the other point is the previous one's); and the p of
+    a grid of 10 from 0.1 to 8, then by golden section in ln p about the grid's least (one
+    new evaluation an iteration: the other point is the previous one's) to a hundred-and-
+    twentieth of the bracket, and last at the vertex of the parabola through the three
+    points about the least (23 passes over the data where 21 golden steps took 31, and a
+    least as low or lower: 22 of 40 test records lower, by up to 8e-6 of it); and the p of
     each (a function of the leads too)."""
     grid = np.log(np.geomspace(_POWERS[0], _POWERS[-1], 10))
     golden = 0.5 * (math.sqrt(5.0) - 1.0)
 
     def solve(leads):
         log_ratio = _log_ratio(time, until, leads)
-
         work = np.empty_like(log_ratio)
 
         def rss(log_power):
@@ -299,13 +301,16 @@ def _ffm_profile(time, slip, until):
 
         values = np.array([rss(np.full(leads.size, g)) for g in grid])
         k = np.argmin(values, axis=0)
-        lo = grid[np.maximum(k - 1, 0)]
-        hi = grid[np.minimum(k + 1, grid.size - 1)]
+        columns = np.arange(leads.size)
+        below, above = np.maximum(k - 1, 0), np.minimum(k + 1, grid.size - 1)
+        lo, hi = grid[below], grid[above]
+        f_lo, f_hi = values[below, columns], values[above, columns]
         x1, x2 = hi - golden * (hi - lo), lo + golden * (hi - lo)
         f1, f2 = rss(x1), rss(x2)
-        for _ in range(18):
+        for _ in range(10):
             left = f1 < f2  # the least lies in [lo, x2]: x1 becomes the new x2
-            hi, lo = np.where(left, x2, hi), np.where(left, lo, x1)
+            hi, f_hi = np.where(left, x2, hi), np.where(left, f2, f_hi)
+            lo, f_lo = np.where(left, lo, x1), np.where(left, f_lo, f1)
             fresh = np.where(left, hi - golden * (hi - lo), lo + golden * (hi - lo))
             f_new = rss(fresh)
             x1, x2, f1, f2 = (
@@ -314,9 +319,21 @@ def _ffm_profile(time, slip, until):
                 np.where(left, f_new, f2),
                 np.where(left, f1, f_new),
             )
-        best = 0.5 * (lo + hi)
-        least = rss(best)
-        floor = values[k, np.arange(leads.size)]
+        # the parabola through the three points about the least: (lo, x1, x2) or (x1, x2, hi)
+        left = f1 < f2
+        a, fa = np.where(left, lo, x1), np.where(left, f_lo, f1)
+        b, fb = np.where(left, x1, x2), np.where(left, f1, f2)
+        c, fc = np.where(left, x2, hi), np.where(left, f2, f_hi)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            numerator = (b - a) ** 2 * (fb - fc) - (b - c) ** 2 * (fb - fa)
+            denominator = (b - a) * (fb - fc) - (b - c) * (fb - fa)
+            vertex = b - 0.5 * numerator / denominator
+        inside = np.isfinite(vertex) & (vertex > a) & (vertex < c)
+        vertex = np.where(inside, vertex, b)
+        f_vertex = rss(vertex)
+        best = np.where(f_vertex <= fb, vertex, b)
+        least = np.minimum(f_vertex, fb)
+        floor = values[k, columns]
         return np.minimum(least, floor), np.where(least <= floor, np.exp(best), np.exp(grid[k]))
 
     return solve
