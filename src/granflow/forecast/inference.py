@@ -18,6 +18,7 @@ import numpy as np
 from scipy.special import ndtri, stdtrit
 
 from granflow.errors import FitError
+from granflow.fitting.engine import Solution
 from granflow.fitting.multistart import multistart
 from granflow.fitting.profile import profile_scan
 from granflow.forecast.discrepancy import Check, check_fit
@@ -91,6 +92,21 @@ def _solve_at(problem, values, rtol):
     """LM from ``values``: (values, chisqr, hessian, steps)."""
     u, chisqr, _, steps, hessian = problem.lm(problem.internal(values), max_iter=200, rtol=rtol)
     return problem.values(u), chisqr, hessian, steps
+
+
+def _descend(problem, u, rtol):
+    """``(u, chisqr, passes)``: the optimum next to ``u`` by Gauss-Newton's full steps (from
+    a previous optimum of the same record grown a little it converges in two or three
+    passes over the data, where Levenberg-Marquardt's damped steps take five or six), until
+    a step promises less than ``rtol`` of chi-square; Levenberg-Marquardt from ``u`` where
+    a full step fails (goes uphill, or the system is singular)."""
+    cost = problem.chisqr(problem.values(u))
+    if math.isfinite(cost) and problem.free:
+        found, chisqr = problem.gauss_newton(u, problem.free, {}, rtol * cost, max_steps=6)
+        if chisqr is not None and chisqr <= cost:
+            return found, chisqr, 3
+    found, chisqr, _, steps, _ = problem.lm(u, max_iter=200, rtol=rtol)
+    return found, chisqr, steps + 1
 
 
 def estimate(
@@ -211,10 +227,11 @@ def _first_stage(problem, starts, *, size, rtol, tries, warm, branch):
 
 
 def _warm_solution(problem, warm, size, rtol):
-    """The multistart solution from the previous first-stage optimum ``warm[0]``; None where
-    it has gone implausible (chi-square beyond twice the degrees of freedom), so that the
-    grid is solved instead."""
-    solution = multistart(problem, [warm[0]], 1.0, rtol=rtol, tries=1)
+    """The solution from the previous first-stage optimum ``warm[0]`` (:func:`_descend`);
+    None where it has gone implausible (chi-square beyond twice the degrees of freedom), so
+    that the grid is solved instead."""
+    u, _, steps = _descend(problem, problem.internal(list(warm[0])), rtol)
+    solution = Solution(u, 1, "converged (from the previous optimum)", steps)
     cost = problem.chisqr(problem.values(solution.x))
     if not cost <= 2.0 * max(size - _SHAPE, 1):
         return None
@@ -237,7 +254,11 @@ def _second_stage(build, sigma, first_values, warm, rtol):
     from the first stage's too where that one does worse."""
     start = first_values if warm is None else np.asarray(warm[1], dtype=float)
     problem = build(sigma, start)
-    values, chisqr, _, steps = _solve_at(problem, start, rtol)
+    if warm is None:
+        values, chisqr, _, steps = _solve_at(problem, start, rtol)
+    else:
+        u, chisqr, steps = _descend(problem, problem.internal(start), rtol)
+        values = problem.values(u)
     if warm is not None and not chisqr <= problem.chisqr(
         problem.values(problem.internal(first_values))
     ):
