@@ -32,6 +32,8 @@ from granflow.model import kernel
 from granflow.model.special import compiled
 
 SLOTS = ("a", "alpha", "Fd", "x0")
+#: The fewest points a strided chi-square (ranking starts) reads.
+_RANKED = 64
 
 
 @dataclass(frozen=True)
@@ -552,7 +554,10 @@ class Problem:
         ]
 
     def chisqr(self, values, stride=1):
-        """Weighted sum of squared residuals (every ``stride``-th point only, for ranking)."""
+        """Weighted sum of squared residuals (every ``stride``-th point only, for ranking;
+        every point where that would leave fewer than 64: a staircase's few steps, each one
+        point of its grouped record, are not ranked by one of them)."""
+        stride = min(stride, max(self.ndata // _RANKED, 1))
         if stride > 1:
             if stride not in self._strided:
                 self._strided[stride] = [

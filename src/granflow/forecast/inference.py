@@ -99,12 +99,14 @@ def _descend(problem, u, rtol):
     a previous optimum of the same record grown a little it converges in two or three
     passes over the data, where Levenberg-Marquardt's damped steps take five or six), until
     a step promises less than ``rtol`` of chi-square; Levenberg-Marquardt from ``u`` where
-    a full step fails (goes uphill, or the system is singular)."""
+    a full step fails (goes uphill, or the system is singular). ``passes`` counts the
+    first evaluation and Levenberg-Marquardt's steps; Gauss-Newton's (at most six, which it
+    does not report) count as two."""
     cost = problem.chisqr(problem.values(u))
     if math.isfinite(cost) and problem.free:
         found, chisqr = problem.gauss_newton(u, problem.free, {}, rtol * cost, max_steps=6)
         if chisqr is not None and chisqr <= cost:
-            return found, chisqr, 3
+            return found, chisqr, 3  # the first evaluation and two steps
     found, chisqr, _, steps, _ = problem.lm(u, max_iter=200, rtol=rtol)
     return found, chisqr, steps + 1
 
