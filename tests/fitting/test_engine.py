@@ -98,3 +98,24 @@ def test_tied_parameters_and_held_values_in_the_engine():
     assert stats.params["intercept_0"] == 0.5 and stats.stderr["intercept_0"] == 0.0
     assert set(stats.covar) == {"slope", "intercept_1"}
     assert stats.ndata == 60 and stats.nfree == 2
+
+
+@pytest.mark.parametrize(("size", "strided"), [(6, False), (100, False), (2000, True)])
+def test_a_strided_chi_square_reads_every_point_of_a_small_problem(size, strided):
+    """Starts are ranked by chi-square on every 8th point; a problem of a few points (a
+    staircase's steps, one grouped point each) is ranked on all of them, by hand: 6 points
+    strided by 8 would be ranked by the first alone."""
+    x = np.linspace(0.0, 1.0, size)
+    y = 2.0 * x + 0.1 * np.sin(37.0 * x)
+    parameters = [
+        GlobalParameter("slope", 1.0, log=False),
+        GlobalParameter("intercept", 0.0, log=False),
+    ]
+    links = ((0, 1.0), (1, 1.0))
+    problem = Problem([Curve(x, y, np.ones(size), links)], parameters, LINE)
+    values = np.array([1.5, 0.2])
+    everything = float(np.sum((1.5 * x + 0.2 - y) ** 2))
+    every_eighth = float(np.sum((1.5 * x[::8] + 0.2 - y[::8]) ** 2))
+    expected = every_eighth if strided else everything
+    assert problem.chisqr(values, stride=8) == pytest.approx(expected, rel=1e-12)
+    assert problem.chisqr(values) == pytest.approx(everything, rel=1e-12)

@@ -414,3 +414,31 @@ def test_a_profile_end_far_beyond_the_range_is_no_crash():
     case = draw(200177, "ramp")
     ff = gf.forecast_failure(case.t, case.slip, case.force, until=0.9 * case.failure)
     assert ff.time_interval[0] <= case.failure <= ff.time_interval[1]
+
+
+def test_a_profile_takes_only_the_lent_points_that_undercut_it():
+    """with_points: of the points another profile of the same likelihood lends, a profile
+    takes those lower than its own there (by more than 0.01 in chi-square) and not next to
+    a point it has; beyond its last point, lower than that point."""
+    import dataclasses
+
+    from granflow.fitting.engine import GlobalParameter
+    from granflow.fitting.profile import Profile, ProfilePoint
+    from granflow.forecast.inference import with_points
+
+    parameter = GlobalParameter("gap", 1.0, log=False)
+    parameter.scale = 1.0
+    u = np.array([-2.0, -1.0, 1.0, 2.0])
+    own = tuple(ProfilePoint(float(v), float(v), float(v * v), np.array([v])) for v in u)
+    optimum = ProfilePoint(0.0, 0.0, 0.0, np.array([0.0]))
+    profile = Profile(0, optimum, own, {-1: [-2.0], 1: [2.0]}, {-1: [True], 1: [True]})
+    lent = [
+        (np.array([1.5]), 0.5),  # under the profile's 2.25 there (r interpolated): taken
+        (np.array([-1.5]), 2.6),  # above its 2.25 there: left out
+        (np.array([3.0]), 1.0),  # beyond its end, under its last point's 4: taken
+        (np.array([2.0005]), 0.1),  # next to its point at 2: left out
+    ]
+    joined = with_points(profile, parameter, 0, lent)
+    taken = sorted(p.u for p in joined.points if p not in own)
+    assert taken == [1.5, 3.0]
+    assert dataclasses.replace(joined, points=own) == profile

@@ -427,3 +427,20 @@ def test_the_continuation_inverts_and_differentiates_beyond_the_first_step():
             down = continuation.peak_force(level - h, z)[0]
             if abs(level - 1.1) > 2 * h:  # u = 1 at P = 1.1: a kink
                 assert (up - down) / (2 * h) == pytest.approx(slope, rel=1e-6)
+
+
+def test_the_time_and_the_strength_of_a_staircase_agree():
+    """One likelihood, two profiles: a regular staircase half-way to failure (the study's
+    seed 400058, 8 of its steps ahead) whose likelihood is flat over many steps. The
+    strength's profile reached 16.4 mN while the time's conditional fits missed the branch
+    beyond its first step and gave the failure to that step with probability 1 (t_f in
+    (444.9, 445.1) s). Each profile now takes the other's points, so the time's interval
+    reaches every step whose level lies below the strength's upper end."""
+    t, slip, force, failure = _record(400058, "steps")
+    ff = gf.forecast_failure(t, slip, force, until=0.5 * failure)
+    levels = np.array(ff.steps["level"])
+    starts = np.array(ff.steps["earliest"])
+    assert len(levels) > 1
+    within = levels <= ff.force_interval[1]
+    assert within.sum() > 1
+    assert ff.time_interval[1] >= starts[within].max()

@@ -20,11 +20,11 @@ from scipy.special import ndtri, stdtrit
 from granflow.errors import FitError
 from granflow.fitting.engine import Solution
 from granflow.fitting.multistart import multistart
-from granflow.fitting.profile import profile_scan
+from granflow.fitting.profile import ProfilePoint, profile_scan
 from granflow.forecast.discrepancy import Check, check_fit
 from granflow.forecast.distribution import Distribution
 
-__all__ = ["Estimate", "estimate", "heights", "scan"]
+__all__ = ["Estimate", "distribution_of", "estimate", "heights", "scan", "with_points"]
 
 _SHAPE = 4  # the peak coordinates
 _PRECISION = 1e-3  # of chi-square, for the fit's stopping rule
@@ -35,6 +35,12 @@ _LEAST = 4
 #: Other minima kept beside the best: those within this chi-square of it [variance units]
 #: (beyond the profiles' highest target, 2.58 squared, with room for the polish to move).
 _REACH = 12.0
+#: Points another profile lends closer than this to one of a profile's own (in its
+#: optimiser's coordinate, relative above 1) are left out (:func:`with_points`).
+_APART = 1e-3
+#: How much lower than a profile's own a lent point must lie to join it [chi-square]: above
+#: the conditional minima's own imprecision (their Gauss-Newton stops at a gain of 0.02).
+_LOWER = 0.01
 
 
 @dataclass(frozen=True)
@@ -426,21 +432,57 @@ def scan(
         except (np.linalg.LinAlgError, ValueError, FloatingPointError):
             continue
         profile = _joined(profile, other_profile, problem.chisqr(other) - fit.chisqr)
+    return profile, distribution_of(profile, parameter, offset, fit.dof)
+
+
+def distribution_of(profile, parameter, offset, dof):
+    """The :class:`Distribution` of a profile of ``parameter`` (q = ``offset`` + its value),
+    from its lower envelope (:meth:`~granflow.fitting.profile.Profile.signed_roots`)."""
     u, r = profile.signed_roots()
     low_end, high_end = parameter.internal_bounds()
-    distribution = Distribution(
+    return Distribution(
         u=u,
         r=r,
         offset=float(offset),
         scale=float(parameter.scale),
         log=bool(parameter.log),
-        dof=fit.dof,
+        dof=dof,
         open_below=not all(profile.reached[-1]),
         open_above=not all(profile.reached[1]),
         low_end=float(low_end),
         high_end=float(high_end),
     )
-    return profile, distribution
+
+
+def with_points(profile, parameter, index, points):
+    """``profile`` with more points of the same likelihood: ``points``, ``(values, delta)``
+    pairs of slot vectors (in the profile's problem's slots, ``parameter`` the profiled
+    slot ``index``) and their chi-square above the minimum. Each is a parameter set the
+    profile's conditional minimum at its value can only undercut, so the profile's lower
+    envelope may take it: where the conditional fits missed a branch another profile of the
+    same likelihood found (the strength's and the failure time's), the two agree. Points
+    without a coordinate (a value out of the slot's range), those within 1e-3 of a point
+    the profile has (in its coordinate: where the secant search ended, two points a hair
+    apart would make the tail's slope noise), and those not lower by 0.01 in chi-square
+    than the profile's own there (a worse conditional minimum says nothing) are left out."""
+    known = [p.u for p in profile.points] + [profile.optimum.u]
+    nodes_u, nodes_r = profile.signed_roots()
+    extra = []
+    for values, delta in points:
+        value = float(values[index])
+        u = _internal(parameter, value)
+        if not (math.isfinite(u) and math.isfinite(delta)):
+            continue
+        if any(abs(u - v) <= _APART * max(1.0, abs(u)) for v in known):
+            continue  # next to a point the profile has: it adds nothing there but noise
+        if not delta < float(np.interp(u, nodes_u, nodes_r)) ** 2 - _LOWER:
+            continue  # no lower than the profile there (beyond its ends: than its last point)
+        known.append(u)
+        extra.append(ProfilePoint(u, value, float(delta), np.asarray(values, dtype=float)))
+    if not extra:
+        return profile
+    merged = tuple(sorted((*profile.points, *extra), key=lambda p: p.u))
+    return dataclasses.replace(profile, points=merged)
 
 
 def _joined(profile, valley, delta):

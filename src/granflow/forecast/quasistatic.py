@@ -19,7 +19,13 @@ from granflow.forecast import _inputs
 from granflow.forecast.branch import branch_values
 from granflow.forecast.coordinates import natural
 from granflow.forecast.discrepancy import review
-from granflow.forecast.inference import data_chisqr, estimate, scan
+from granflow.forecast.inference import (
+    data_chisqr,
+    distribution_of,
+    estimate,
+    scan,
+    with_points,
+)
 from granflow.forecast.loading import continuing_growth
 from granflow.forecast.models import Continuation, branch_problem, group_points, projects
 from granflow.forecast.results import FailureForecast
@@ -313,6 +319,12 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         hints=None if warm is None else warm.time_ends,
         others=[timed_slots(other) for other in fit.others],
     )
+    # one likelihood, two profiles: each takes the other's points (its conditional fits can
+    # miss a branch the other found), so that the strength and the time agree
+    scanned = force_profile.points
+    force_profile, strength, time_profile, timing = _exchanged(
+        fit, time_problem, force_profile, time_profile, floor, continuation, shape
+    )
     force_interval = strength.interval(level)
     level_interval = timing.interval(level)
     steps = None
@@ -333,7 +345,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     best = curve.found(values)
     params = None if best is None else Params(*best[0])
     slips = [] if best is None else [best[1][1] - params.x0]
-    for point in force_profile.points:
+    for point in scanned:  # the strength's own points (the time's would each cost a pass)
         if force_interval[0] <= floor + point.value <= force_interval[1]:
             found = curve.peak_at(point.values)
             if found is not None:
@@ -373,6 +385,44 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         fit.others,
     )
     return review(forecast, fit, time, slip_cut), left
+
+
+def _exchanged(fit, time_problem, force_profile, time_profile, floor, continuation, shape):
+    """``(force_profile, strength, time_profile, timing)``: each profile with the other's
+    points (:func:`~granflow.forecast.inference.with_points`), F_peak's gap and P's
+    converted through the continuation (``F_peak = P + c0 + c1 g(...)`` and its inverse,
+    exact: the same curve, the same chi-square), and their distributions rebuilt. A point
+    whose P the continuation never reaches (it does not rise) is left out."""
+
+    def to_time(values):
+        level_p = continuation.level(floor + values[0], values[shape:])
+        if not math.isfinite(level_p):
+            return None
+        out = np.array(values, dtype=float)
+        out[0] = level_p - floor
+        return out
+
+    def to_force(values):
+        out = np.array(values, dtype=float)
+        out[0] = continuation.peak_force(floor + values[0], values[shape:])[0] - floor
+        return out
+
+    def converted(points, convert):
+        pairs = ((convert(p.values), p.delta) for p in points)
+        return [(values, delta) for values, delta in pairs if values is not None]
+
+    force_parameter = fit.problem.parameters[0]
+    time_parameter = time_problem.parameters[0]
+    from_force = converted(force_profile.points, to_time)
+    from_time = converted(time_profile.points, to_force)
+    force_profile = with_points(force_profile, force_parameter, 0, from_time)
+    time_profile = with_points(time_profile, time_parameter, 0, from_force)
+    return (
+        force_profile,
+        distribution_of(force_profile, force_parameter, floor, fit.dof),
+        time_profile,
+        distribution_of(time_profile, time_parameter, floor, fit.dof),
+    )
 
 
 #: exp(u) overflows beyond this: an end that far out is no hint.
