@@ -13,7 +13,7 @@ import numpy as np
 from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
 from granflow.forecast.creep_model import CreepModel, creep_problem
-from granflow.forecast.inference import estimate, scan
+from granflow.forecast.inference import distribution_of, estimate, scan, with_points
 from granflow.forecast.quasistatic import (
     NO_TREND,
     loading_error,
@@ -154,7 +154,7 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     values["gap"] = max(state.failure_time - until, 1e-9)
     timed_values = np.array([values[name] for name in timed.names])
     time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
-    _, timing = scan(
+    time_profile, timing = scan(
         fit,
         timed.profiled,
         level,
@@ -164,6 +164,18 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         precision=_PRECISION,
         starts=_profile_starts(timed, values, state.peak_force),
     )
+    # one likelihood, two profiles: the time's takes the strength's points that undercut it
+    # (the same curve with v_ref set by the failure time it gives: the same chi-square)
+    lent = []
+    for point in force_profile.points:
+        _, other = model.evaluate(point.values)
+        if other is not None and math.isfinite(other.failure_time):
+            slots = dict(zip(model.names, point.values, strict=True))
+            slots["gap"] = other.failure_time - until
+            lent.append(([slots[name] for name in timed.names], point.delta))
+    time_parameter = time_problem.parameters[timed.profiled]
+    time_profile = with_points(time_profile, time_parameter, timed.profiled, lent)
+    timing = distribution_of(time_profile, time_parameter, until, fit.dof)
     time_interval = timing.interval(level)
     force_interval = strength.interval(level)
     nodes, probabilities = timing.table()
