@@ -33,6 +33,12 @@ Run from the repository root:
 
 import math
 import os
+
+# CPU time "on one core": OpenBLAS's threads (the creep forecast's normal equations) would
+# add a second core's time to a forecast's and, beside a second study process, oversubscribe
+# the machine. Set before NumPy loads it; every forecast process here inherits it.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import pickle
 import subprocess
 import sys
@@ -344,6 +350,13 @@ def tables(arguments):
                     parts.append(" / ".join(_row(part, key) for part in thirds))
                 name = {"time_covered": "t_f", "force_covered": "F_peak", "pit": "step PIT"}[key]
                 print(f"| {cell} | {lead:.0%} | {name} | {parts[0]} | {parts[1]} |")
+    redrawn = [o for o in outcomes if getattr(o, "redraws", 0) and o.lead == LEADS[0]]
+    if redrawn:
+        print()
+        print(
+            f"{len(redrawn)} records were drawn again (the simulator could not bring the "
+            f"layer to failure), {sum(o.redraws for o in redrawn)} redraws in all."
+        )
     issued = [o for o in outcomes if o.issued]
     print()
     print("Reliability of probability_within (issued forecasts, all cells, leads and horizons):")

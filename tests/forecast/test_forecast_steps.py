@@ -444,3 +444,16 @@ def test_the_time_and_the_strength_of_a_staircase_agree():
     within = levels <= ff.force_interval[1]
     assert within.sum() > 1
     assert ff.time_interval[1] >= starts[within].max()
+
+
+def test_a_creeping_staircase_the_simulator_cannot_fail_is_drawn_again():
+    """Seed 300019's first point of the design stops LSODA at a step's jump: the study draws
+    the seed's next stream, counts the redraw, and the record it gives fails inside the
+    staircase it was drawn for (the force history's levels are multiples of one step)."""
+    case = draw(300019, "creep steps")
+    assert case.redraws >= 1
+    assert case.t[-1] < case.failure <= case.t[-1] + (case.t[1] - case.t[0]) + 1e-9
+    levels = np.unique(np.round(case.force / case.force.min(), 0))
+    assert levels.size > 1
+    again = draw(300019, "creep steps")
+    assert again.redraws == case.redraws and np.array_equal(again.slip, case.slip)

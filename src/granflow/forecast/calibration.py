@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import time as clock
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -57,6 +57,10 @@ FORCE_NOISE = (3e-4, 1e-2)  # of F_peak
 IRREGULAR = 0.25  # the scatter of an irregular staircase's step heights over their mean
 AMPLITUDE = (3e-3, 3e-2)  # the direct effect's A over F_peak
 REFERENCE_VELOCITY = (1e-8, 1e-6)  # m/s
+#: A creeping staircase's simulation stops after this many right-hand-side evaluations; one
+#: that has not failed by then is drawn again, at most REDRAWS times.
+CREEP_EVALUATIONS = 200_000
+REDRAWS = 8
 STARTUP_VELOCITY = (0.3e-6, 3e-6)  # m/s
 #: ``probability_within`` is read at these horizons, as fractions of the cut time: from well
 #: inside the time left at 10 % lead (0.11 of the cut) to beyond it at 50 % lead (1.0), so
@@ -92,6 +96,9 @@ class Case:
         Samples to failure.
     velocity : float
         A start-up's velocity [m/s] (0 otherwise).
+    redraws : int
+        How many times a creeping staircase's point of the design was drawn again because
+        the simulator could not bring the layer to failure (0 otherwise).
     """
 
     cell: str
@@ -105,10 +112,26 @@ class Case:
     noise: float
     samples: int
     velocity: float = 0.0
+    redraws: int = 0
 
 
 def draw(seed, cell):
     """The :class:`Case` of one seed and cell: its point of the design and its record."""
+    if cell != "creep steps":
+        return _draw(np.random.default_rng([seed, CELLS.index(cell)]), seed, cell)
+    # a creeping staircase the simulator cannot bring to failure (a stiff layer: A under
+    # about 0.4 % of F_peak, or LSODA stopping at a step's jump) is drawn again from the
+    # seed's next stream, and the redraws are counted (Case.redraws)
+    for redraws in range(REDRAWS + 1):
+        stream = [seed, CELLS.index(cell)] + ([redraws] if redraws else [])
+        try:
+            return replace(_draw(np.random.default_rng(stream), seed, cell), redraws=redraws)
+        except RuntimeError as exc:
+            if "did not fail" not in str(exc) or redraws == REDRAWS:
+                raise
+
+
+def _draw(rng, seed, cell):
     from granflow.forecast.synthetic import (
         creep_ramp_record,
         creep_staircase_record,
@@ -117,7 +140,6 @@ def draw(seed, cell):
         staircase_record,
     )
 
-    rng = np.random.default_rng([seed, CELLS.index(cell)])
     values = [c * _log_uniform(rng, 1.0 / FACTOR, FACTOR) for c in CENTRE]
     params = Params(*values)
     top = peak(params)
@@ -195,6 +217,7 @@ def draw(seed, cell):
                 force_noise=force_noise,
                 seed=noise_seed,
                 dt=dt,
+                max_evaluations=CREEP_EVALUATIONS,
             )
     else:  # creep ramp
         record = creep_ramp_record(
@@ -245,6 +268,8 @@ class Outcome:
         CPU time of the forecast [s].
     message : str
         The forecast's message.
+    redraws : int
+        The record's :attr:`Case.redraws`.
     """
 
     cell: str
@@ -261,6 +286,7 @@ class Outcome:
     error: float = math.inf
     cpu: float = 0.0
     message: str = ""
+    redraws: int = 0
 
 
 def step_pit(forecast, truth, rng):
@@ -344,6 +370,7 @@ def one_case(seed, cell, leads=LEADS):
                 abs(point - case.failure),
                 cpu,
                 forecast.message,
+                case.redraws,
             )
         )
     return out

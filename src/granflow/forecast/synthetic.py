@@ -76,11 +76,19 @@ def levels_record(params, levels, duration, *, noise, force_noise=0.0, seed=0, d
     return _record(params, force_of_time, failure, noise, force_noise, seed, dt)
 
 
-def _simulated(params, protocol, direct_effect, points, noise, force_noise, seed, dt):
+def _simulated(
+    params, protocol, direct_effect, points, noise, force_noise, seed, dt, max_evaluations
+):
     """Sample a simulated creeping run up to its failure, with Gaussian noise."""
     from granflow.simulation import simulate
 
-    result = simulate(params, protocol, direct_effect=direct_effect, points=points)
+    result = simulate(
+        params,
+        protocol,
+        direct_effect=direct_effect,
+        points=points,
+        max_evaluations=max_evaluations,
+    )
     if not result.failed:
         raise RuntimeError(f"the simulated creeping layer did not fail: {result.message}")
     failure = float(result.failure.time)
@@ -91,7 +99,16 @@ def _simulated(params, protocol, direct_effect, points, noise, force_noise, seed
 
 
 def creep_ramp_record(
-    params, rate, direct_effect, *, noise, force_noise=0.0, seed=0, dt=1.0, points=20000
+    params,
+    rate,
+    direct_effect,
+    *,
+    noise,
+    force_noise=0.0,
+    seed=0,
+    dt=1.0,
+    points=20000,
+    max_evaluations=2_000_000,
 ):
     """A creeping layer under a force ramp from zero, simulated with the direct effect
     (:func:`granflow.simulate`, an ODE integration independent of the forecast's closed
@@ -114,26 +131,40 @@ def creep_ramp_record(
         Sampling interval [s].
     points : int
         Output points of the simulation (the record interpolates them linearly).
+    max_evaluations : int
+        The simulation's budget of right-hand-side evaluations; a layer that has not failed
+        within it raises RuntimeError.
     """
     from granflow.simulation import ForceRamp, Protocol
 
     duration = 20.0 * peak(params).force / rate
     protocol = Protocol([ForceRamp(rate=rate, duration=duration, start=0.0)])
     t, slip, failure, rng = _simulated(
-        params, protocol, direct_effect, points, noise, force_noise, seed, dt
+        params, protocol, direct_effect, points, noise, force_noise, seed, dt, max_evaluations
     )
     force = rate * t + force_noise * rng.standard_normal(t.size)
     return t, slip, force, failure
 
 
 def creep_staircase_record(
-    params, step, duration, direct_effect, *, noise, force_noise=0.0, seed=0, dt=1.0, points=400
+    params,
+    step,
+    duration,
+    direct_effect,
+    *,
+    noise,
+    force_noise=0.0,
+    seed=0,
+    dt=1.0,
+    points=400,
+    max_evaluations=2_000_000,
 ):
     """A creeping layer under force steps ``step, 2 step, ...`` of ``duration`` each,
     simulated with the direct effect (as :func:`creep_ramp_record`); the layer fails inside
     a step, at a continuous time: ``(t, slip, force, failure_time)``.
 
-    ``points`` are the simulation's output points per step.
+    ``points`` are the simulation's output points per step; ``max_evaluations`` its budget
+    (as :func:`creep_ramp_record`).
     """
     from granflow.simulation import ForceSteps, Protocol
 
@@ -141,7 +172,7 @@ def creep_staircase_record(
     levels = tuple(step * np.arange(1, count + 1))
     protocol = Protocol([ForceSteps(levels=levels, step_duration=duration)])
     t, slip, failure, rng = _simulated(
-        params, protocol, direct_effect, points, noise, force_noise, seed, dt
+        params, protocol, direct_effect, points, noise, force_noise, seed, dt, max_evaluations
     )
     force = step * (1.0 + np.floor(t / duration)) + force_noise * rng.standard_normal(t.size)
     return t, slip, force, failure
