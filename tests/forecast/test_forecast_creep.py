@@ -178,3 +178,87 @@ def test_the_forecast_command_takes_the_direct_effect(tmp_path, capsys):
         assert f"{ff.time:.4g}" in out, out
     assert main(["forecast", str(path), "--direct-effect", "0.1"]) == 2  # no unit
     assert "--direct-effect" in capsys.readouterr().err
+
+
+# a layer whose strength stands only 1.35 A above Fd: past the peak F never falls far enough
+# for the run-away to be quick, so the force's own rise decides when it fails
+WEAK = gf.Params(a=1.14066e-3, alpha=9.6007e4, Fd=9.85869e-3, x0=2.94739e-7)
+WEAK_EFFECT = gf.DirectEffect(amplitude=2.15709e-4, velocity=3.22787e-7)
+
+
+def _ode_failure(params, effect, pieces):
+    """The first time the velocity dx/dt = 2 v_ref sinh(sigma(t)/A) exp(-F(x)/A) passes
+    1 mm/s past the peak: SciPy's LSODA with an event, piece by piece of the force history
+    (``(start, end, sigma(t))``, so that no step's jump is integrated across), F(x) from
+    granflow's Eq. 3 along the slip (independent of the forecast's grid, quadrature and
+    root search)."""
+    from scipy.integrate import solve_ivp
+
+    top = peak(params)
+    y = [params.x0 * (1.0 + 1e-9)]
+    for start, end, force_of in pieces:
+
+        def rate(t, y, force_of=force_of):
+            x = max(y[0], params.x0 * (1.0 + 1e-12))
+            friction = float(gf.friction_slip(np.array([x]), params)[0])
+            return [
+                2.0
+                * effect.velocity
+                * math.sinh(force_of(t) / effect.amplitude)
+                * math.exp(-friction / effect.amplitude)
+            ]
+
+        def passed(t, y, rate=rate):
+            return rate(t, y)[0] - 1e-3 if y[0] > top.slip else -1.0
+
+        passed.terminal, passed.direction = True, 1
+        if passed(start, y) >= 0:
+            return start
+        found = solve_ivp(
+            rate,
+            (start, end),
+            y,
+            method="LSODA",
+            rtol=1e-10,
+            atol=1e-16,
+            events=passed,
+            max_step=(end - start) / 400.0,
+        )
+        if found.t_events[0].size:
+            return float(found.t_events[0][0])
+        y = [found.y[0, -1]]
+    return math.inf
+
+
+def test_a_weak_layer_fails_when_the_ode_says_and_not_at_the_grids_end():
+    """The run-away of a layer 1.35 A above Fd lasts seconds (F falls as a / (alpha x)
+    towards Fd past the peak): the failure is the first passage of the joint condition on
+    force and slip. Holding the force at one value, as the forecast did, put it 2.8 s
+    (1.8 %) early; the ODE says 153.874 s."""
+    top = peak(WEAK)
+    rate = top.force / 134.6767
+    history = ramp_history(0.0, rate)
+    curve = creep_curve(WEAK, WEAK_EFFECT.amplitude, top.slip, top.force)
+    failure = creep_failure_time(curve, WEAK_EFFECT.velocity, history)
+    expected = _ode_failure(WEAK, WEAK_EFFECT, [(0.0, 400.0, lambda t: rate * t)])
+    assert failure == pytest.approx(expected, rel=1e-6)
+    back = velocity_for_failure(curve, history, failure)
+    assert back == pytest.approx(WEAK_EFFECT.velocity, rel=1e-6)
+
+
+def test_a_weak_layer_on_a_staircase_fails_as_its_force_steps_up():
+    """The same layer under steps of a tenth of F_peak, the tenth 0.1 A above it: it
+    creeps past the peak there and on the next step, too slowly to fail, and fails as the
+    twelfth begins (an ODE integrated step by step says so); where the force was held, it
+    failed when the slip left the grid, two steps early."""
+    top = peak(WEAK)
+    levels = top.force * np.arange(1, 31) / 9.98
+    curve = creep_curve(WEAK, WEAK_EFFECT.amplitude, top.slip, top.force)
+    history = steps_history(11.0 * np.arange(1, levels.size), levels)
+    failure = creep_failure_time(curve, WEAK_EFFECT.velocity, history)
+    steps = [
+        (11.0 * k, 11.0 * (k + 1), lambda t, level=level: level) for k, level in enumerate(levels)
+    ]
+    expected = _ode_failure(WEAK, WEAK_EFFECT, steps)
+    assert failure == pytest.approx(expected, rel=1e-6)
+    assert failure == pytest.approx(11.0 * 11, abs=1e-3)

@@ -16,6 +16,7 @@ from scipy.stats import chi2 as chi2_distribution
 
 PROFILE_LEVEL = float(chi2_distribution.ppf(0.95, 1))  # 3.841...
 _LARGEST_MOVE = 2.0  # of the others' predicted move per point, in the optimiser's coordinates
+_UNDERCUT = 0.01  # in variance units: a conditional minimum this far above a known point failed
 
 
 def covariance(problem, values, variance, internal_hessian=None):
@@ -156,6 +157,18 @@ class _Conditional:
             self.follow = np.zeros(len(self.others))
         if not np.all(np.isfinite(self.follow)):
             self.follow = np.zeros(len(self.others))
+        # the profile's curvature at the optimum (variance units per internal unit^2)
+        own = position[index]
+        try:
+            self.curvature = 1.0 / np.linalg.inv(internal_hessian)[own, own] / variance
+        except np.linalg.LinAlgError:
+            self.curvature = math.nan
+        if not (math.isfinite(self.curvature) and self.curvature > 0):
+            self.curvature = 0.0
+
+    def _wald(self, u):
+        """The optimum's quadratic model of the profile at ``u`` (variance units)."""
+        return self.curvature * (u - self.u_hat) ** 2
 
     def __call__(self, u, u_others_start, u_last, height=math.inf):
         """(delta, u_others) at ``u``: chi-square above the minimum in variance units.
@@ -194,6 +207,23 @@ class _Conditional:
                 rtol=self.rtol,
             )
         delta = self._delta(chisqr)
+        if delta > 2.0 * self._wald(u) + _UNDERCUT:
+            # a profile is a minimum: a descent that ends above where the previous point's
+            # others or the optimum's, unmoved, already are has failed (a near-singular
+            # response predicts into another valley, a damped descent can stall there, and
+            # the next point starts from it); it is made again from the lower of them.
+            # Looked at where the point stands well above the optimum's quadratic model
+            unmoved, start = min(
+                (self._delta(self.problem.chisqr(self._values(u, start))), k, start)
+                for k, start in enumerate((u_others_start, self.u_others_hat))
+            )[::2]
+            if unmoved < delta - _UNDERCUT:
+                candidate, found, *_ = problem.lm(
+                    start, self.others, pinned, max_iter=30, rtol=self.rtol
+                )
+                u_found, delta = start, unmoved
+                if self._delta(found) < unmoved:
+                    u_found, delta = candidate, self._delta(found)
         if delta > 2.0 * height + 4.0:
             candidates = [predicted, u_others_start, self.u_others_hat, *self._restarts(u)]
             for rank, start in enumerate(self._ranked(u, candidates)[:2]):
@@ -223,16 +253,21 @@ class _Conditional:
             )
         return out
 
+    def _values(self, u, u_others):
+        """Every global parameter [SI] with the profiled one at ``u`` and the others at
+        ``u_others`` (internal coordinates)."""
+        pinned = {self.index: u, **dict(zip(self.others, u_others, strict=True))}
+        values = np.array([p.value for p in self.problem.parameters])
+        for i, ui in pinned.items():
+            values[i] = self.problem.parameters[i].from_internal(ui)
+        return values
+
     def _ranked(self, u, candidates):
         """``candidates`` (the others' internal coordinates) ranked by chi-square on every 8th
         point with the profiled parameter at ``u``; those that are not finite left out."""
         ranked = []
         for start in candidates:
-            pinned = {self.index: u, **dict(zip(self.others, start, strict=True))}
-            values = np.array([p.value for p in self.problem.parameters])
-            for i, ui in pinned.items():
-                values[i] = self.problem.parameters[i].from_internal(ui)
-            cost = self.problem.chisqr(values, stride=8)
+            cost = self.problem.chisqr(self._values(u, start), stride=8)
             if math.isfinite(cost):
                 ranked.append((cost, start))
         ranked.sort(key=lambda item: item[0])
@@ -245,11 +280,7 @@ class _Conditional:
 
     def point(self, u, delta, u_others):
         """The :class:`ProfilePoint` at ``u`` with the others at ``u_others``."""
-        pinned = {self.index: u}
-        pinned.update(zip(self.others, u_others, strict=True))
-        values = np.array([p.value for p in self.problem.parameters])
-        for i, ui in pinned.items():
-            values[i] = self.problem.parameters[i].from_internal(ui)
+        values = self._values(u, u_others)
         return ProfilePoint(u, float(values[self.index]), float(delta), values)
 
 

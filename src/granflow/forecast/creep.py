@@ -48,7 +48,9 @@ __all__ = [
     "creep_slip",
     "curve_grid_slopes",
     "failure_gamma",
+    "first_passage",
     "ramp_history",
+    "rate_for_passage",
     "slip_jacobian",
     "steps_history",
     "velocity_for_failure",
@@ -56,7 +58,7 @@ __all__ = [
 
 _RISING_POINTS = 4000  # geometric in x - x0 from x0 up to half the rise
 _PEAK_POINTS = 1500  # geometric in x_peak - x towards the peak
-_FALLING_POINTS = 800  # from the peak to the failure point
+_FALLING_POINTS = 1070  # from the peak to the failure point
 _RISING_FROM = 1e-6  # of x_peak - x0
 _PEAK_FROM = 1e-5  # from the peak to the failure point
 _DROP = 12.0  # the failure point: F has fallen this many A below the peak past it
@@ -64,7 +66,6 @@ _LARGEST_EXPONENT = 700.0
 #: The velocity [m/s] at which a layer fails: granflow.simulate's default under force
 #: control (1000 times its 1 um/s velocity scale).
 FAILURE_VELOCITY = 1e-3
-_FIXED_POINT = 3
 # the grids as fractions of x_peak - x0 (rising, increasing, from 0 to 1 with both ends),
 # of x_fail - x_peak (falling, above 0) and of x_peak (the look past the peak)
 _RISING = np.concatenate(
@@ -75,11 +76,13 @@ _RISING = np.concatenate(
         [1.0],
     ]
 )
-_FALLING = np.geomspace(1e-6, 1.0, _FALLING_POINTS)
-_PROBE = 1.0 + np.geomspace(1e-5, 20.0, 120)
+_FALLING = np.geomspace(1e-8, 1.0, _FALLING_POINTS)
+# past the peak F falls towards Fd as a / (alpha x) only: the grid looks on to 2000 x_peak,
+# where F stands within a two-thousandth of F_peak - Fd of its end
+_PROBE = 1.0 + np.geomspace(1e-5, 2000.0, 160)
 #: The grid of the public functions (slip to a tenth of a nanometre on 20 um)...
 RISING, FALLING = _RISING, _FALLING
-#: ... and the forecast's coarser one, 2400 nodes (2e-5 of the rise: far below the slip
+#: ... and the forecast's coarser one, 2500 nodes (2e-5 of the rise: far below the slip
 #: noise of any record granflow forecasts, 1e-3 of the rise and more).
 FIT_RISING = np.concatenate(
     [
@@ -89,7 +92,7 @@ FIT_RISING = np.concatenate(
         [1.0],
     ]
 )
-FIT_FALLING = np.geomspace(1e-6, 1.0, 300)
+FIT_FALLING = np.geomspace(1e-8, 1.0, 400)
 
 
 @compiled_inline
@@ -362,6 +365,168 @@ def failure_point(x, exponent, gamma, peak_slip, peak_force, amplitude, velocity
     return gamma[last]
 
 
+@compiled_inline
+def _level(x, exponent, gamma, target):
+    """(F - F_ref)/A [-] where Gamma reaches ``target`` (the quadrature's own interpolant;
+    beyond the grid's end, the end's: its last and lowest F)."""
+    last = x.shape[0] - 1
+    if target >= gamma[last]:
+        return exponent[last]
+    index = np.searchsorted(gamma, target, side="right") - 1
+    index = min(max(index, 0), last - 1)
+    width = x[index + 1] - x[index]
+    slope = (exponent[index + 1] - exponent[index]) / width
+    remaining = max(target - gamma[index], 0.0)
+    scaled = remaining * math.exp(-exponent[index])
+    k = slope * scaled
+    factor = 1.0 - 0.5 * k if abs(k) < 1e-10 else math.log1p(max(k, -1.0 + 1e-16)) / k
+    return exponent[index] + slope * min(scaled * factor, width)
+
+
+@compiled_inline
+def _asinh_exp(log_value):
+    """asinh(exp(``log_value``)) without overflow."""
+    if log_value > 20.0:
+        return log_value + math.log(2.0)
+    return math.asinh(math.exp(log_value))
+
+
+@compiled_inline
+def _force_at(t, starts, begin, rate):
+    """The history's force [N] at ``t`` [s]."""
+    index = max(np.searchsorted(starts, t, side="right") - 1, 0)
+    return begin[index] + rate[index] * (t - starts[index])
+
+
+@compiled_inline
+def _time_of_force(level, after, starts, begin, rate):
+    """The first time [s] not before ``after`` at which the history's force reaches
+    ``level`` [N] (inf if never)."""
+    pieces = starts.shape[0]
+    first = max(np.searchsorted(starts, after, side="right") - 1, 0)
+    for i in range(first, pieces):
+        lo = max(starts[i], after)
+        hi = starts[i + 1] if i + 1 < pieces else math.inf
+        if begin[i] + rate[i] * (lo - starts[i]) >= level:
+            return lo
+        if rate[i] > 0.0:
+            when = starts[i] + (level - begin[i]) / rate[i]
+            if when <= hi:
+                return max(when, lo)
+    return math.inf
+
+
+@compiled
+def first_passage(
+    starts, begin, rate, cumulative, amplitude, reference, x, exponent, gamma, peak, w, velocity
+):
+    """The failure time [s] of a layer whose Gamma is ``2 w S(t)`` (``w`` [m/s, or 1/s on
+    a unit curve]): the first time past the peak (Gamma[``peak``]) at which its velocity
+    ``2 v_ref sinh(sigma/A) exp(-F/A)`` (v_ref = ``velocity`` [m/s]) reaches
+    ``FAILURE_VELOCITY``, as the simulator's run has it; inf if never. The force and the
+    slip both move during the run-away: their joint condition is solved (bisection with
+    the Illinois step on the time), not the force held at one value."""
+    log_base = math.log(2.0 * velocity) - reference / amplitude - math.log(FAILURE_VELOCITY)
+    args = (starts, begin, rate, cumulative, amplitude, reference)
+    lo = history_time_of(gamma[peak] / (2.0 * w), *args)
+    if not math.isfinite(lo):
+        return math.inf
+    f_lo = (
+        log_base
+        + _log_sinh(_force_at(lo, starts, begin, rate) / amplitude)
+        - _level(x, exponent, gamma, gamma[peak])
+    )
+    if f_lo >= 0.0:
+        return lo
+    last = x.shape[0] - 1
+    hi = history_time_of(gamma[last] / (2.0 * w), *args)
+    if not math.isfinite(hi):
+        return math.inf
+    f_hi = (
+        log_base
+        + _log_sinh(_force_at(hi, starts, begin, rate) / amplitude)
+        - _level(x, exponent, gamma, gamma[last])
+    )
+    if f_hi < 0.0:
+        # beyond the grid F stays at its end: the force alone must rise, until
+        # ln sinh(sigma/A) = exponent[last] - log_base
+        level = amplitude * _asinh_exp(exponent[last] - log_base)
+        return _time_of_force(level, hi, starts, begin, rate)
+    one = np.empty(1)
+    side = 0
+    for _ in range(200):
+        if hi - lo <= 1e-13 * hi:
+            break
+        mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        if not (lo < mid < hi):
+            mid = 0.5 * (lo + hi)
+        history_integral(np.array([mid]), *args, one)
+        f_mid = (
+            log_base
+            + _log_sinh(_force_at(mid, starts, begin, rate) / amplitude)
+            - _level(x, exponent, gamma, 2.0 * w * max(one[0], 0.0))
+        )
+        if f_mid >= 0.0:
+            hi, f_hi = mid, f_mid
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = mid, f_mid
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+    return hi
+
+
+@compiled
+def rate_for_passage(scaled, sigma, amplitude, reference, x, exponent, gamma, peak, scale):
+    """``w`` whose :func:`first_passage` is a time t_f [s], given S(t_f) = ``scaled`` [s]
+    and the force there ``sigma`` [N] (v_ref = ``scale`` w: ``scale`` is x_peak on a unit
+    curve, 1 on a physical one): its velocity reaches the threshold exactly at t_f, past
+    the peak (the peak's own w where the layer is that fast there already). For a force
+    that does not fall over the run-away (a ramp, a staircase between its edges) this is
+    the failure at t_f; inf where S(t_f) is 0."""
+    if not scaled > 0.0:
+        return math.inf
+    # ln(v / FAILURE_VELOCITY) = ln(2 scale w) + log_fixed - level(2 w S(t_f))
+    log_fixed = _log_sinh(sigma / amplitude) - reference / amplitude - math.log(FAILURE_VELOCITY)
+    last = x.shape[0] - 1
+    lo = math.log(gamma[peak] / (2.0 * scaled))
+    f_lo = math.log(2.0 * scale) + lo + log_fixed - _level(x, exponent, gamma, gamma[peak])
+    if f_lo >= 0.0:
+        return math.exp(lo)
+    hi = math.log(gamma[last] / (2.0 * scaled))
+    f_hi = math.log(2.0 * scale) + hi + log_fixed - exponent[last]
+    if f_hi < 0.0:
+        # beyond the grid F stays at its end: v_ref alone must rise
+        return math.exp(hi - f_hi)
+    side = 0
+    for _ in range(200):
+        if hi - lo <= 1e-14:
+            break
+        mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        if not (lo < mid < hi):
+            mid = 0.5 * (lo + hi)
+        f_mid = (
+            math.log(2.0 * scale)
+            + mid
+            + log_fixed
+            - _level(x, exponent, gamma, 2.0 * math.exp(mid) * scaled)
+        )
+        if f_mid >= 0.0:
+            hi, f_hi = mid, f_mid
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = mid, f_mid
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+    return math.exp(hi)
+
+
 @dataclass(frozen=True)
 class History:
     """An imposed force history made of linear pieces: piece i runs from ``starts[i]`` [s]
@@ -533,28 +698,47 @@ def failure_gamma(curve, velocity, force):
 
 
 def creep_failure_time(curve, velocity, history):
-    """The time [s] at which the layer fails (inf if never): when its velocity passes
-    ``FAILURE_VELOCITY`` past the peak, as :func:`granflow.simulate` has it by default
-    under force control (the force taken as constant over the run-away, which lasts
-    milliseconds)."""
+    """The time [s] at which the layer fails (inf if never): the first time past the peak
+    at which its velocity passes ``FAILURE_VELOCITY``, as :func:`granflow.simulate` has it
+    by default under force control (:func:`first_passage`)."""
     amplitude, reference = curve.amplitude, curve.peak_force
-    rough = history.time_of(curve.end_gamma / (2.0 * velocity), amplitude, reference)
-    if not math.isfinite(rough):
-        return rough
-    force = float(history.force(rough))
-    gamma = failure_gamma(curve, velocity, force)
-    return history.time_of(gamma / (2.0 * velocity), amplitude, reference)
+    return float(
+        first_passage(
+            history.starts,
+            history.begin,
+            history.rate,
+            history._cumulative(amplitude, reference),
+            amplitude,
+            reference,
+            curve.x,
+            curve.exponent,
+            curve.gamma,
+            _peak_index(curve),
+            float(velocity),
+            float(velocity),
+        )
+    )
+
+
+def _peak_index(curve):
+    """The grid's node at the peak."""
+    return int(min(np.searchsorted(curve.x, curve.peak_slip), curve.x.size - 1))
 
 
 def velocity_for_failure(curve, history, failure_time):
-    """v_ref [m/s] that puts the failure at ``failure_time`` [s]: Gamma at the failure
-    point over 2 S(t_f), the failure point (which depends on v_ref through the
-    velocity) iterated to a fixed point from the grid's end."""
+    """v_ref [m/s] that puts the failure at ``failure_time`` [s] (the inverse of
+    :func:`creep_failure_time`, :func:`rate_for_passage`)."""
     scaled = float(history.integral(np.array([failure_time]), curve.amplitude, curve.peak_force)[0])
-    if not scaled > 0:
-        return math.inf
-    force = float(history.force(failure_time))
-    velocity = curve.end_gamma / (2.0 * scaled)
-    for _ in range(_FIXED_POINT):
-        velocity = failure_gamma(curve, velocity, force) / (2.0 * scaled)
-    return velocity
+    return float(
+        rate_for_passage(
+            scaled,
+            float(history.force(np.array([failure_time]))[0]),
+            curve.amplitude,
+            curve.peak_force,
+            curve.x,
+            curve.exponent,
+            curve.gamma,
+            _peak_index(curve),
+            1.0,
+        )
+    )

@@ -44,11 +44,11 @@ from granflow.forecast.creep import (
     History,
     curve_grid,
     curve_grid_slopes,
-    failure_point,
+    first_passage,
     history_cumulative,
     history_integral,
-    history_time_of,
     ramp_history,
+    rate_for_passage,
     slip_at,
     slip_jacobian,
 )
@@ -68,7 +68,7 @@ __all__ = [
 _EDGE_SCALE = 0.1  # steps: the edges move by 0.1 e sampling intervals
 _PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 d sampling intervals longer
 _CONTINUED_STEPS = 400
-_FIXED_POINT = 3
+_PEAK = FIT_RISING.size - 1  # the unit curve's node at its peak (x = 1)
 STEP = 1e-7  # forward differences: relative in log slots, absolute in linear ones
 
 
@@ -383,37 +383,33 @@ class CreepModel:
 
     @staticmethod
     def _failure_time(curve, history, pieces, w, velocity):
-        """When the layer passes the failure velocity past the peak [s] (inf if never)."""
+        """When the layer passes the failure velocity past the peak [s] (inf if never):
+        :func:`~granflow.forecast.creep.first_passage` on the unit curve."""
         _, (x, exponent, gamma), _, _ = curve
-        amplitude, peak_force = pieces[4], pieces[5]
-        rough = history_time_of(gamma[-1] / (2.0 * w), *pieces)
-        if not math.isfinite(rough):
-            return rough
-        force = float(history.force(rough))
-        point = failure_point(x, exponent, gamma, 1.0, peak_force, amplitude, velocity, force)
-        return float(history_time_of(point / (2.0 * w), *pieces))
+        return float(first_passage(*pieces, x, exponent, gamma, _PEAK, w, velocity))
 
-    def _failure_point(self, curve, history, pieces, failure_time):
-        """(Gamma at the failure point [m], S(t_f) [s]) for a failure at ``failure_time``
-        [s]: the failure point (which depends on the velocity) iterated to a fixed point from
-        the grid's end, at the reference x_peak."""
+    def _rate_for_failure(self, curve, history, pieces, failure_time):
+        """w [1/s] that puts the failure at ``failure_time`` [s] (inf where S(t_f) is 0):
+        :func:`~granflow.forecast.creep.rate_for_passage` on the unit curve, v_ref = w
+        times the reference x_peak."""
         _, (x, exponent, gamma), _, _ = curve
         amplitude, peak_force = pieces[4], pieces[5]
         scaled = np.empty(1)
         history_integral(np.array([failure_time]), *pieces, scaled)
-        if not scaled[0] > 0:
-            return math.nan, 0.0
-        force = float(history.force(failure_time))
-        point = gamma[-1]
-        for _ in range(_FIXED_POINT):
-            velocity = point / (2.0 * scaled[0]) * self.reference_slip
-            point = failure_point(x, exponent, gamma, 1.0, peak_force, amplitude, velocity, force)
-        return point, float(scaled[0])
-
-    def _rate_for_failure(self, curve, history, pieces, failure_time):
-        """w that puts the failure at ``failure_time`` [s] (inf where S(t_f) is 0)."""
-        point, scaled = self._failure_point(curve, history, pieces, failure_time)
-        return point / (2.0 * scaled) if scaled > 0 else math.inf
+        sigma = float(history.force(failure_time))
+        return float(
+            rate_for_passage(
+                float(scaled[0]),
+                sigma,
+                amplitude,
+                peak_force,
+                x,
+                exponent,
+                gamma,
+                _PEAK,
+                self.reference_slip,
+            )
+        )
 
     def function_and_jacobian(self, values, log):
         """(slip, d slip / d slots); a flat penalty outside the box."""
@@ -450,28 +446,32 @@ class CreepModel:
             found = self.targets(moved, curve)
             d_target[:, k] = 0.0 if found is None else (found[0] - target) / (moved[k] - values[k])
         if self.timed:
-            # w = Gamma(xi_f) / (2 S(t_f)) moves with the curve's shape too
+            # w moves with the curve's shape too (the failure's point on it): forward
+            # differences of ln w over each shape slot on its own rebuilt curve, less what
+            # the loop above took at the curve held (A's history) or what cancels exactly
+            # (F_peak's: S scales as exp(-F_peak / A))
             failure_time = self.until + slots["gap"]
-            point, scaled = self._failure_point(curve, history, pieces, failure_time)
-            if scaled > 0:
-                moved = np.empty(1)
-                jac_f = np.empty((1, self.shape))
-                at = np.array([point])
-                slip_jacobian(
-                    at,
-                    np.zeros((1, self.shape)),
-                    x,
-                    exponent,
-                    gamma,
-                    slope,
-                    cumulative,
-                    d_start,
-                    moved,
-                    jac_f,
+            names = ("peak_force", "ratio", "s0", "amplitude")
+            for k in range(self.shape):
+                name = names[k]
+                step = STEP * abs(values[k]) if log[k] else STEP
+                moved = dict(slots)
+                moved[name] = values[k] + (step if step > 0 else STEP)
+                other = self._build(
+                    moved["peak_force"], moved["ratio"], moved["s0"], moved["amplitude"]
                 )
-                density = math.exp(float(np.interp(moved[0], x, exponent)))
-                d_gamma = -jac_f[0] * density  # d Gamma(xi_f) / d shape at fixed xi_f
-                d_target[:, : self.shape] += np.outer(target / w, d_gamma / (2.0 * scaled))
+                if other is None:
+                    continue
+                held = w
+                moved_pieces = pieces
+                if name in ("peak_force", "amplitude"):
+                    _, moved_pieces, _ = self._history(moved)
+                    held = self._rate_for_failure(curve, history, moved_pieces, failure_time)
+                w_moved = self._rate_for_failure(other, history, moved_pieces, failure_time)
+                if not (math.isfinite(w_moved) and w_moved > 0 and held > 0):
+                    continue
+                change = math.log(w_moved / held) / (moved[name] - values[k])
+                d_target[:, k] += target * change
         xi = np.empty(size)
         jacobian = np.empty((size, n))
         slip_jacobian(
