@@ -22,9 +22,12 @@ of a staircase).
 
 The layer fails when x runs past the peak of F: the velocity then grows without bound. As in
 the simulator, the failure is the velocity passing a threshold (``FAILURE_VELOCITY``, the
-simulator's default under force control) past the peak; the grid of x runs on to where F
-has fallen ``_DROP`` A below F_peak, far enough for any threshold in reach (past the peak
-the integrand of Gamma falls as exp(-(F_peak - F)/A)).
+simulator's default under force control) past the peak, at the first time both the slip
+and the force allow it (:func:`first_passage`: a layer whose F_peak stands only a few A
+above Fd runs away for seconds, and the force's own rise then decides when). The grid of x
+runs on to where F has fallen ``_DROP`` A below F_peak, or to 2000 x_peak where it never
+does (past the peak F falls towards Fd as a / (alpha x) only; beyond the grid F is taken as
+its end's, within a two-thousandth of F_peak - Fd of Fd).
 """
 
 import math
@@ -270,6 +273,22 @@ def curve_grid_slopes(params, transform, peak_force, amplitude, x, exponent, slo
             cumulative[k, i + 1] = cumulative[k, i] + slope[k, i] * total + change * moment
 
 
+@compiled_inline
+def _in_cell(value, x, exponent, gamma):
+    """(cell i, the exponent's slope in it [1/m], x - x_i [m]) where Gamma reaches ``value``
+    [m] inside the grid: the inverse of the quadrature's own interpolant, an exponent linear
+    in x on each cell (x - x_i = ln(1 + k) / slope, k = slope (Gamma - Gamma_i) exp(-e_i))."""
+    last = x.shape[0] - 1
+    index = np.searchsorted(gamma, value, side="right") - 1
+    index = min(max(index, 0), last - 1)
+    width = x[index + 1] - x[index]
+    slope = (exponent[index + 1] - exponent[index]) / width
+    scaled = max(value - gamma[index], 0.0) * math.exp(-exponent[index])
+    k = slope * scaled
+    factor = 1.0 - 0.5 * k if abs(k) < 1e-10 else math.log1p(max(k, -1.0 + 1e-16)) / k
+    return index, slope, min(scaled * factor, width)
+
+
 @compiled
 def slip_jacobian(target, d_target, x, exponent, gamma, slope, cumulative, d_start, out, jac):
     """The inverse of Gamma at ``target`` [m] into ``out`` (as :func:`slip_at`) and its
@@ -286,17 +305,10 @@ def slip_jacobian(target, d_target, x, exponent, gamma, slope, cumulative, d_sta
             for k in range(k_all):
                 jac[j, k] = 0.0
             continue
-        index = np.searchsorted(gamma, value, side="right") - 1
-        index = min(max(index, 0), last - 1)
-        width = x[index + 1] - x[index]
-        rate = (exponent[index + 1] - exponent[index]) / width
+        index, rate, step = _in_cell(value, x, exponent, gamma)
         remaining = max(value - gamma[index], 0.0)
-        scaled = remaining * math.exp(-exponent[index])
-        kk = rate * scaled
-        factor = 1.0 - 0.5 * kk if abs(kk) < 1e-10 else math.log1p(max(kk, -1.0 + 1e-16)) / kk
-        step = min(scaled * factor, width)
         out[j] = x[index] + step
-        fraction = step / width
+        fraction = step / (x[index + 1] - x[index])
         # Gamma'(xi) = exp(exponent at xi), the exponent linear in the cell
         density = math.exp(exponent[index] + rate * step)
         for k in range(k_all):
@@ -319,16 +331,8 @@ def slip_at(target, x, exponent, gamma, out):
         if value >= gamma[last]:
             out[j] = x[last]
             continue
-        index = np.searchsorted(gamma, value, side="right") - 1
-        index = min(max(index, 0), last - 1)
-        width = x[index + 1] - x[index]
-        slope = (exponent[index + 1] - exponent[index]) / width
-        remaining = max(value - gamma[index], 0.0)
-        scaled = remaining * math.exp(-exponent[index])
-        k = slope * scaled
-        # x - x_i = ln(1 + k) / slope = scaled ln(1 + k) / k
-        factor = 1.0 - 0.5 * k if abs(k) < 1e-10 else math.log1p(max(k, -1.0 + 1e-16)) / k
-        out[j] = x[index] + min(scaled * factor, width)
+        index, _, step = _in_cell(value, x, exponent, gamma)
+        out[j] = x[index] + step
 
 
 @compiled_inline
@@ -372,15 +376,8 @@ def _level(x, exponent, gamma, target):
     last = x.shape[0] - 1
     if target >= gamma[last]:
         return exponent[last]
-    index = np.searchsorted(gamma, target, side="right") - 1
-    index = min(max(index, 0), last - 1)
-    width = x[index + 1] - x[index]
-    slope = (exponent[index + 1] - exponent[index]) / width
-    remaining = max(target - gamma[index], 0.0)
-    scaled = remaining * math.exp(-exponent[index])
-    k = slope * scaled
-    factor = 1.0 - 0.5 * k if abs(k) < 1e-10 else math.log1p(max(k, -1.0 + 1e-16)) / k
-    return exponent[index] + slope * min(scaled * factor, width)
+    index, slope, step = _in_cell(target, x, exponent, gamma)
+    return exponent[index] + slope * step
 
 
 @compiled_inline
@@ -416,6 +413,37 @@ def _time_of_force(level, after, starts, begin, rate):
     return math.inf
 
 
+@compiled_inline
+def _trial(lo, f_lo, hi, f_hi):
+    """The secant's point in a bracket [lo, hi] whose ends' values have opposite signs (the
+    middle where it falls outside)."""
+    mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+    return mid if lo < mid < hi else 0.5 * (lo + hi)
+
+
+@compiled_inline
+def _bracketed(mid, f_mid, lo, f_lo, hi, f_hi, side):
+    """The bracket after a trial at ``mid`` (the Illinois step: the end kept twice running
+    has its value halved); ``side`` says which end moved last."""
+    if f_mid >= 0.0:
+        if side == 1:
+            f_lo *= 0.5
+        return lo, f_lo, mid, f_mid, 1
+    if side == -1:
+        f_hi *= 0.5
+    return mid, f_mid, hi, f_hi, -1
+
+
+@compiled_inline
+def _excess(log_base, t, target, curve):
+    """ln(v / FAILURE_VELOCITY) at ``t`` [s] of a layer at Gamma = ``target`` [m]:
+    ``log_base`` = ln(2 v_ref) - F_ref/A - ln FAILURE_VELOCITY; ``curve`` = (starts, begin,
+    rate, A, x, exponent, gamma)."""
+    starts, begin, rate, amplitude, x, exponent, gamma = curve
+    sigma = _force_at(t, starts, begin, rate)
+    return log_base + _log_sinh(sigma / amplitude) - _level(x, exponent, gamma, target)
+
+
 @compiled
 def first_passage(
     starts, begin, rate, cumulative, amplitude, reference, x, exponent, gamma, peak, w, velocity
@@ -428,25 +456,18 @@ def first_passage(
     the Illinois step on the time), not the force held at one value."""
     log_base = math.log(2.0 * velocity) - reference / amplitude - math.log(FAILURE_VELOCITY)
     args = (starts, begin, rate, cumulative, amplitude, reference)
+    curve = (starts, begin, rate, amplitude, x, exponent, gamma)
     lo = history_time_of(gamma[peak] / (2.0 * w), *args)
     if not math.isfinite(lo):
         return math.inf
-    f_lo = (
-        log_base
-        + _log_sinh(_force_at(lo, starts, begin, rate) / amplitude)
-        - _level(x, exponent, gamma, gamma[peak])
-    )
+    f_lo = _excess(log_base, lo, gamma[peak], curve)
     if f_lo >= 0.0:
         return lo
     last = x.shape[0] - 1
     hi = history_time_of(gamma[last] / (2.0 * w), *args)
     if not math.isfinite(hi):
         return math.inf
-    f_hi = (
-        log_base
-        + _log_sinh(_force_at(hi, starts, begin, rate) / amplitude)
-        - _level(x, exponent, gamma, gamma[last])
-    )
+    f_hi = _excess(log_base, hi, gamma[last], curve)
     if f_hi < 0.0:
         # beyond the grid F stays at its end: the force alone must rise, until
         # ln sinh(sigma/A) = exponent[last] - log_base
@@ -457,25 +478,10 @@ def first_passage(
     for _ in range(200):
         if hi - lo <= 1e-13 * hi:
             break
-        mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
-        if not (lo < mid < hi):
-            mid = 0.5 * (lo + hi)
+        mid = _trial(lo, f_lo, hi, f_hi)
         history_integral(np.array([mid]), *args, one)
-        f_mid = (
-            log_base
-            + _log_sinh(_force_at(mid, starts, begin, rate) / amplitude)
-            - _level(x, exponent, gamma, 2.0 * w * max(one[0], 0.0))
-        )
-        if f_mid >= 0.0:
-            hi, f_hi = mid, f_mid
-            if side == 1:
-                f_lo *= 0.5
-            side = 1
-        else:
-            lo, f_lo = mid, f_mid
-            if side == -1:
-                f_hi *= 0.5
-            side = -1
+        f_mid = _excess(log_base, mid, 2.0 * w * max(one[0], 0.0), curve)
+        lo, f_lo, hi, f_hi, side = _bracketed(mid, f_mid, lo, f_lo, hi, f_hi, side)
     return hi
 
 
@@ -505,25 +511,14 @@ def rate_for_passage(scaled, sigma, amplitude, reference, x, exponent, gamma, pe
     for _ in range(200):
         if hi - lo <= 1e-14:
             break
-        mid = hi - f_hi * (hi - lo) / (f_hi - f_lo)
-        if not (lo < mid < hi):
-            mid = 0.5 * (lo + hi)
+        mid = _trial(lo, f_lo, hi, f_hi)
         f_mid = (
             math.log(2.0 * scale)
             + mid
             + log_fixed
             - _level(x, exponent, gamma, 2.0 * math.exp(mid) * scaled)
         )
-        if f_mid >= 0.0:
-            hi, f_hi = mid, f_mid
-            if side == 1:
-                f_lo *= 0.5
-            side = 1
-        else:
-            lo, f_lo = mid, f_mid
-            if side == -1:
-                f_hi *= 0.5
-            side = -1
+        lo, f_lo, hi, f_hi, side = _bracketed(mid, f_mid, lo, f_lo, hi, f_hi, side)
     return math.exp(hi)
 
 
