@@ -11,12 +11,11 @@ from granflow.errors import InvalidDataError
 from granflow.forecast.creep import (
     History,
     creep_curve,
-    creep_failure_time,
     creep_slip,
     ramp_history,
     steps_history,
-    velocity_for_failure,
 )
+from granflow.forecast.creep_failure import creep_failure_time, velocity_for_failure
 from granflow.forecast.synthetic import creep_ramp_record, creep_staircase_record
 from granflow.model.friction import peak
 from granflow.simulation import ForceRamp, ForceSteps, Protocol

@@ -44,14 +44,13 @@ from granflow.forecast.creep import (
     History,
     curve_grid,
     curve_grid_slopes,
-    first_passage,
     history_cumulative,
     history_integral,
     ramp_history,
-    rate_for_passage,
     slip_at,
     slip_jacobian,
 )
+from granflow.forecast.creep_failure import first_passage, rate_for_passage
 from granflow.forecast.models import NUISANCE_BOUND, S0_RANGE, Penalty, ratio_parameter
 from granflow.model.params import Params
 
