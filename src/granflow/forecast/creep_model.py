@@ -383,13 +383,13 @@ class CreepModel:
     @staticmethod
     def _failure_time(curve, history, pieces, w, velocity):
         """When the layer passes the failure velocity past the peak [s] (inf if never):
-        :func:`~granflow.forecast.creep.first_passage` on the unit curve."""
+        :func:`~granflow.forecast.creep_failure.first_passage` on the unit curve."""
         _, (x, exponent, gamma), _, _ = curve
         return float(first_passage(*pieces, x, exponent, gamma, _PEAK, w, velocity))
 
     def _rate_for_failure(self, curve, history, pieces, failure_time):
         """w [1/s] that puts the failure at ``failure_time`` [s] (inf where S(t_f) is 0):
-        :func:`~granflow.forecast.creep.rate_for_passage` on the unit curve, v_ref = w
+        :func:`~granflow.forecast.creep_failure.rate_for_passage` on the unit curve, v_ref = w
         times the reference x_peak."""
         _, (x, exponent, gamma), _, _ = curve
         amplitude, peak_force = pieces[4], pieces[5]
