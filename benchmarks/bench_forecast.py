@@ -365,8 +365,45 @@ def tables(arguments):
         print()
         print(f"At {lead:.0%} lead alone:")
         _reliability_table(reliability([o for o in issued if o.lead == lead]))
+    _time_pit_table(issued, cells)
     if "--figure" in flags:
         _reliability_figure(issued, flags[flags.index("--figure") + 1])
+
+
+def _time_pit_table(issued, cells):
+    """The confidence distribution read at the true time (``Outcome.time_pit``), in tenths,
+    per cell and lead: each tenth holds 10 % where the distribution is calibrated at every
+    level, not only at its 5 and 95 % points (staircases: the step PIT instead)."""
+    rows = []
+    for cell in cells:
+        for lead in LEADS:
+            values = np.array(
+                [
+                    getattr(o, "time_pit", math.nan)
+                    for o in issued
+                    if o.cell == cell and o.lead == lead
+                ]
+            )
+            values = values[np.isfinite(values)]
+            if values.size:
+                rows.append((cell, lead, values))
+    if not rows:
+        return
+    print()
+    print(
+        "The failure time's confidence distribution at the truth (probability_within(truth - "
+        "until)): share of forecasts in each tenth, 10 % each where it is calibrated:"
+    )
+    print("| cell | lead | forecasts | " + " | ".join(f"{k / 10:.1f}-" for k in range(10)) + " |")
+    print("|---|---|---|" + "---|" * 10)
+    for cell, lead, values in rows:
+        shares = np.histogram(np.clip(values, 0.0, 1.0), bins=np.linspace(0.0, 1.0, 11))[0]
+        shares = shares / values.size
+        print(
+            f"| {cell} | {lead:.0%} | {values.size} | "
+            + " | ".join(f"{100 * v:.1f}" for v in shares)
+            + " |"
+        )
 
 
 def _reliability_table(rows):

@@ -270,6 +270,26 @@ def test_the_calibration_runs_the_cells_and_leads_it_is_given():
     assert outcome.issued and 0.0 <= outcome.pit <= 1.0
     assert len(outcome.within) == len(HORIZONS) >= 5
     assert all(0.0 <= p <= 1.0 for p, _ in outcome.within)
+    assert math.isnan(outcome.time_pit)  # a staircase's PIT is the step PIT
+
+
+def test_the_time_pit_reads_the_interval_distribution_at_the_truth():
+    """A ramp's ``time_pit`` is the forecast's confidence distribution at the true failure
+    time: inside the 90 % interval exactly where it lies between 0.05 and 0.95 (up to the
+    interpolation of the distribution's table), and the probability of failing before the
+    truth, from the forecast's own probability_within."""
+    from granflow.forecast.calibration import _forecast, draw, study
+
+    for outcome in study([9002, 9003], cells=("ramp",), leads=(0.5, 0.1)):
+        assert 0.0 <= outcome.time_pit <= 1.0
+        if 0.06 < outcome.time_pit < 0.94:
+            assert outcome.time_covered
+        elif not 0.04 < outcome.time_pit < 0.96:
+            assert not outcome.time_covered
+    case = draw(9002, "ramp")
+    ff = _forecast(case, 0.9 * case.failure)
+    (outcome,) = study([9002], cells=("ramp",), leads=(0.1,))
+    assert outcome.time_pit == ff.probability_within(case.failure - ff.until)
 
 
 @pytest.mark.parametrize("seed", [3, 10])
@@ -434,16 +454,22 @@ def test_the_time_and_the_strength_of_a_staircase_agree():
     seed 400058, 8 of its steps ahead) whose likelihood is flat over many steps. The
     strength's profile reached 16.4 mN while the time's conditional fits missed the branch
     beyond its first step and gave the failure to that step with probability 1 (t_f in
-    (444.9, 445.1) s). Each profile now takes the other's points, so the time's interval
-    reaches every step whose level lies below the strength's upper end."""
+    (444.9, 445.1) s). Each profile now takes the other's points, so the step probabilities
+    are the strength's distribution read at the levels: the steps at which they pass 5 % and
+    95 % are those whose level is the first at or above the strength's interval ends (P, the
+    level at failure, lies within one step below it). The time interval is the smallest set
+    of the most likely steps, which on this flat profile is shorter than the central one."""
     t, slip, force, failure = _record(400058, "steps")
     ff = gf.forecast_failure(t, slip, force, until=0.5 * failure)
+    assert len(ff.loading.levels) == 9  # each of its 0.74 mN steps, none merged
     levels = np.array(ff.steps["level"])
-    starts = np.array(ff.steps["earliest"])
-    assert len(levels) > 1
-    within = levels <= ff.force_interval[1]
-    assert within.sum() > 1
-    assert ff.time_interval[1] >= starts[within].max()
+    cumulative = ff.steps["below"] + np.cumsum(ff.steps["probability"])
+    step = ff.loading.step
+    assert levels.size > 10 and ff.force_interval[1] > ff.force_interval[0] + 10 * step
+    for share, end in zip((0.05, 0.95), ff.force_interval, strict=True):
+        j = int(np.flatnonzero(cumulative >= share)[0])
+        assert levels[j] - step - 1e-9 <= end <= levels[j] + 1e-9
+    assert ff.time_interval[0] <= failure <= ff.time_interval[1]
 
 
 def test_a_creeping_staircase_the_simulator_cannot_fail_is_drawn_again():
@@ -457,3 +483,48 @@ def test_a_creeping_staircase_the_simulator_cannot_fail_is_drawn_again():
     assert levels.size > 1
     again = draw(300019, "creep steps")
     assert again.redraws == case.redraws and np.array_equal(again.slip, case.slip)
+
+
+def _noisy_staircase(seed, heights, per_step, noise):
+    """(t, force, true levels, true edges): flat levels of the cumulative ``heights`` [N],
+    ``per_step`` samples each at 1 s, white noise of ``noise`` [N]."""
+    rng = np.random.default_rng(seed)
+    levels = np.cumsum(heights)
+    t = np.arange(levels.size * per_step, dtype=float)
+    force = np.repeat(levels, per_step) + noise * rng.standard_normal(t.size)
+    return t, force, levels, per_step * np.arange(1, levels.size) - 0.5
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_steps_too_small_for_one_jump_are_found(seed):
+    """Steps 6 noise widths high, 25 samples each: one point-to-point difference shows a
+    step only where it passes 8 noise widths (P = 0.08 for each of 11 edges), so most merged
+    with their neighbours into levels between the true ones. Every step is found as a shift
+    of its level's mean, at its edge, and a regular staircase is recognised as one. A step
+    of 20 noise widths is added first so that the record reads as a staircase."""
+    noise = 1e-5
+    heights = np.concatenate([[1e-3, 20 * noise], np.full(10, 6 * noise)])
+    t, force, levels, edges = _noisy_staircase(seed, heights, 25, noise)
+    from granflow.forecast.loading import fit_loading
+
+    loading = fit_loading(t, force)
+    assert loading.kind == "steps" and len(loading.levels) == levels.size
+    np.testing.assert_allclose(loading.edges, edges, atol=1.0)  # within a sample
+    found = np.array([np.mean(force[int(e) + 1 : int(e) + 26]) for e in (-1.5, *edges[:-1])])
+    np.testing.assert_allclose(found, levels[:-1], atol=4 * noise / math.sqrt(25))
+    # the last 10 steps are equal: within their noise they lie on a line, the first two not
+    assert not loading.on_line
+
+
+def test_flat_levels_are_not_split():
+    """A staircase of clear steps (40 noise widths) with 3 to 400 samples a level, 60 seeds:
+    no level is split by the search for hidden steps (the largest split statistic of a flat
+    level stays under 6), so every record has its true number of levels."""
+    from granflow.forecast.loading import fit_loading
+
+    rng = np.random.default_rng(7)
+    for seed in range(60):
+        per_step = int(rng.integers(3, 401))
+        t, force, levels, _ = _noisy_staircase(seed, np.full(8, 40e-5), per_step, 1e-5)
+        loading = fit_loading(t, force)
+        assert len(loading.levels) == levels.size, (seed, per_step)

@@ -270,6 +270,11 @@ class Outcome:
         The forecast's message.
     redraws : int
         The record's :attr:`Case.redraws`.
+    time_pit : float
+        ``probability_within(truth - until)``: the confidence distribution of the failure
+        (a start-up's peak) time read at the truth, uniform on [0, 1] where that
+        distribution is calibrated at every level (NaN for a staircase: ``pit`` is its
+        randomised counterpart).
     """
 
     cell: str
@@ -287,6 +292,7 @@ class Outcome:
     cpu: float = 0.0
     message: str = ""
     redraws: int = 0
+    time_pit: float = math.nan
 
 
 def step_pit(forecast, truth, rng):
@@ -354,6 +360,9 @@ def one_case(seed, cell, leads=LEADS):
             for h in HORIZONS
         )
         point = forecast.time if forecast.time is not None else math.inf
+        time_pit = math.nan
+        if getattr(forecast, "steps", None) is None:
+            time_pit = float(forecast.probability_within(case.failure - forecast.until))
         out.append(
             Outcome(
                 cell,
@@ -371,6 +380,7 @@ def one_case(seed, cell, leads=LEADS):
                 cpu,
                 forecast.message,
                 case.redraws,
+                time_pit,
             )
         )
     return out
