@@ -366,6 +366,7 @@ def tables(arguments):
         print(f"At {lead:.0%} lead alone:")
         _reliability_table(reliability([o for o in issued if o.lead == lead]))
     _time_pit_table(issued, cells)
+    _own_quantile_table(issued)
     if "--figure" in flags:
         _reliability_figure(issued, flags[flags.index("--figure") + 1])
 
@@ -417,32 +418,75 @@ def _reliability_table(rows):
         print(f"| {predicted:.3f} | {observed:.3f} ± {error:.3f} | {count} | {verdict} |")
 
 
+def _own_quantiles(outcomes):
+    """[(p, share of forecasts whose truth lies below their own p-quantile, count)] for p in
+    tenths: ``probability_within`` read at each forecast's own quantile horizons, the
+    reliability check a confidence distribution answers to whatever the study's cut (the
+    time PIT of continuous outcomes, a staircase's randomised step PIT)."""
+    values = []
+    for o in outcomes:
+        pit = getattr(o, "time_pit", math.nan)
+        if not math.isfinite(pit):
+            pit = o.pit
+        if math.isfinite(pit):
+            values.append(pit)
+    values = np.array(values)
+    if not values.size:
+        return []
+    return [(p, float(np.mean(values <= p)), values.size) for p in np.linspace(0.1, 0.9, 9)]
+
+
+def _own_quantile_table(issued):
+    rows = _own_quantiles(issued)
+    if not rows:
+        return
+    print()
+    print(
+        "Reliability at the forecasts' own quantiles (probability_within at the horizon where "
+        "each forecast gives p; issued forecasts with a time or step PIT):"
+    )
+    _reliability_table(rows)
+
+
 def _reliability_figure(issued, path):
-    """The reliability diagram (all leads, and each lead) to ``path``."""
+    """The reliability diagrams to ``path``: at the study's fixed horizons (all leads, and
+    each lead) and at the forecasts' own quantiles (each lead)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(4.6, 4.2), layout="constrained")
-    ax.plot([0, 1], [0, 1], color="0.6", lw=1, label="perfect")
-    ax.fill_between([0, 1], [-0.05, 0.95], [0.05, 1.05], color="0.9", label="within 5 points")
+    fig, axes = plt.subplots(1, 2, figsize=(8.6, 4.2), layout="constrained", sharey=True)
+    leads = list(zip(LEADS, ("tab:blue", "tab:orange", "tab:green"), strict=True))
+    for ax in axes:
+        ax.plot([0, 1], [0, 1], color="0.6", lw=1, label="perfect")
+        ax.fill_between([0, 1], [-0.05, 0.95], [0.05, 1.05], color="0.9", label="within 5 points")
     styles = [("all leads", issued, "k", "o")] + [
         (f"{lead:.0%} lead", [o for o in issued if o.lead == lead], colour, "s")
-        for lead, colour in zip(LEADS, ("tab:blue", "tab:orange", "tab:green"), strict=True)
+        for lead, colour in leads
     ]
     for label, chosen, colour, marker in styles:
         rows = [row for row in reliability(chosen) if row[2] >= 50]
         if rows:
             predicted, observed, _ = np.array(rows).T
-            ax.plot(predicted, observed, marker=marker, color=colour, label=label, ms=4, lw=1)
-    ax.set(
+            axes[0].plot(predicted, observed, marker=marker, color=colour, label=label, ms=4, lw=1)
+        rows = _own_quantiles(chosen)
+        if rows:
+            predicted, observed, _ = np.array(rows).T
+            axes[1].plot(predicted, observed, marker=marker, color=colour, label=label, ms=4, lw=1)
+    axes[0].set(
         xlabel="predicted probability of failure within the horizon",
         ylabel="observed frequency",
-        xlim=(0, 1),
-        ylim=(0, 1),
+        title="at the study's horizons (0.05-1.6 x the cut)",
     )
-    ax.legend(fontsize=7, loc="upper left")
+    axes[1].set(
+        xlabel="p: the horizon at each forecast's own p-quantile",
+        title="at each forecast's own quantiles",
+    )
+    for ax in axes:
+        ax.set(xlim=(0, 1), ylim=(0, 1))
+        ax.title.set_fontsize(9)
+        ax.legend(fontsize=7, loc="upper left")
     fig.savefig(path, dpi=150)
     print(f"figure: {path}")
 
