@@ -528,3 +528,24 @@ def test_flat_levels_are_not_split():
         t, force, levels, _ = _noisy_staircase(seed, np.full(8, 40e-5), per_step, 1e-5)
         loading = fit_loading(t, force)
         assert len(loading.levels) == levels.size, (seed, per_step)
+
+
+def test_the_study_reads_probabilities_without_the_failure_after_the_cut():
+    """The study hands a forecast the whole record and the cut. A creeping staircase's
+    run-away shows in the samples after the cut (``observed_failure``, 515.3 s here; cut at
+    387.1 s), and ``probability_within`` past it said 1: "already failed", from data no one
+    has at the cut. The study's probabilities (``within``, ``time_pit``) are the
+    distribution's own: the truth (516.1 s) lies inside the 90 % interval and its PIT
+    between 0.05 and 0.95, not at 1."""
+    from dataclasses import replace
+
+    from granflow.forecast.calibration import _forecast, one_case
+
+    case = draw(330103, "creep steps")
+    forecast = _forecast(case, 0.75 * case.failure)
+    assert forecast.until < forecast.observed_failure <= case.failure
+    assert forecast.probability_within(case.failure - forecast.until) == 1.0
+    (outcome,) = one_case(330103, "creep steps", leads=(0.25,))
+    read = replace(forecast, observed_failure=None)
+    assert outcome.time_pit == read.probability_within(case.failure - forecast.until)
+    assert outcome.time_covered and 0.05 < outcome.time_pit < 0.95

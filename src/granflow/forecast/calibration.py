@@ -352,9 +352,15 @@ def one_case(seed, cell, leads=LEADS):
         pit = math.nan
         if getattr(forecast, "steps", None) is not None:
             pit = step_pit(forecast, case.failure, np.random.default_rng([seed, int(100 * lead)]))
+        # the probabilities read off the distribution alone: the study hands the forecast
+        # the whole record, and one whose run-away shows after the cut would say "already
+        # failed" (probability 1) from data that no one has at the cut
+        read = forecast
+        if getattr(forecast, "observed_failure", None) is not None:
+            read = replace(forecast, observed_failure=None)
         within = tuple(
             (
-                float(forecast.probability_within(h * forecast.until)),
+                float(read.probability_within(h * forecast.until)),
                 bool(case.failure <= forecast.until * (1.0 + h)),
             )
             for h in HORIZONS
@@ -362,7 +368,7 @@ def one_case(seed, cell, leads=LEADS):
         point = forecast.time if forecast.time is not None else math.inf
         time_pit = math.nan
         if getattr(forecast, "steps", None) is None:
-            time_pit = float(forecast.probability_within(case.failure - forecast.until))
+            time_pit = float(read.probability_within(case.failure - forecast.until))
         out.append(
             Outcome(
                 cell,
