@@ -15,8 +15,9 @@ Run from the repository root:
   design (or of those named) at leads 50, 25 and 10 % (or those named): how often their ends
   lie within 2 % of the interval's width, and how often each code's interval holds the
   truth; ``--save`` keeps both codes' answers and the truths.
-* ``python benchmarks/bench_forecast.py running``: the CPU time of each
-  :class:`granflow.RunningForecast` update as a 10 Hz ramp arrives a second at a time.
+* ``python benchmarks/bench_forecast.py running [SECONDS]``: the CPU time of each
+  :class:`granflow.RunningForecast` update as a 10 Hz ramp (to failure in SECONDS, default
+  250) arrives a second at a time.
 * ``python benchmarks/bench_forecast.py study CELLS SEEDS PROCESSES FIRST [OUT]``: the
   calibration study (:mod:`granflow.forecast.calibration`) of the cells (comma separated,
   or ``all``) over seeds FIRST .. FIRST + SEEDS - 1 on PROCESSES processes; prints the
@@ -221,10 +222,14 @@ def agree(arguments):
 
 
 def running(arguments):
+    """The running update's CPU time on a 10 Hz ramp to failure in ``arguments[0]`` seconds
+    (default 250: 2500 samples to failure), fed from half to 90 % of it a second at a
+    time."""
+    seconds = float(arguments[0]) if arguments else 250.0
     params = gf.Params(*SETS[0])
     top = gf.peak(params)
     t, slip, force, failure = ramp_record(
-        params, top.force / 250.0, noise=3e-9, force_noise=3e-5, seed=1, dt=0.1
+        params, top.force / seconds, noise=3e-9, force_noise=3e-5, seed=1, dt=0.1
     )
     cut = t <= 0.9 * failure
     t, slip, force = t[cut], slip[cut], force[cut]

@@ -52,6 +52,7 @@ __all__ = [
     "check_fit",
     "power_law_gain",
     "review",
+    "reviewed",
     "unreviewed",
 ]
 
@@ -68,6 +69,9 @@ END_Z = 4.0
 #: The chi-square by which Voight's power law must fit a record's second half better than
 #: the model for the forecast to decline.
 POWER_LAW_GAIN = 25.0
+#: A running forecast's review searches the power law in full where the gain its warm
+#: search finds is within this of :data:`POWER_LAW_GAIN` (chi-square).
+_NEAR_MARGIN = 5.0
 _END = 0.1  # the share of the residuals at the cut that end_z reads
 _BLOCKS = 20
 
@@ -144,16 +148,23 @@ def power_law_gain(fit, time, slip):
     :class:`~granflow.forecast.inference.Estimate` with one residual per sample): the drop in
     the residual sum of squares over the fit's noise variance (its correlation inflation
     included) [-]; NaN where the fit's residuals are not one per sample (a staircase's)."""
-    from granflow.forecast.references import power_law_rss
+    return _gain(fit, time, slip)[0]
+
+
+def _gain(fit, time, slip, near=None):
+    """(:func:`power_law_gain`, the power law's exponent at each of its leads, or None):
+    ``near``, a previous call's exponents for the same record before it grew, starts the
+    power law's search (:func:`~granflow.forecast.references.power_law_least`)."""
+    from granflow.forecast.references import power_law_least
 
     curve = fit.problem.curves[0]
     residuals = curve.w * (fit.problem.model.function(curve.z, *fit.values) - curve.y)
     if residuals.size != time.size or time.size < 2 * _BLOCKS:
-        return math.nan
+        return math.nan, None
     half = time >= 0.5 * (time[0] + time[-1])
     model = float(np.sum(residuals[half] ** 2))  # in units of fit.sigma^2 already
-    power_law = power_law_rss(time[half], slip[half], float(time[-1])) / fit.sigma**2
-    return model - power_law
+    least, exponents = power_law_least(time[half], slip[half], float(time[-1]), near=near)
+    return model - least / fit.sigma**2, exponents
 
 
 def review(forecast, fit, time, slip):
@@ -164,18 +175,31 @@ def review(forecast, fit, time, slip):
     check's verdict, a record whose second half Voight's power law fits better than the
     model by more than :data:`POWER_LAW_GAIN` (in chi-square) declines: its slip
     accelerates as a power law, not as the model's rising branch."""
+    return reviewed(forecast, fit, time, slip)[0]
+
+
+def reviewed(forecast, fit, time, slip, near=None):
+    """(:func:`review`'s forecast, the power law's exponents at its leads or None): for a
+    running forecast, whose next update passes the exponents back as ``near`` and so
+    searches the power law about them (4 passes over the data, not 23). Where the gain
+    found so comes within :data:`_NEAR_MARGIN` of :data:`POWER_LAW_GAIN`, the full search
+    decides, so that an update declines exactly where the one-shot forecast of the same
+    record does."""
     if not _REVIEWED.get():
-        return forecast
+        return forecast, None
     verdict = fit.check.verdict
+    exponents = None
     if not verdict:
-        gain = power_law_gain(fit, time, slip)
+        gain, exponents = _gain(fit, time, slip, near)
+        if near is not None and gain > POWER_LAW_GAIN - _NEAR_MARGIN:
+            gain, exponents = _gain(fit, time, slip)
         if gain > POWER_LAW_GAIN:
             verdict = (
                 "the record does not follow the model: its slip accelerates as Voight's power "
                 f"law (which fits its second half better by a chi-square of {gain:.3g})"
             )
     if not verdict:
-        return forecast
+        return forecast, exponents
     start = float(np.median(slip[:_ZERO_SAMPLES])) if len(slip) else 0.0
     if abs(start) > _OFFSET_NOISES * rough_noise(slip):
         # the likeliest cause: the slip clock counts from 0 where loading starts
@@ -198,7 +222,7 @@ def review(forecast, fit, time, slip):
         cdf={"time": [], "probability": []},
         message=check.verdict + ": no date",
         declined=True,
-    )
+    ), exponents
 
 
 @contextmanager

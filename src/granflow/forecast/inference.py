@@ -238,12 +238,11 @@ def _warm_solution(problem, warm, size, rtol):
     """The solution from the previous first-stage optimum ``warm[0]`` (:func:`_descend`);
     None where it has gone implausible (chi-square beyond twice the degrees of freedom), so
     that the grid is solved instead."""
-    u, _, steps = _descend(problem, problem.internal(list(warm[0])), rtol)
-    solution = Solution(u, 1, "converged (from the previous optimum)", steps)
-    cost = problem.chisqr(problem.values(solution.x))
+    u, cost, steps = _descend(problem, problem.internal(list(warm[0])), rtol)
+    # the descent's chi-square (Gauss-Newton's last predicted: within rtol of the true one)
     if not cost <= 2.0 * max(size - _SHAPE, 1):
         return None
-    return solution
+    return Solution(u, 1, "converged (from the previous optimum)", steps)
 
 
 def _noise(problem, first_values, first, *, sigma, size, within):

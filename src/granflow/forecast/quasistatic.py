@@ -18,7 +18,7 @@ from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
 from granflow.forecast.branch import branch_values
 from granflow.forecast.coordinates import natural
-from granflow.forecast.discrepancy import review
+from granflow.forecast.discrepancy import reviewed
 from granflow.forecast.inference import (
     data_chisqr,
     distribution_of,
@@ -190,7 +190,10 @@ class Warm:
     :class:`~granflow.forecast.running.RunningForecast`'s next update): its two optima and
     its profiles' ends, valid while the slots stay the same (``layout``), and the
     likelihood's other minima within reach (followed too: the best of them is the
-    optimum)."""
+    optimum); the power law's exponents at its leads (the review's, ``exponents``); the
+    number of points it saw (``size``) and what the forecast before it left (``before``:
+    ``(size, force_ends, time_ends, exponents)``), from which the next scans' hints and
+    the next review's expected exponents are drawn."""
 
     layout: tuple
     first: np.ndarray
@@ -198,6 +201,50 @@ class Warm:
     force_ends: dict
     time_ends: dict
     others: tuple = ()
+    exponents: np.ndarray | None = None
+    size: int = 0
+    before: tuple | None = None
+
+    def hints(self, size, which, floor, gap):
+        """The ends ``which`` (``"force_ends"`` or ``"time_ends"``) where the scans of the
+        record grown to ``size`` points look first, as values [N] about its new optimum
+        (``floor + gap`` [N]): each end kept where it stood relative to the optimum (the
+        profile's own coordinate, the log of the gap over the optimum's: the optimum moves
+        with each new point far more than the profile's shape about it does), and moved on
+        as it moved since the forecast before, in proportion to the points added."""
+        ends = getattr(self, which)
+        earlier = {}
+        ratio = 0.0
+        if self.before is not None and self.size > self.before[0]:
+            size_before, force_before, time_before, _ = self.before
+            earlier = force_before if which == "force_ends" else time_before
+            ratio = (size - self.size) / (self.size - size_before)
+        out = {}
+        for side, values in ends.items():
+            old = list(earlier.get(side, ()))
+            moved = [
+                u + ratio * (u - old[k]) if k < len(old) and math.isfinite(u - old[k]) else u
+                for k, u in enumerate(values)
+            ]
+            out[side] = [
+                floor + gap * math.exp(u) if math.isfinite(u) and u < _EXP_LIMIT else math.nan
+                for u in moved
+            ]
+        return out
+
+    def near(self, size):
+        """The power law's exponents expected at each lead of the review (:func:`~granflow.
+        forecast.references.power_law_least`) of the record grown to ``size`` points: the
+        last ones moved on (in ln p) as they moved since the review before, in proportion
+        to the points added; None where there are none."""
+        if self.exponents is None:
+            return None
+        before = None if self.before is None else self.before[3]
+        if before is None or not self.size > self.before[0]:
+            return self.exponents
+        ratio = (size - self.size) / (self.size - self.before[0])
+        log_now, log_before = np.log(self.exponents), np.log(before)
+        return np.exp(log_now + ratio * (log_now - log_before))
 
 
 def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
@@ -271,6 +318,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     layout = _layout(loading, time, prior)
     if warm is not None and warm.layout != layout:
         warm = None
+    near = None if warm is None else warm.near(time.size)
     fit, build, groups, floor, continuation, shape = _branch(
         time, slip_cut, loading, prior, sigma, warm=warm
     )
@@ -283,9 +331,8 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
             f"p = {trend:.2g}): no information on the failure yet"
         )
         forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
-        return review(forecast, fit, time, slip_cut), Warm(
-            layout, fit.first, values, {}, {}, fit.others
-        )
+        forecast, exponents = reviewed(forecast, fit, time, slip_cut, near=near)
+        return forecast, Warm(layout, fit.first, values, {}, {}, fit.others, exponents, time.size)
 
     def shapes(gap):
         """More starts at a gap (the shape grid, the nuisance at its optimum)."""
@@ -296,7 +343,12 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         ]
 
     force_profile, strength = scan(
-        fit, 0, level, offset=floor, starts=shapes, hints=None if warm is None else warm.force_ends
+        fit,
+        0,
+        level,
+        offset=floor,
+        starts=shapes,
+        hints=None if warm is None else warm.hints(time.size, "force_ends", floor, values[0]),
     )
 
     # the time: the same likelihood with P (the fitted history's force at failure) for F_peak
@@ -316,7 +368,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         problem=time_problem,
         values=timed,
         starts=shapes,
-        hints=None if warm is None else warm.time_ends,
+        hints=None if warm is None else warm.hints(time.size, "time_ends", floor, timed[0]),
         others=[timed_slots(other) for other in fit.others],
     )
     # one likelihood, two profiles: each takes the other's points (its conditional fits can
@@ -376,15 +428,19 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         observed_failure=None if observed is None else observed.time,
         observed=None if observed is None else observed_dict(observed),
     )
+    forecast, exponents = reviewed(forecast, fit, time, slip_cut, near=near)
     left = Warm(
         layout,
         fit.first,
         values,
-        _absolute(force_profile, floor),
-        _absolute(time_profile, floor),
+        _relative(force_profile),
+        _relative(time_profile),
         fit.others,
+        exponents,
+        time.size,
+        None if warm is None else (warm.size, warm.force_ends, warm.time_ends, warm.exponents),
     )
-    return review(forecast, fit, time, slip_cut), left
+    return forecast, left
 
 
 def _exchanged(fit, time_problem, force_profile, time_profile, floor, continuation, shape):
@@ -429,15 +485,7 @@ def _exchanged(fit, time_problem, force_profile, time_profile, floor, continuati
 _EXP_LIMIT = 700.0
 
 
-def _absolute(profile, floor):
-    """A profile's ends as the profiled quantity's values [N] (their internal coordinates
-    depend on the problem's scales): the hints of the next scan, converted back there."""
-    parameter = profile.optimum
-    scale = parameter.value
-    return {
-        side: [
-            floor + scale * math.exp(u) if math.isfinite(u) and u < _EXP_LIMIT else math.nan
-            for u in ends
-        ]
-        for side, ends in profile.ends.items()
-    }
+def _relative(profile):
+    """A profile's ends in its own coordinate (the log of the gap over the optimum's), which
+    the next scan's hints start from (:meth:`Warm.hints`)."""
+    return {side: [float(u) for u in ends] for side, ends in profile.ends.items()}

@@ -44,6 +44,7 @@ __all__ = [
     "current_rate_forecast",
     "ffm_forecast",
     "fukuzono_forecast",
+    "power_law_least",
     "power_law_rss",
 ]
 
@@ -299,9 +300,12 @@ def _ffm_profile(time, slip, until):
         def rss(log_power):
             return _ffm_rss(time, slip, until, leads, np.exp(log_power), log_ratio, work)
 
-        values = np.array([rss(np.full(leads.size, g)) for g in grid])
+        return _searched(rss, leads.size)
+
+    def _searched(rss, size):
+        values = np.array([rss(np.full(size, g)) for g in grid])
         k = np.argmin(values, axis=0)
-        columns = np.arange(leads.size)
+        columns = np.arange(size)
         below, above = np.maximum(k - 1, 0), np.minimum(k + 1, grid.size - 1)
         lo, hi = grid[below], grid[above]
         f_lo, f_hi = values[below, columns], values[above, columns]
@@ -343,8 +347,77 @@ def power_law_rss(time, slip, until):
     """The least residual sum of squares [m^2] of Voight's power law fitted to ``slip`` [m]
     at ``time`` [s] (before ``until`` [s]), over its four parameters (leads on a coarse grid
     of 40 from 1e-3 to 100 times ``until``)."""
-    solve = _ffm_profile(time, slip, until)
-    return float(np.min(solve(np.geomspace(1e-3, 100.0, 40) * until)[0]))
+    return power_law_least(time, slip, until)[0]
+
+
+#: The warm search's half-step in ln p: three points 0.01 apart about the exponent expected.
+_NEAR_STEP = 0.01
+#: Rounds of the warm search (each re-centred where the last one's vertex fell outside its
+#: points, at most four steps on) before a lead is searched in full.
+_NEAR_ROUNDS = 2
+
+
+def power_law_least(time, slip, until, near=None):
+    """(least [m^2], exponents): :func:`power_law_rss` and the exponent p of each of its
+    leads at its least [-], for a search of the same record grown to start from (``near``).
+
+    With ``near`` (the exponents expected at each lead: a previous call's, or where they
+    were heading), each lead's least is sought about it: the parabola through three points
+    ``_NEAR_STEP`` apart in ln p, its vertex evaluated (4 passes over the data where the
+    full search takes 23); at the range's ends (p = 0.1 and 8), the end itself where the
+    parabola's vertex lies beyond it. A lead whose vertex falls elsewhere outside the three
+    points is searched again about it (at most four steps on; :data:`_NEAR_ROUNDS` rounds,
+    each over the unsettled leads alone), and one still unsettled, or whose parabola does
+    not open upwards, in full. The least over p at one lead is then found as closely as
+    the full search finds it (one exponent a lead: the search assumes one valley in p, as
+    the full search's grid of 10 does between its points)."""
+    leads = np.geomspace(1e-3, 100.0, 40) * until
+    if near is None:
+        least, powers = _ffm_profile(time, slip, until)(leads)
+        return float(np.min(least)), powers
+    log_ratio = _log_ratio(time, until, leads)
+    h = _NEAR_STEP
+    low, high = math.log(_POWERS[0]), math.log(_POWERS[1])
+    least, powers = np.empty(leads.size), np.empty(leads.size)
+    done = np.zeros(leads.size, dtype=bool)
+    rows = np.arange(leads.size)
+    # three points about the exponent expected, moved inside the range (so that one of
+    # them lies at its end where the exponent does)
+    centre = np.clip(np.log(np.asarray(near, dtype=float)), low + h, high - h)
+    for _ in range(_NEAR_ROUNDS):
+        ratio, work = log_ratio[rows], np.empty((rows.size, time.size))
+
+        def rss(log_power, ratio=ratio, work=work, rows=rows):
+            return _ffm_rss(time, slip, until, leads[rows], np.exp(log_power), ratio, work)
+
+        f_lo, f_mid, f_hi = rss(centre - h), rss(centre), rss(centre + h)
+        curvature = f_lo - 2.0 * f_mid + f_hi
+        with np.errstate(divide="ignore", invalid="ignore"):
+            vertex = centre - 0.5 * h * (f_hi - f_lo) / curvature
+        upwards = curvature > 0
+        kept = upwards & (np.abs(vertex - centre) < h)
+        # a least at the range's end: the vertex beyond it, the end the lowest point
+        at_low = (centre - h <= low) & (f_lo < f_mid) & (f_mid < f_hi) & ~kept
+        at_high = (centre + h >= high) & (f_hi < f_mid) & (f_mid < f_lo) & ~kept
+        inside = np.where(kept, vertex, centre)
+        f_vertex = rss(inside)
+        better = f_vertex <= f_mid
+        found = np.where(at_low, f_lo, np.where(at_high, f_hi, np.where(better, f_vertex, f_mid)))
+        where = np.where(better, inside, centre)
+        where = np.where(at_low, low, np.where(at_high, high, where))
+        settled = kept | at_low | at_high
+        least[rows[settled]], powers[rows[settled]] = found[settled], np.exp(where[settled])
+        done[rows[settled]] = True
+        # the others: about their vertex, at most four steps on, where it opens upwards
+        moving = ~settled & upwards
+        centre = np.clip(np.clip(vertex, centre - 4 * h, centre + 4 * h), low + h, high - h)
+        centre, rows = centre[moving], rows[moving]
+        if not rows.size:
+            break
+    again = np.flatnonzero(~done)
+    if again.size:
+        least[again], powers[again] = _ffm_profile(time, slip, until)(leads[again])
+    return float(np.min(least)), powers
 
 
 def ffm_forecast(
