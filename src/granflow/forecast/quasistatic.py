@@ -233,10 +233,10 @@ class Warm:
         return out
 
     def near(self, size):
-        """The power law's exponents expected at each lead of the review (:func:`~granflow.
-        forecast.references.power_law_least`) of the record grown to ``size`` points: the
-        last ones moved on (in ln p) as they moved since the review before, in proportion
-        to the points added; None where there are none."""
+        """The power law's exponents expected at each lead of the review
+        (:func:`~granflow.forecast.references.power_law_least`) of the record grown to
+        ``size`` points: the last ones moved on (in ln p) as they moved since the review
+        before, in proportion to the points added; None where there are none."""
         if self.exponents is None:
             return None
         before = None if self.before is None else self.before[3]
