@@ -1,9 +1,10 @@
 """The optimisation of a rate-and-state fit: Levenberg-Marquardt from a ranked grid of starts.
 
-:func:`optimise` runs :func:`multistart` on the problem of :class:`granflow.fitting.
-rsf_problem.Setup`, numbers two states of one law by their Dc (:func:`in_order`) and adds the
-apparatus ripple where asked (:func:`granflow.fitting.rsf_problem.with_periodic`). Whether the
-end is the minimum is checked afterwards (:mod:`granflow.fitting.rsf_convergence`).
+:func:`optimise` runs :func:`multistart` on the problem of
+:class:`granflow.fitting.rsf_problem.Setup`, numbers two states of one law by their Dc
+(:func:`in_order`) and adds the apparatus ripple where asked
+(:func:`granflow.fitting.rsf_problem.with_periodic`). Whether the end is the minimum is
+checked afterwards (:mod:`granflow.fitting.rsf_convergence`).
 """
 
 import dataclasses

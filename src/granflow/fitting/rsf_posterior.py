@@ -1,5 +1,6 @@
-"""The likelihood of a rate-and-state fit (:meth:`granflow.fitting.rsf_result.RateStateFitResult.
-log_likelihood`), rebuilt from the result itself, for :func:`granflow.sample_posterior`.
+"""The likelihood of a rate-and-state fit
+(:meth:`granflow.fitting.rsf_result.RateStateFitResult.log_likelihood`), rebuilt from the
+result itself, for :func:`granflow.sample_posterior`.
 
 The likelihood is the fit's own: Gaussian with the fit's noise variance (the known sigma, or
 the reduced chi-square), multiplied by the residuals' correlation time when the fit was made

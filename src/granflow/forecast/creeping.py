@@ -1,6 +1,7 @@
 """The failure forecast of a creeping layer: the direct effect (:mod:`granflow.forecast.creep`)
-fitted to the slip before the cut (the engine's model :class:`~granflow.forecast.creep_model.
-CreepModel`), its strength and failure time profiled (:func:`forecast_creep`).
+fitted to the slip before the cut (the engine's model
+:class:`~granflow.forecast.creep_model.CreepModel`), its strength and failure time profiled
+(:func:`forecast_creep`).
 """
 
 from __future__ import annotations

@@ -57,9 +57,10 @@ class RunningForecast:
         As :func:`~granflow.forecast_failure` takes it (the creep forecast, re-fitted at each
         update).
     max_points : int, optional
-        Hold the record pooled in at most this many points (:class:`~granflow.forecast.
-        pooling.Pool`: equal runs of samples averaged, merged in pairs as it grows), so that
-        an update costs the same however long the record (a watch that runs all day).
+        Hold the record pooled in at most this many points
+        (:class:`~granflow.forecast.pooling.Pool`: equal runs of samples averaged, merged in
+        pairs as it grows), so that an update costs the same however long the record (a
+        watch that runs all day).
         Default None: every sample kept. The forecast is then the one-shot forecast of the
         pooled record (``t``, ``slip``, ``force``).
     warm_start : bool
