@@ -183,8 +183,9 @@ def reviewed(forecast, fit, time, slip, near=None):
     running forecast, whose next update passes the exponents back as ``near`` and so
     searches the power law about them (4 passes over the data, not 23). Where the gain
     found so comes within :data:`_NEAR_MARGIN` of :data:`POWER_LAW_GAIN`, the full search
-    decides, so that an update declines exactly where the one-shot forecast of the same
-    record does."""
+    decides, so that an update declines exactly where the full search would on the same
+    fit (a one-shot forecast of the same record declines alike where it reaches the same
+    fit)."""
     if not _REVIEWED.get():
         return forecast, None
     verdict = fit.check.verdict
