@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from granflow.fitting import _eq3_solver
+from granflow.fitting import _eq3_solver, descent
 from granflow.fitting.results import FrozenMap as FrozenMap  # re-exported for callers
 from granflow.model import kernel
 from granflow.model.special import compiled
@@ -72,34 +72,6 @@ class Model:
             np.ascontiguousarray(y, dtype=float),
             np.ascontiguousarray(w, dtype=float),
         )
-
-
-def _bounded_step(u, g, H, bounds):
-    """The Gauss-Newton step from ``u`` kept inside ``bounds`` ((k, 2), internal): a
-    parameter that the free step would push through its bound is held there (on it, or
-    moved onto it) and the step re-solved over the others. None where a system is
-    singular."""
-    free = np.ones(u.size, dtype=bool)
-    step = np.zeros(u.size)
-    for _ in range(u.size + 1):
-        index = np.flatnonzero(free)
-        if not index.size:
-            return step
-        held = ~free
-        rhs = -g[index] - H[np.ix_(index, held)] @ step[held]
-        try:
-            step[index] = np.linalg.solve(H[np.ix_(index, index)], rhs)
-        except np.linalg.LinAlgError:
-            return None
-        target = u + step
-        low, high = target < bounds[:, 0], target > bounds[:, 1]
-        outside = (low | high) & free
-        if not outside.any():
-            return step
-        step[low & free] = bounds[low & free, 0] - u[low & free]
-        step[high & free] = bounds[high & free, 1] - u[high & free]
-        free &= ~outside
-    return step
 
 
 @compiled
@@ -435,14 +407,22 @@ class Problem:
         chain = chain[: order_array.size]
         return cost, gradient[order_array] * chain, hessian[block] * np.outer(chain, chain)
 
-    def gauss_newton(self, u_start, order, pinned, tolerance, max_steps=4):
+    def gauss_newton(self, u_start, order, pinned, tolerance, max_steps=4, envelope=False):
         """Minimum of chi-square over ``order`` (``pinned`` held) next to ``u_start``.
 
         At most ``max_steps`` Gauss-Newton steps (it converges quadratically there), until a
         step's predicted decrease is below ``tolerance``. Returns (u, chi-square), with
         chi-square None when it did not get there (a singular or non-finite step).
+
+        With ``envelope``, returns (u, chi-square, slopes, response): the derivatives of
+        the minimum's chi-square with respect to the pinned coordinates (by the envelope
+        theorem, ``2 (g_p + H_po step)`` from the last pass, the step's linear model
+        carrying the gradient to the minimum) and how the minimum moves with them as
+        Gauss-Newton's model has it (``-H_oo^-1 H_op``, H = J^T J without the residuals'
+        curvature; one column per pinned coordinate), both internal; None where chi-square
+        is. The same passes: the pinned rows come with each pass's sums.
         """
-        if self._compiled:
+        if self._compiled and not envelope:
             full_order = np.array(list(order) + list(pinned), dtype=np.int64)
             start = np.concatenate([np.asarray(u_start, dtype=float), list(pinned.values())])
             u, chisqr, found = _eq3_solver.eq3_gauss_newton(
@@ -457,24 +437,7 @@ class Problem:
                 max_steps,
             )
             return u, (float(chisqr) if found else None)
-        bounds = np.array([self.parameters[i].internal_bounds() for i in order]).reshape(-1, 2)
-        u = np.clip(np.asarray(u_start, dtype=float), bounds[:, 0], bounds[:, 1])
-        previous = math.inf
-        for _ in range(max_steps):
-            cost, g, H = self.state(u, order, pinned)
-            if cost > previous:
-                break  # the quadratic model failed: a full step went uphill
-            previous = cost
-            step = _bounded_step(u, g, H, bounds)
-            if step is None:
-                break
-            decrease = -float(g @ step) - 0.5 * float(step @ H @ step)
-            if not (math.isfinite(cost) and decrease >= 0.0):
-                break
-            u = u + step
-            if decrease < tolerance:
-                return u, cost - decrease
-        return u, None
+        return descent.gauss_newton(self, u_start, order, pinned, tolerance, max_steps, envelope)
 
     def lm(self, u_start, order=None, pinned=None, max_iter=100, rtol=1e-10, damping=1e-2):
         """Levenberg-Marquardt on the normal equations (one fused kernel pass per step).

@@ -17,7 +17,7 @@ __all__ = ["BranchCurve"]
 
 #: Evaluations a :class:`BranchCurve` keeps whole (slip and Jacobian): a fit's state, its
 #: polish and the profile that starts there ask for the same point again.
-_CACHED = 4
+_CACHED = 8
 #: Curves (Eq. 3's parameters and the peak) it keeps per evaluated point, until cleared.
 _CURVES = 4096
 #: Projected evaluations whose x_peak and gradient it keeps, to read x_peak next to them.
@@ -137,13 +137,13 @@ class BranchCurve:
             return self._curves[key]
         return self(values)[2]
 
-    def peak_at(self, values):
+    def peak_at(self, values, near=1e-3):
         """The curve at ``values`` as :meth:`found` gives it, but where ``values`` lies next
-        to a projected evaluation (every slot within 1e-3 of it, relative, or absolute
+        to a projected evaluation (every slot within ``near`` of it, relative, or absolute
         below 1: a profile's point, one Gauss-Newton step from its last evaluation), x_peak
-        from that evaluation's x* and its gradient (first order: off by about 1e-6 of it),
-        and without ``project`` from the slots alone: for reporting x_peak over many
-        points (the slip's interval), not for fitting."""
+        from that evaluation's x* and its gradient (first order: off by about 1e-6 of it
+        within 1e-3, 3e-5 within 3e-2), and without ``project`` from the slots alone: for
+        reporting x_peak over many points (the slip's interval), not for fitting."""
         values = np.asarray(values, dtype=float)
         key = values.tobytes()
         if key in self._curves:
@@ -154,7 +154,7 @@ class BranchCurve:
             return curve if curve is not None else self(values)[2]
         for recent, scale, gradient in reversed(self._recent):
             size = np.maximum(np.maximum(np.abs(recent), np.abs(values)), 1.0)
-            if np.all(np.abs(values - recent) <= 1e-3 * size):
+            if np.all(np.abs(values - recent) <= near * size):
                 peak_slip = scale + float(gradient @ (values - recent))
                 if peak_slip > 0:
                     unit = _curve(peak_force, values[1], values[2], 1.0)

@@ -29,6 +29,7 @@ __all__ = ["Estimate", "distribution_of", "estimate", "heights", "scan", "with_p
 _SHAPE = 4  # the peak coordinates
 _PRECISION = 1e-3  # of chi-square, for the fit's stopping rule
 _ROOT_PRECISION = 1e-4  # of a profile end's signed root
+_POLISH = 1e-15  # of chi-square: the polished optimum's stopping rule
 #: Starts always solved: the curve's branches (a deep overshoot or a shallow one, F_peak
 #: near Fd) can each fit a record to its noise, the better by tens of chi-square.
 _LEAST = 4
@@ -259,12 +260,20 @@ def _second_stage(build, sigma, first_values, warm, rtol):
     """``(values, chisqr, steps)``: the whole problem at noise ``sigma`` solved from the
     first stage's optimum; where ``warm``, from the previous estimate's optimum instead, and
     from the first stage's too where that one does worse."""
-    start = first_values if warm is None else np.asarray(warm[1], dtype=float)
+    start = first_values
+    if warm is not None:
+        # the previous optimum, moved as the first stage's moved from the previous one's
+        before = np.asarray(warm[1], dtype=float)
+        start = before + (first_values - np.asarray(warm[0], dtype=float))
+        # a slot that would change sign keeps its previous value (a log slot stays positive)
+        start = np.where(np.isfinite(start) & (np.sign(start) == np.sign(before)), start, before)
     problem = build(sigma, start)
     if warm is None:
         values, chisqr, _, steps = _solve_at(problem, start, rtol)
     else:
-        u, chisqr, steps = _descend(problem, problem.internal(start), rtol)
+        # Gauss-Newton converges quadratically from the last optimum: carried on to the
+        # polish's precision, it leaves the polish one pass (the Hessian's) to make
+        u, chisqr, steps = _descend(problem, problem.internal(start), _POLISH)
         values = problem.values(u)
     if warm is not None and not chisqr <= problem.chisqr(
         problem.values(problem.internal(first_values))
@@ -282,7 +291,7 @@ def _polished(build, sigma, values, chisqr):
     converges quadratically there), then the problem rebuilt about it: what follows depends
     on the optimum, not on the path to it."""
     problem = build(sigma, values)
-    u, polished, *_ = problem.lm(problem.internal(values), max_iter=50, rtol=1e-15)
+    u, polished, *_ = problem.lm(problem.internal(values), max_iter=50, rtol=_POLISH)
     if polished <= chisqr and np.all(np.isfinite(u)):
         values = problem.values(u)
         problem = build(sigma, values)
@@ -363,14 +372,17 @@ def scan(
     hints=None,
     precision=None,
     others=None,
+    hint_offsets=None,
 ):
     """The profile of slot ``index`` of ``fit`` (or of ``problem`` at ``values``, the same
     likelihood in other coordinates) and its :class:`Distribution` (q = ``offset`` +
     the slot's value). ``starts(value)`` gives more starts for a conditional minimum, and
     ``hints`` (a previous scan's ends, as values of q) where each end is sought first (see
-    :func:`~granflow.fitting.profile.profile_scan`). The ends are found to ``precision`` of
-    the signed root (default 1e-4, so that a scan warm-started from a previous one's ends
-    reaches the same ends as one from nothing).
+    :func:`~granflow.fitting.profile.profile_scan`), ``hint_offsets`` (a previous scan's
+    :attr:`~granflow.fitting.profile.Profile.end_offsets`) where the others start there,
+    and with hints the ends are reached by Newton's steps on the profile's own slope. The
+    ends are found to ``precision`` of the signed root (default 1e-4, so that a scan
+    warm-started from a previous one's ends reaches the same ends as one from nothing).
 
     ``others`` (default the fit's :attr:`Estimate.others`, in ``problem``'s slots): the
     likelihood's other minima. A scan follows one valley, so each other minimum that lies
@@ -399,7 +411,7 @@ def scan(
             side: [_internal(parameter, q - offset) for q in ends] for side, ends in hints.items()
         }
 
-    def valley(at, at_hessian, at_hints=None):
+    def valley(at, at_hessian, at_hints=None, at_offsets=None):
         """The profile scan of the valley whose bottom is ``at``."""
         return profile_scan(
             problem,
@@ -416,9 +428,11 @@ def scan(
             precision=precision,
             hints=at_hints,
             damped=True,
+            newton=bool(at_hints),
+            hint_offsets=at_offsets,
         )
 
-    profile = valley(values, hessian, internal_hints)
+    profile = valley(values, hessian, internal_hints, hint_offsets)
     if others is None:
         others = fit.others if problem is fit.problem else ()
     for other in others:
@@ -493,11 +507,16 @@ def _joined(profile, valley, delta):
     side = 1 if valley.optimum.u > profile.optimum.u else -1
     ends = {key: list(value) for key, value in profile.ends.items()}
     reached = {key: list(value) for key, value in profile.reached.items()}
+    end_offsets = {key: list(value) for key, value in (profile.end_offsets or {}).items()}
     for k, (mine, theirs) in enumerate(zip(ends[side], valley.ends[side], strict=False)):
         if (theirs - mine) * side > 0 or not math.isfinite(mine):
             ends[side][k] = theirs
             reached[side][k] = valley.reached[side][k]
-    return dataclasses.replace(profile, points=points, ends=ends, reached=reached)
+            if side in end_offsets and valley.end_offsets is not None:
+                end_offsets[side][k] = valley.end_offsets[side][k]
+    return dataclasses.replace(
+        profile, points=points, ends=ends, reached=reached, end_offsets=end_offsets or None
+    )
 
 
 def _internal(parameter, value):

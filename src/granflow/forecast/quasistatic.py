@@ -47,6 +47,7 @@ _RATIOS = (0.3, 0.7, 0.9, 0.98, 0.995)
 _INITIAL_STATES = (1e-3, 1e-2, 1e-1)
 _PEAK_FACTORS = (1.05, 1.3, 2.0)
 _RANKED = 256  # groups used to scale the starts
+_NEWTON_REACH = 3e-2  # relative: a running scan's end from its last evaluation, for x_peak
 #: The trend test's p-value above which the record says nothing yet.
 NO_TREND = 0.01
 
@@ -204,6 +205,29 @@ class Warm:
     exponents: np.ndarray | None = None
     size: int = 0
     before: tuple | None = None
+    starts: dict | None = None
+    floor: float = math.nan
+
+    def moved(self, floor):
+        """``(first, values, others)``: the two optima as starts for the record grown, whose
+        largest held force is now ``floor`` [N] (the gap slot, F_peak less the floor, less
+        what the floor rose: F_peak staying put, where the gap stays positive), and the other
+        minima as they were (each is solved again from there, and lands where it lands)."""
+        rise = floor - self.floor if math.isfinite(self.floor) else 0.0
+
+        def shifted(slots):
+            out = np.array(slots, dtype=float)
+            if out[0] - rise > 0:
+                out[0] -= rise
+            return out
+
+        return shifted(self.first), shifted(self.values), self.others
+
+    def offsets(self, which):
+        """Where the others start at each hint of the profile ``which`` (``"force_ends"`` or
+        ``"time_ends"``): its :attr:`~granflow.fitting.profile.Profile.end_offsets` (None
+        where unknown)."""
+        return (self.starts or {}).get(which)
 
     def hints(self, size, which, floor, gap):
         """The ends ``which`` (``"force_ends"`` or ``"time_ends"``) where the scans of the
@@ -287,7 +311,7 @@ def _branch(time, slip_cut, loading, prior, sigma, tries=None, warm=None):
         rough=_inputs.rough_noise(slip_cut),
         nuisance=shape,
         tries=tries,
-        warm=None if warm is None else (warm.first, warm.values, warm.others),
+        warm=None if warm is None else warm.moved(floor),
         branch=1,
     )
     return fit, build, groups, floor, continuation, shape
@@ -332,7 +356,10 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         )
         forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=floor)
         forecast, exponents = reviewed(forecast, fit, time, slip_cut, near=near)
-        return forecast, Warm(layout, fit.first, values, {}, {}, fit.others, exponents, time.size)
+        left = Warm(
+            layout, fit.first, values, {}, {}, fit.others, exponents, time.size, floor=floor
+        )
+        return forecast, left
 
     def shapes(gap):
         """More starts at a gap (the shape grid, the nuisance at its optimum)."""
@@ -349,6 +376,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         offset=floor,
         starts=shapes,
         hints=None if warm is None else warm.hints(time.size, "force_ends", floor, values[0]),
+        hint_offsets=None if warm is None else warm.offsets("force_ends"),
     )
 
     # the time: the same likelihood with P (the fitted history's force at failure) for F_peak
@@ -369,6 +397,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         values=timed,
         starts=shapes,
         hints=None if warm is None else warm.hints(time.size, "time_ends", floor, timed[0]),
+        hint_offsets=None if warm is None else warm.offsets("time_ends"),
         others=[timed_slots(other) for other in fit.others],
     )
     # one likelihood, two profiles: each takes the other's points (its conditional fits can
@@ -397,9 +426,12 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     best = curve.found(values)
     params = None if best is None else Params(*best[0])
     slips = [] if best is None else [best[1][1] - params.x0]
-    for point in scanned:  # the strength's own points (the time's would each cost a pass)
+    # the strength's own points (the time's would each cost a pass); a running forecast's
+    # scans end on points a Newton step from their last evaluation (see profile_scan)
+    reach = _NEWTON_REACH if warm is not None else 1e-3
+    for point in scanned:
         if force_interval[0] <= floor + point.value <= force_interval[1]:
-            found = curve.peak_at(point.values)
+            found = curve.peak_at(point.values, reach)
             if found is not None:
                 slips.append(found[1][1] - found[0][3])
     slip_interval = (min(slips), max(slips)) if slips else _NAN_PAIR
@@ -439,6 +471,8 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
         exponents,
         time.size,
         None if warm is None else (warm.size, warm.force_ends, warm.time_ends, warm.exponents),
+        {"force_ends": force_profile.end_offsets, "time_ends": time_profile.end_offsets},
+        floor,
     )
     return forecast, left
 
