@@ -13,7 +13,9 @@ __all__ = ["Conditional", "ProfilePoint", "search_side"]
 
 _LARGEST_MOVE = 2.0  # of the others' predicted move per point, in the optimiser's coordinates
 _UNDERCUT = 0.01  # in variance units: a conditional minimum this far above a known point failed
-_NEWTON_TOLERANCE = 1e-3  # of the variance: a conditional minimum a Newton step ends from
+_NEWTON_TOLERANCE = 5e-3  # of the variance: where a conditional minimum a Newton step may end
+# from stops (Gauss-Newton's model of a forecast's likelihood predicts gains of 2e-3 and
+# less no better than the rounding of chi-square: its steps go uphill there)
 _NEWTON_REACH = 0.1  # of sqrt(delta): the farthest a target may lie from such a point
 _NEWTON_BEND = 5.0  # of the precision: the largest curvature term such a step may carry
 
@@ -125,9 +127,15 @@ class Conditional:
         tolerance = 0.02 * self.variance
         self.last = None
         if self.newton:
-            # a point Newton's step may end the search from: its delta to 1e-4 or better
+            # a point Newton's step may end the search from: its delta closer than the
+            # secant search's points need
             u_found, chisqr, slopes, response = problem.gauss_newton(
-                predicted, self.others, pinned, _NEWTON_TOLERANCE * self.variance, envelope=True
+                predicted,
+                self.others,
+                pinned,
+                _NEWTON_TOLERANCE * self.variance,
+                max_steps=6,
+                envelope=True,
             )
             if chisqr is not None:
                 self.last = (float(slopes[0]) / self.variance, response[:, 0])
