@@ -178,18 +178,8 @@ def profile_scan(
     -------
     Profile
     """
-    conditional = Conditional(
-        problem,
-        values,
-        index,
-        variance,
-        chisqr_min,
-        internal_hessian,
-        tolerance,
-        starts,
-        damped,
-        newton,
-    )
+    solved = (problem, values, index, variance, chisqr_min, internal_hessian, tolerance)
+    conditional = Conditional(*solved, starts, damped, newton)
     record = []
     ends, reached, end_offsets = {}, {}, {}
     step = max(wald_halfwidth_u, 1e-8)
