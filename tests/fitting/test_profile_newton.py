@@ -173,3 +173,40 @@ def test_newton_without_hints_is_the_secant_search():
         for k, target in enumerate(TARGETS):
             assert height(newton.ends[side][k]) == pytest.approx(target, abs=1e-4)
             assert newton.ends[side][k] == pytest.approx(ends[side][k], abs=1e-3)
+
+
+@pytest.mark.parametrize(("factor", "gap"), [(0.8, None), (2.0, None), (1.0, 1e-4), (1.0, 1e-6)])
+def test_newton_reaches_every_end_from_poor_hints(factor, gap):
+    """Hints short of the ends, twice as far, or the second target's a hair past the first
+    end (so that its first step is tiny): every end is still reached, within 1e-4 of its
+    target by the independent profile, the steps widening where Newton's root lies beyond
+    them."""
+    x, y, problem, values, chisqr = _solved(5)
+    ends, height = _true_ends(x, y, problem, values, chisqr)
+    u_hat = problem.parameters[1].to_internal(values[1])
+    if gap is None:
+        hints = {side: [u_hat + factor * (e - u_hat) for e in ends[side]] for side in ends}
+    else:
+        hints = {side: [ends[side][0], ends[side][0] + side * gap] for side in ends}
+    options = dict(variance=1.0, check=True, tolerance=1e-4, precision=1e-4, damped=True)
+    scan = profile_scan(
+        problem, values, 1, chisqr, TARGETS, 0.05, newton=True, hints=hints, **options
+    )
+    for side in (-1, 1):
+        for k, target in enumerate(TARGETS):
+            assert scan.reached[side][k]
+            assert height(scan.ends[side][k]) == pytest.approx(target, abs=1e-4)
+
+
+def test_a_newton_end_stays_inside_the_parameters_bound():
+    """An upper bound on the rate just inside the profile's upper end: the search ends at
+    the bound, not reached, as the secant search does; no point lies beyond it."""
+    x, y, problem, values, chisqr = _solved(1)
+    ends, _ = _true_ends(x, y, problem, values, chisqr)
+    rate = problem.parameters[1]
+    rate.upper = rate.from_internal(ends[1][1] - 5e-6)
+    hints = {side: [e + side * 0.03 * abs(e) for e in ends[side]] for side in ends}
+    options = dict(variance=1.0, check=True, tolerance=1e-4, precision=1e-4, hints=hints)
+    scan = profile_scan(problem, values, 1, chisqr, TARGETS, 0.05, newton=True, **options)
+    assert scan.reached[1][0] and not scan.reached[1][1]
+    assert max(point.u for point in scan.points) <= rate.internal_bounds()[1] + 1e-15

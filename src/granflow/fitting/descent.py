@@ -77,11 +77,13 @@ def gauss_newton(problem, u_start, order, pinned, tolerance, max_steps=4, envelo
         if decrease < tolerance:
             if not envelope:
                 return u, cost - decrease
+            # g is half chi-square's gradient: the step's model lowers chi-square by twice
+            # ``decrease`` (the path above, older, keeps its own reading)
             # the gradient carried to the minimum by the step's linear model
             slopes = 2.0 * (gradient[k:] + hessian[k:, :k] @ step)
             try:
                 response = -np.linalg.solve(H, hessian[:k, k:])
             except np.linalg.LinAlgError:
                 response = np.full((k, len(pinned)), np.nan)
-            return u, cost - decrease, slopes, response
+            return u, cost - 2.0 * decrease, slopes, response
     return (u, None, None, None) if envelope else (u, None)

@@ -365,6 +365,7 @@ def search_side(
                     abs(value) <= _NEWTON_REACH
                     and abs(bend) <= _NEWTON_BEND * precision
                     and (u + move - origin[0]) * direction > 0
+                    and (limit - (u + move)) * direction > 0
                 ):
                     # the step's quadratic model lands on the target far closer than the
                     # precision: the end, the others moved by Gauss-Newton's response
@@ -374,8 +375,9 @@ def search_side(
                     record.append(conditional.point(end, target * target, u_others))
                     origin_slope = here + 2.0 * bend / move if move else here
                     break
-                proposal = u + move
-                proposal = min(max(proposal, u - 4 * step), u + 4 * step)
+                if abs(move) > 4 * step:
+                    step *= 4.0  # the root lies further than the steps reach: widen them
+                proposal = min(max(u + move, u - 4 * step), u + 4 * step)
                 if (proposal - origin[0]) * direction <= 0:
                     proposal = origin[0] + 0.5 * (u - origin[0])
                 u = proposal

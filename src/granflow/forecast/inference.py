@@ -512,8 +512,9 @@ def _joined(profile, valley, delta):
         if (theirs - mine) * side > 0 or not math.isfinite(mine):
             ends[side][k] = theirs
             reached[side][k] = valley.reached[side][k]
-            if side in end_offsets and valley.end_offsets is not None:
-                end_offsets[side][k] = valley.end_offsets[side][k]
+            if side in end_offsets:
+                # measured from the other valley's bottom, not the optimum's: no start
+                end_offsets[side][k] = None
     return dataclasses.replace(
         profile, points=points, ends=ends, reached=reached, end_offsets=end_offsets or None
     )
