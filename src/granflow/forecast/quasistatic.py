@@ -47,7 +47,7 @@ _RATIOS = (0.3, 0.7, 0.9, 0.98, 0.995)
 _INITIAL_STATES = (1e-3, 1e-2, 1e-1)
 _PEAK_FACTORS = (1.05, 1.3, 2.0)
 _RANKED = 256  # groups used to scale the starts
-_NEWTON_REACH = 3e-2  # relative: a running scan's end from its last evaluation, for x_peak
+_RUNNING_PEAK_REACH = 3e-2  # relative: a running scan's end from its last evaluation, for x_peak
 #: The trend test's p-value above which the record says nothing yet.
 NO_TREND = 0.01
 
@@ -194,7 +194,10 @@ class Warm:
     optimum); the power law's exponents at its leads (the review's, ``exponents``); the
     number of points it saw (``size``) and what the forecast before it left (``before``:
     ``(size, force_ends, time_ends, exponents)``), from which the next scans' hints and
-    the next review's expected exponents are drawn."""
+    the next review's expected exponents are drawn; each profile's
+    :attr:`~granflow.fitting.profile.Profile.end_offsets` (``starts``, by ``"force_ends"``
+    and ``"time_ends"``), where the next scans' others start; and the largest force the
+    record held (``floor`` [N]), by which the next fit's gap slot moves."""
 
     layout: tuple
     first: np.ndarray
@@ -428,7 +431,7 @@ def quasi_static(time, slip_cut, loading, until, level, prior, sigma, observed, 
     slips = [] if best is None else [best[1][1] - params.x0]
     # the strength's own points (the time's would each cost a pass); a running forecast's
     # scans end on points a Newton step from their last evaluation (see profile_scan)
-    reach = _NEWTON_REACH if warm is not None else 1e-3
+    reach = _RUNNING_PEAK_REACH if warm is not None else 1e-3
     for point in scanned:
         if force_interval[0] <= floor + point.value <= force_interval[1]:
             found = curve.peak_at(point.values, reach)
