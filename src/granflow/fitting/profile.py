@@ -17,6 +17,7 @@ from scipy.stats import chi2 as chi2_distribution
 PROFILE_LEVEL = float(chi2_distribution.ppf(0.95, 1))  # 3.841...
 _LARGEST_MOVE = 2.0  # of the others' predicted move per point, in the optimiser's coordinates
 _UNDERCUT = 0.01  # in variance units: a conditional minimum this far above a known point failed
+_FOUND = 12  # the last points found whose others a thorough profile restarts from
 
 
 def covariance(problem, values, variance, internal_hessian=None):
@@ -130,8 +131,11 @@ class _Conditional:
         tolerance,
         starts,
         damped=False,
+        thorough=False,
     ):
         self.problem, self.index, self.starts, self.damped = problem, index, starts, damped
+        self.thorough = thorough
+        self.found = []  # the others at each conditional minimum found so far (internal)
         # Levenberg-Marquardt's relative tolerance: 1e-9, or what a precision ``tolerance`` of
         # delta (in variance units) asks of chi-square
         self.rtol = 1e-9
@@ -179,7 +183,9 @@ class _Conditional:
         next to the last point) is checked from three starts, the prediction, the previous
         point's others unmoved and the optimum's (and the caller's own starts, where it has
         any), and the lowest is kept: a warm start can follow a poor branch, and a profile is
-        a minimum."""
+        a minimum. A thorough conditional also solves a point past half ``height`` (where
+        the ends are sought) from the best-ranked of the caller's starts and of the last
+        points' others (:meth:`_polished`)."""
         problem, index = self.problem, self.index
         pinned = {index: u}
         if not self.others:
@@ -226,6 +232,8 @@ class _Conditional:
                     u_found, delta = candidate, self._delta(found)
         if delta > 2.0 * height + 4.0:
             candidates = [predicted, u_others_start, self.u_others_hat, *self._restarts(u)]
+            if self.thorough:
+                candidates += self.found[-_FOUND:]
             for rank, start in enumerate(self._ranked(u, candidates)[:2]):
                 candidate, found, *_ = problem.lm(
                     start, self.others, pinned, max_iter=30, rtol=self.rtol
@@ -235,9 +243,26 @@ class _Conditional:
                     u_found, delta = candidate, self._delta(found)
                 if rank == 0 and not gain > 1.0:
                     break  # the best-ranked start finds no other branch: a true rise
+        elif self.thorough and delta > 0.5 * height:
+            u_found, delta = self._polished(u, pinned, u_found, delta)
         if not math.isfinite(delta):
             return math.inf, u_others_start
+        self.found.append(u_found)
         return delta, u_found
+
+    def _polished(self, u, pinned, u_found, delta):
+        """The lower of the conditional minimum ``(u_found, delta)`` at ``u`` (delta in
+        variance units) and the one Levenberg-Marquardt finds from the best-ranked of the
+        caller's starts and the others of the last points found (another branch, which the
+        warm start did not follow, a neighbour may have found)."""
+        candidates = [*self._restarts(u), *self.found[-_FOUND:]]
+        for start in self._ranked(u, candidates)[:1]:
+            candidate, found, *_ = self.problem.lm(
+                start, self.others, pinned, max_iter=30, rtol=self.rtol
+            )
+            if self._delta(found) < delta:
+                u_found, delta = candidate, self._delta(found)
+        return u_found, delta
 
     def _restarts(self, u):
         """The caller's own starts at ``u`` (``starts(value) -> global values``) as internal
@@ -391,6 +416,7 @@ def profile_scan(
     precision=2e-2,
     hints=None,
     damped=False,
+    thorough=False,
 ):
     """Scan the profile likelihood of the global parameter ``index`` (free) on both sides of
     the optimum ``values`` to the heights ``targets`` of sqrt(delta chi-square / variance).
@@ -439,7 +465,16 @@ def profile_scan(
     Profile
     """
     conditional = _Conditional(
-        problem, values, index, variance, chisqr_min, internal_hessian, tolerance, starts, damped
+        problem,
+        values,
+        index,
+        variance,
+        chisqr_min,
+        internal_hessian,
+        tolerance,
+        starts,
+        damped,
+        thorough,
     )
     record = []
     ends, reached = {}, {}

@@ -55,6 +55,7 @@ from granflow.forecast.models import NUISANCE_BOUND, S0_RANGE, Penalty, ratio_pa
 from granflow.model.params import Params
 
 __all__ = [
+    "EDGE_BOUND",
     "STEP",
     "CreepModel",
     "CreepState",
@@ -69,6 +70,7 @@ _PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 d sampling intervals lon
 _CONTINUED_STEPS = 400
 _PEAK = FIT_RISING.size - 1  # the unit curve's node at its peak (x = 1)
 STEP = 1e-7  # forward differences: relative in log slots, absolute in linear ones
+EDGE_BOUND = 10.0  # the edges' offset and stretch slots (e, d) lie within +-10
 
 
 @dataclass(frozen=True)
@@ -281,6 +283,18 @@ class CreepModel:
             shift = (_EDGE_SCALE * slots["e"] * window, _PERIOD_SCALE * slots["d"] * window)
         ceiling = max(self.ceiling, peak_force + 40.0 * amplitude)
         return history_with_error(self.loading, self.root, z, ceiling, shift, self.edges)
+
+    def edges_at(self, values):
+        """A staircase's edges [s] at the slot ``values``: the record's, moved by (e, d) and
+        the nuisance, and the continued ones (empty for a ramp)."""
+        if not self.staircase:
+            return np.zeros(0)
+        slots = self.unpack(values)
+        return self.history(slots, slots["peak_force"], slots["amplitude"]).starts[1:]
+
+    def edge_slot(self, seconds):
+        """The offset slot e that moves every edge ``seconds`` [s] later."""
+        return seconds / (_EDGE_SCALE * self.window) if self.window > 0 else 0.0
 
     def _history(self, slots):
         """(history, pieces, S at the record's times) of the slots; the last few kept by
@@ -512,7 +526,9 @@ def creep_problem(model, sigma, values, prior=None):
             parameter = GlobalParameter(name, float(value), log=False, lower=-held, upper=held)
             parameter.scale = 1e-3 * held
         elif name in ("e", "d"):
-            parameter = GlobalParameter(name, float(value), log=False, lower=-10.0, upper=10.0)
+            parameter = GlobalParameter(
+                name, float(value), log=False, lower=-EDGE_BOUND, upper=EDGE_BOUND
+            )
             parameter.scale = 1.0
         else:
             parameter = GlobalParameter(

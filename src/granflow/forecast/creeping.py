@@ -13,7 +13,7 @@ import numpy as np
 
 from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
-from granflow.forecast.creep_model import CreepModel, creep_problem
+from granflow.forecast.creep_model import EDGE_BOUND, CreepModel, creep_problem
 from granflow.forecast.inference import distribution_of, estimate, scan, with_points
 from granflow.forecast.quasistatic import (
     NO_TREND,
@@ -34,6 +34,7 @@ _NO_FAILURE = 20.0  # a strength this many times the largest force held: no fail
 _PROFILE_RATIOS = (0.1, 0.3, 0.5, 0.8)  # the profiles' restarts' shapes (see _profile_starts)
 _PROFILE_PEAKS = (0.5, 0.7, 1.0, 1.5, 3.0)  # F_peak over the best fit's, in the time's restarts
 _PROFILE_AMPLITUDE = 0.01  # A over F_peak, beside the best fit's, in the restarts
+_PROFILE_EDGES = (-5.0, 0.0, 5.0)  # the edges' offset and stretch slots in the time's restarts
 _PRECISION = 2e-3  # of the profiles' ends' signed roots (not followed live: no need of 1e-4)
 
 
@@ -70,7 +71,13 @@ def _profile_starts(model, best, peak_force):
     parameters in Eq. 3 give that shape: a flat penalty) the warm start is stranded, while
     the record may well allow the value on another branch (a strength a creeping record
     does not yet bound: the profile flat far above the best fit), so that the profile
-    would read a wall where there is none."""
+    would read a wall where there is none.
+
+    A staircase's timed variant also starts the best fit from a grid of the edges' offset
+    and stretch (e, d), and from the offset that keeps the failure where the best fit has
+    it relative to the edge it fails after: a creeping layer slips fastest just after each
+    edge, so that a failure time pinned across an edge from the best fit's calls for
+    other edges (and shape), which a warm start carrying the best fit's does not reach."""
     names = model.names
     fraction = best["amplitude"] / best["peak_force"]
     shapes = [(best["ratio"], best["s0"])]
@@ -78,6 +85,12 @@ def _profile_starts(model, best, peak_force):
     fractions = (None,) if model.fixed is not None else (fraction, _PROFILE_AMPLITUDE)
     forces = (None,) if not model.timed else tuple(peak_force * f for f in _PROFILE_PEAKS)
     pinned = names[model.profiled]
+    edged = model.timed and model.staircase
+    if edged:
+        edges = model.edges_at(np.array([best[name] for name in names]))
+        failure = model.until + best[pinned]
+        after = edges[edges <= failure]
+        phase = failure - after[-1] if after.size else 0.0
 
     def starts(value):
         out = []
@@ -94,6 +107,18 @@ def _profile_starts(model, best, peak_force):
                     if share is not None:
                         slots["amplitude"] = share * slots["peak_force"]
                     out.append([slots[name] for name in names])
+        if edged:
+            shifts = [(e, d) for e in _PROFILE_EDGES for d in _PROFILE_EDGES]
+            if edges.size:
+                # the smallest move of the edges that puts one ``phase`` before the failure
+                lateness = model.until + value - phase - edges
+                shift = float(lateness[np.argmin(np.abs(lateness))])
+                shifts.append((best["e"] + model.edge_slot(shift), best["d"]))
+            for e, d in shifts:
+                slots = dict(best)
+                slots.update(e=min(max(e, -EDGE_BOUND), EDGE_BOUND), d=d)
+                slots[pinned] = value
+                out.append([slots[name] for name in names])
         return out
 
     return starts
@@ -155,6 +180,9 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     values["gap"] = max(state.failure_time - until, 1e-9)
     timed_values = np.array([values[name] for name in timed.names])
     time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
+    # thorough: near a step's edge the conditional minima with t_f pinned lie on other
+    # branches (the edges' offset and stretch, the shape) than the warm starts follow, at
+    # heights short of a jump; each point near the ends is also solved from the restarts
     time_profile, timing = scan(
         fit,
         timed.profiled,
@@ -164,6 +192,7 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         values=timed_values,
         precision=_PRECISION,
         starts=_profile_starts(timed, values, state.peak_force),
+        thorough=True,
     )
     # one likelihood, two profiles: the time's takes the strength's points that undercut it
     # (the same curve with v_ref set by the failure time it gives: the same chi-square)

@@ -363,6 +363,7 @@ def scan(
     hints=None,
     precision=None,
     others=None,
+    thorough=False,
 ):
     """The profile of slot ``index`` of ``fit`` (or of ``problem`` at ``values``, the same
     likelihood in other coordinates) and its :class:`Distribution` (q = ``offset`` +
@@ -370,7 +371,9 @@ def scan(
     ``hints`` (a previous scan's ends, as values of q) where each end is sought first (see
     :func:`~granflow.fitting.profile.profile_scan`). The ends are found to ``precision`` of
     the signed root (default 1e-4, so that a scan warm-started from a previous one's ends
-    reaches the same ends as one from nothing).
+    reaches the same ends as one from nothing). ``thorough`` solves every point near the
+    ends from the best-ranked of ``starts`` and of the points before it as well (for
+    likelihoods whose branches the warm starts miss short of a jump).
 
     ``others`` (default the fit's :attr:`Estimate.others`, in ``problem``'s slots): the
     likelihood's other minima. A scan follows one valley, so each other minimum that lies
@@ -416,6 +419,7 @@ def scan(
             precision=precision,
             hints=at_hints,
             damped=True,
+            thorough=thorough,
         )
 
     profile = valley(values, hessian, internal_hints)
