@@ -119,6 +119,7 @@ def profile_scan(
     damped=False,
     newton=False,
     hint_offsets=None,
+    thorough=False,
 ):
     """Scan the profile likelihood of the global parameter ``index`` (free) on both sides of
     the optimum ``values`` to the heights ``targets`` of sqrt(delta chi-square / variance).
@@ -173,13 +174,18 @@ def profile_scan(
         moved by Gauss-Newton's response (the model's curvature term there within 5 times
         the precision). Fewer conditional minima where good hints put the first point
         near the end (a running forecast); the default is the secant search.
+    thorough : bool
+        Also solve each point past half its target height (where the ends are sought) from
+        the best-ranked of ``starts`` and of the last points' others, and restart a jump
+        from those points too (for likelihoods whose other branches the warm starts miss
+        short of a jump: a creeping staircase's failure time pinned across a step's edge).
 
     Returns
     -------
     Profile
     """
     solved = (problem, values, index, variance, chisqr_min, internal_hessian, tolerance)
-    conditional = Conditional(*solved, starts, damped, newton)
+    conditional = Conditional(*solved, starts, damped, newton, thorough)
     record = []
     ends, reached, end_offsets = {}, {}, {}
     step = max(wald_halfwidth_u, 1e-8)

@@ -18,6 +18,7 @@ _NEWTON_TOLERANCE = 5e-3  # of the variance: where a conditional minimum a Newto
 # less no better than the rounding of chi-square: its steps go uphill there)
 _NEWTON_REACH = 0.1  # of sqrt(delta): the farthest a target may lie from such a point
 _NEWTON_BEND = 5.0  # of the precision: the largest curvature term such a step may carry
+_FOUND = 12  # the last points found whose others a thorough profile restarts from
 
 
 @dataclass(frozen=True)
@@ -58,9 +59,11 @@ class Conditional:
         starts,
         damped=False,
         newton=False,
+        thorough=False,
     ):
         self.problem, self.index, self.starts, self.damped = problem, index, starts, damped
-        self.newton = newton
+        self.newton, self.thorough = newton, thorough
+        self.found = []  # the others at each conditional minimum found so far (internal)
         # the last conditional minimum's d delta / du and d u_others / du (``newton``), or
         # None where it came otherwise than by the envelope's Gauss-Newton
         self.last = None
@@ -111,7 +114,9 @@ class Conditional:
         next to the last point) is checked from three starts, the prediction, the previous
         point's others unmoved and the optimum's (and the caller's own starts, where it has
         any), and the lowest is kept: a warm start can follow a poor branch, and a profile is
-        a minimum."""
+        a minimum. A ``thorough`` conditional also solves a point past half ``height`` (where
+        the ends are sought) from the best-ranked of the caller's starts and of the last
+        points' others (:meth:`_polished`), and restarts a jump from those points too."""
         problem, index = self.problem, self.index
         pinned = {index: u}
         if not self.others:
@@ -170,6 +175,8 @@ class Conditional:
                     u_found, delta = candidate, self._delta(found)
         if delta > 2.0 * height + 4.0:
             candidates = [predicted, u_others_start, self.u_others_hat, *self._restarts(u)]
+            if self.thorough:
+                candidates += self.found[-_FOUND:]
             for rank, start in enumerate(self._ranked(u, candidates)[:2]):
                 candidate, found, *_ = problem.lm(
                     start, self.others, pinned, max_iter=30, rtol=self.rtol
@@ -180,9 +187,28 @@ class Conditional:
                     self.last = None
                 if rank == 0 and not gain > 1.0:
                     break  # the best-ranked start finds no other branch: a true rise
+        elif self.thorough and delta > 0.5 * height:
+            u_found, delta = self._polished(u, pinned, u_found, delta)
         if not math.isfinite(delta):
             return math.inf, u_others_start
+        if self.thorough:
+            self.found.append(u_found)
         return delta, u_found
+
+    def _polished(self, u, pinned, u_found, delta):
+        """The lower of the conditional minimum ``(u_found, delta)`` at ``u`` (delta in
+        variance units) and the one Levenberg-Marquardt finds from the best-ranked of the
+        caller's starts and the others of the last points found (another branch, which the
+        warm start did not follow, a neighbour may have found)."""
+        candidates = [*self._restarts(u), *self.found[-_FOUND:]]
+        for start in self._ranked(u, candidates)[:1]:
+            candidate, found, *_ = self.problem.lm(
+                start, self.others, pinned, max_iter=30, rtol=self.rtol
+            )
+            if self._delta(found) < delta:
+                u_found, delta = candidate, self._delta(found)
+                self.last = None
+        return u_found, delta
 
     def _restarts(self, u):
         """The caller's own starts at ``u`` (``starts(value) -> global values``) as internal

@@ -55,6 +55,7 @@ from granflow.forecast.models import NUISANCE_BOUND, S0_RANGE, Penalty, ratio_pa
 from granflow.model.params import Params
 
 __all__ = [
+    "EDGE_BOUND",
     "STEP",
     "CreepModel",
     "CreepState",
@@ -69,6 +70,7 @@ _PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 d sampling intervals lon
 _CONTINUED_STEPS = 400
 _PEAK = FIT_RISING.size - 1  # the unit curve's node at its peak (x = 1)
 STEP = 1e-7  # forward differences: relative in log slots, absolute in linear ones
+EDGE_BOUND = 10.0  # the edges' offset and stretch slots (e, d) lie within +-10
 
 
 @dataclass(frozen=True)
@@ -185,6 +187,29 @@ def history_with_error(loading, root, z, ceiling, shift=(0.0, 0.0), edges=None):
     return History(starts, values, np.zeros(values.size))
 
 
+class _Slopes:
+    """A unit curve's shape derivatives (:func:`curve_grid_slopes`), made when first asked:
+    only a Jacobian needs them, and most curves are built for chi-square alone (a trial
+    step, a ranked start, a moved curve's failure rate)."""
+
+    def __init__(self, params, transform, peak_force, amplitude, grid, rows):
+        self._inputs = (params, transform, peak_force, amplitude, grid, rows)
+        self._arrays = None
+
+    def arrays(self):
+        """``(slope, cumulative)``: (rows, nodes) arrays over the curve's grid."""
+        if self._arrays is None:
+            params, transform, peak_force, amplitude, grid, rows = self._inputs
+            size = grid[0].size
+            slope, cumulative = np.empty((rows, size)), np.empty((rows, size))
+            inner = np.ascontiguousarray(transform[:, :3])
+            curve_grid_slopes(
+                params, inner, peak_force, amplitude, grid[0], grid[1], slope, cumulative
+            )
+            self._arrays = (slope, cumulative)
+        return self._arrays
+
+
 class CreepModel:
     """The creep model of one record at slot values (see the module's docstring).
 
@@ -248,8 +273,8 @@ class CreepModel:
     def unit_curve(self, peak_force, ratio, s0, amplitude):
         """The unit curve (x_peak = 1) at a shape, or None outside the box: ``(params, grid,
         slopes, d_start)`` with ``grid = (x, exponent, gamma)``, the shape derivatives of
-        :func:`curve_grid_slopes` and d x0 / d shape; the last one kept (the targets'
-        forward differences reuse it)."""
+        :func:`curve_grid_slopes` (made when first asked: ``slopes.arrays()``) and d x0 /
+        d shape; the last one kept (the targets' forward differences reuse it)."""
         key = (peak_force, ratio, s0, amplitude)
         if key != self._curve_key:
             self._curve_key, self._curve = key, self._build(peak_force, ratio, s0, amplitude)
@@ -264,13 +289,10 @@ class CreepModel:
         grid = (np.empty(size), np.empty(size), np.empty(size))
         params = (a, alpha, fd, x0)
         curve_grid(params, peak_force, 1.0, amplitude, FIT_RISING, FIT_FALLING, *grid)
-        rows = self.shape
-        slope, cumulative = np.empty((rows, size)), np.empty((rows, size))
-        inner = np.ascontiguousarray(transform[:, :3])
-        curve_grid_slopes(params, inner, peak_force, amplitude, grid[0], grid[1], slope, cumulative)
-        d_start = np.zeros(rows)
+        d_start = np.zeros(self.shape)
         d_start[:3] = transform[3, :3]
-        return params, grid, (slope, cumulative), d_start
+        slopes = _Slopes(params, transform, peak_force, amplitude, grid, self.shape)
+        return params, grid, slopes, d_start
 
     def history(self, slots, peak_force, amplitude):
         """The imposed history at the slots' nuisance and edge shift."""
@@ -281,6 +303,18 @@ class CreepModel:
             shift = (_EDGE_SCALE * slots["e"] * window, _PERIOD_SCALE * slots["d"] * window)
         ceiling = max(self.ceiling, peak_force + 40.0 * amplitude)
         return history_with_error(self.loading, self.root, z, ceiling, shift, self.edges)
+
+    def edges_at(self, values):
+        """A staircase's edges [s] at the slot ``values``: the record's, moved by (e, d) and
+        the nuisance, and the continued ones (empty for a ramp)."""
+        if not self.staircase:
+            return np.zeros(0)
+        slots = self.unpack(values)
+        return self.history(slots, slots["peak_force"], slots["amplitude"]).starts[1:]
+
+    def edge_slot(self, seconds):
+        """The offset slot e that moves every edge ``seconds`` [s] later."""
+        return seconds / (_EDGE_SCALE * self.window) if self.window > 0 else 0.0
 
     def _history(self, slots):
         """(history, pieces, S at the record's times) of the slots; the last few kept by
@@ -425,7 +459,8 @@ class CreepModel:
         curve = self.unit_curve(
             slots["peak_force"], slots["ratio"], slots["s0"], slots["amplitude"]
         )
-        params, (x, exponent, gamma), (slope, cumulative), d_start = curve
+        params, (x, exponent, gamma), slopes, d_start = curve
+        slope, cumulative = slopes.arrays()
         target, w, history, pieces = self.targets(values, curve)
         # the targets' own derivatives, the unit curve held
         d_target = np.empty((size, n))
@@ -512,7 +547,9 @@ def creep_problem(model, sigma, values, prior=None):
             parameter = GlobalParameter(name, float(value), log=False, lower=-held, upper=held)
             parameter.scale = 1e-3 * held
         elif name in ("e", "d"):
-            parameter = GlobalParameter(name, float(value), log=False, lower=-10.0, upper=10.0)
+            parameter = GlobalParameter(
+                name, float(value), log=False, lower=-EDGE_BOUND, upper=EDGE_BOUND
+            )
             parameter.scale = 1.0
         else:
             parameter = GlobalParameter(

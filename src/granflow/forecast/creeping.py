@@ -13,8 +13,15 @@ import numpy as np
 
 from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
-from granflow.forecast.creep_model import CreepModel, creep_problem
-from granflow.forecast.inference import distribution_of, estimate, scan, with_points
+from granflow.forecast.creep_model import EDGE_BOUND, CreepModel, creep_problem
+from granflow.forecast.inference import (
+    distribution_of,
+    estimate,
+    lowest_point,
+    recentred,
+    scan,
+    with_points,
+)
 from granflow.forecast.quasistatic import (
     NO_TREND,
     loading_error,
@@ -34,7 +41,9 @@ _NO_FAILURE = 20.0  # a strength this many times the largest force held: no fail
 _PROFILE_RATIOS = (0.1, 0.3, 0.5, 0.8)  # the profiles' restarts' shapes (see _profile_starts)
 _PROFILE_PEAKS = (0.5, 0.7, 1.0, 1.5, 3.0)  # F_peak over the best fit's, in the time's restarts
 _PROFILE_AMPLITUDE = 0.01  # A over F_peak, beside the best fit's, in the restarts
+_PROFILE_EDGES = (-5.0, 0.0, 5.0)  # the edges' offset and stretch slots in the time's restarts
 _PRECISION = 2e-3  # of the profiles' ends' signed roots (not followed live: no need of 1e-4)
+_RECENTRES = 3  # at most this many fits made again from a profile's lower point
 
 
 def _starts(model, quasi_static, floor):
@@ -70,7 +79,13 @@ def _profile_starts(model, best, peak_force):
     parameters in Eq. 3 give that shape: a flat penalty) the warm start is stranded, while
     the record may well allow the value on another branch (a strength a creeping record
     does not yet bound: the profile flat far above the best fit), so that the profile
-    would read a wall where there is none."""
+    would read a wall where there is none.
+
+    A staircase's timed variant also starts the best fit from a grid of the edges' offset
+    and stretch (e, d), and from the offset that keeps the failure where the best fit has
+    it relative to the edge it fails after: a creeping layer slips fastest just after each
+    edge, so that a failure time pinned across an edge from the best fit's calls for
+    other edges (and shape), which a warm start carrying the best fit's does not reach."""
     names = model.names
     fraction = best["amplitude"] / best["peak_force"]
     shapes = [(best["ratio"], best["s0"])]
@@ -78,6 +93,12 @@ def _profile_starts(model, best, peak_force):
     fractions = (None,) if model.fixed is not None else (fraction, _PROFILE_AMPLITUDE)
     forces = (None,) if not model.timed else tuple(peak_force * f for f in _PROFILE_PEAKS)
     pinned = names[model.profiled]
+    edged = model.timed and model.staircase
+    if edged:
+        edges = model.edges_at(np.array([best[name] for name in names]))
+        failure = model.until + best[pinned]
+        after = edges[edges <= failure]
+        phase = failure - after[-1] if after.size else 0.0
 
     def starts(value):
         out = []
@@ -94,9 +115,35 @@ def _profile_starts(model, best, peak_force):
                     if share is not None:
                         slots["amplitude"] = share * slots["peak_force"]
                     out.append([slots[name] for name in names])
+        if edged:
+            shifts = [(e, d) for e in _PROFILE_EDGES for d in _PROFILE_EDGES]
+            if edges.size:
+                # the smallest move of the edges that puts one ``phase`` before the failure
+                lateness = model.until + value - phase - edges
+                shift = float(lateness[np.argmin(np.abs(lateness))])
+                shifts.append((best["e"] + model.edge_slot(shift), best["d"]))
+            for e, d in shifts:
+                slots = dict(best)
+                slots.update(e=min(max(e, -EDGE_BOUND), EDGE_BOUND), d=d)
+                slots[pinned] = value
+                out.append([slots[name] for name in names])
         return out
 
     return starts
+
+
+def _untimed(model, timed, values):
+    """The strength's slot values (the lag) of the time variant's ``values`` (the gap to
+    failure): the same curve, v_ref the rate that puts the failure there; None where no
+    rate does."""
+    slots = timed.unpack(values)
+    curve = timed.unit_curve(slots["peak_force"], slots["ratio"], slots["s0"], slots["amplitude"])
+    found = None if curve is None else timed.targets(values, curve)
+    if found is None:
+        return None
+    rate = found[1]
+    slots["lag"] = slots["amplitude"] * math.log(model.reference_rate / rate)
+    return np.array([slots[name] for name in model.names])
 
 
 def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, observed, message):
@@ -120,8 +167,12 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         text = "the creep model has no curve for this record: no sign of approaching failure"
         return no_date(until, level, loading, time.size, text, prior, observed)
     fitted = len(model.names) - 2 + 1  # the slots but the nuisance, and x_peak
+
+    def build(noise, values):
+        return creep_problem(model, noise, values, prior)
+
     fit = estimate(
-        lambda noise, values: creep_problem(model, noise, values, prior),
+        build,
         starts,
         size=time.size - fitted + 4,
         within=0.0,
@@ -129,42 +180,64 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         rough=_inputs.rough_noise(slip),
         nuisance=model.first_nuisance,
     )
-    _, state = model.evaluate(fit.values)
-    if state is None:
-        text = "the creep model fits no curve to this record: no sign of approaching failure"
-        return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
-    best = dict(zip(model.names, fit.values, strict=True))
-    if model.fixed is not None:
-        best["amplitude"] = model.fixed
-    force_profile, strength = scan(
-        fit, 0, level, precision=_PRECISION, starts=_profile_starts(model, best, state.peak_force)
-    )
-    if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
-        # no date, but the lower end the record gives of the strength (its one-sided
-        # quantile); not of the time: a creeping layer can fail before the force reaches
-        # F_peak (static fatigue), so the time's lower end is the cut's
-        text = "the fitted creep shows no failure in sight: no sign of approaching failure"
-        bound = max(strength.quantile(1.0 - level), held)
-        forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=bound)
-        return dataclasses.replace(forecast, time_interval=(until, math.inf))
-    # the time: the same data with t_f for v_ref
-    timed = CreepModel(
-        time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True
-    )
-    values = dict(best)
-    values["gap"] = max(state.failure_time - until, 1e-9)
-    timed_values = np.array([values[name] for name in timed.names])
-    time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
-    time_profile, timing = scan(
-        fit,
-        timed.profiled,
-        level,
-        offset=until,
-        problem=time_problem,
-        values=timed_values,
-        precision=_PRECISION,
-        starts=_profile_starts(timed, values, state.peak_force),
-    )
+    for attempt in range(_RECENTRES + 1):
+        final = attempt == _RECENTRES
+        _, state = model.evaluate(fit.values)
+        if state is None:
+            text = "the creep model fits no curve to this record: no sign of approaching failure"
+            return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
+        best = dict(zip(model.names, fit.values, strict=True))
+        if model.fixed is not None:
+            best["amplitude"] = model.fixed
+        force_profile, strength = scan(
+            fit,
+            0,
+            level,
+            precision=_PRECISION,
+            starts=_profile_starts(model, best, state.peak_force),
+        )
+        lower = lowest_point(fit.problem, force_profile.points, fit.chisqr)
+        if lower is not None and not final:
+            fit = recentred(fit, build, lower)
+            continue
+        if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
+            # no date, but the lower end the record gives of the strength (its one-sided
+            # quantile); not of the time: a creeping layer can fail before the force
+            # reaches F_peak (static fatigue), so the time's lower end is the cut's
+            text = "the fitted creep shows no failure in sight: no sign of approaching failure"
+            bound = max(strength.quantile(1.0 - level), held)
+            forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=bound)
+            return dataclasses.replace(forecast, time_interval=(until, math.inf))
+        # the time: the same data with t_f for v_ref
+        timed = CreepModel(
+            time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True
+        )
+        values = dict(best)
+        values["gap"] = max(state.failure_time - until, 1e-9)
+        timed_values = np.array([values[name] for name in timed.names])
+        time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
+        # thorough: near a step's edge the conditional minima with t_f pinned lie on other
+        # branches (the edges' offset and stretch, the shape) than the warm starts follow,
+        # at heights short of a jump; each point near the ends is also solved from the
+        # restarts
+        time_profile, timing = scan(
+            fit,
+            timed.profiled,
+            level,
+            offset=until,
+            problem=time_problem,
+            values=timed_values,
+            precision=_PRECISION,
+            starts=_profile_starts(timed, values, state.peak_force),
+            thorough=True,
+        )
+        lower = lowest_point(time_problem, time_profile.points, fit.chisqr)
+        if lower is not None and not final:
+            untimed = _untimed(model, timed, lower)
+            if untimed is not None:
+                fit = recentred(fit, build, untimed)
+                continue
+        break
     # one likelihood, two profiles: the time's takes the strength's points that undercut it
     # (the same curve with v_ref set by the failure time it gives: the same chi-square)
     lent = []
