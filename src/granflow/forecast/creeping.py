@@ -216,10 +216,11 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         values["gap"] = max(state.failure_time - until, 1e-9)
         timed_values = np.array([values[name] for name in timed.names])
         time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
-        # thorough: near a step's edge the conditional minima with t_f pinned lie on other
-        # branches (the edges' offset and stretch, the shape) than the warm starts follow,
-        # at heights short of a jump; each point near the ends is also solved from the
-        # restarts
+        # thorough under a staircase: near a step's edge the conditional minima with t_f
+        # pinned lie on other branches (the edges' offset and stretch, the shape) than the
+        # warm starts follow, at heights short of a jump; each point near the ends is also
+        # solved from the restarts (a ramp has no edges: there it would cost half again the
+        # CPU for nothing measured)
         time_profile, timing = scan(
             fit,
             timed.profiled,
@@ -229,7 +230,7 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
             values=timed_values,
             precision=_PRECISION,
             starts=_profile_starts(timed, values, state.peak_force),
-            thorough=True,
+            thorough=timed.staircase,
         )
         lower = lowest_point(time_problem, time_profile.points, fit.chisqr)
         if lower is not None and not final:
