@@ -198,8 +198,11 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         )
         lower = lowest_point(fit.problem, force_profile.points, fit.chisqr)
         if lower is not None and not final:
-            fit = recentred(fit, build, lower)
-            continue
+            moved = recentred(fit, build, lower)
+            if moved is not fit:
+                fit = moved
+                continue
+            final = True  # made again from there it ends no lower: no more tries
         if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
             # no date, but the lower end the record gives of the strength (its one-sided
             # quantile); not of the time: a creeping layer can fail before the force
@@ -235,8 +238,9 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         lower = lowest_point(time_problem, time_profile.points, fit.chisqr)
         if lower is not None and not final:
             untimed = _untimed(model, timed, lower)
-            if untimed is not None:
-                fit = recentred(fit, build, untimed)
+            moved = fit if untimed is None else recentred(fit, build, untimed)
+            if moved is not fit:
+                fit = moved
                 continue
         break
     # one likelihood, two profiles: the time's takes the strength's points that undercut it
