@@ -284,6 +284,7 @@ def test_a_profile_point_below_the_best_fit_makes_the_fit_again(monkeypatch):
         profile, distribution = creeping_scan(fit, index, level, **options)
         if "problem" not in options:
             seen.update(fit=fit, profile=profile)
+            seen.setdefault("fits", []).append(fit.chisqr)
         return profile, distribution
 
     creeping_scan = creeping.scan
@@ -294,6 +295,8 @@ def test_a_profile_point_below_the_best_fit_makes_the_fit_again(monkeypatch):
     assert ff.time_interval[0] <= case.failure <= ff.time_interval[1]
 
     fit, profile = seen["fit"], seen["profile"]
+    # made again: the strength scanned about a fit at least 0.05 lower than the first
+    assert len(seen["fits"]) >= 2 and seen["fits"][-1] < seen["fits"][0] - 0.05
     problem = fit.problem
     parameters = problem.parameters
     index = 0  # F_peak

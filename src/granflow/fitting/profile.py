@@ -175,9 +175,10 @@ def profile_scan(
         the precision). Fewer conditional minima where good hints put the first point
         near the end (a running forecast); the default is the secant search.
     thorough : bool
-        Also solve each point past half its target height (where the ends are sought) from
-        the best-ranked of ``starts`` and of the last points' others, and restart a jump
-        from those points too (for likelihoods whose other branches the warm starts miss
+        Also solve each point whose delta is past half its target's (sqrt(delta) past 0.71
+        of the target: where the ends are sought) from the best-ranked of ``starts`` and of
+        the others of the last 12 points found (on either side), and restart a jump from
+        those points too (for likelihoods whose other branches the warm starts miss
         short of a jump: a creeping staircase's failure time pinned across a step's edge).
 
     Returns

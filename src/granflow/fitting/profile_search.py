@@ -198,8 +198,8 @@ class Conditional:
     def _polished(self, u, pinned, u_found, delta):
         """The lower of the conditional minimum ``(u_found, delta)`` at ``u`` (delta in
         variance units) and the one Levenberg-Marquardt finds from the best-ranked of the
-        caller's starts and the others of the last points found (another branch, which the
-        warm start did not follow, a neighbour may have found)."""
+        caller's starts and the others of the last points found, on either side (another
+        branch, which the warm start did not follow, another point may have found)."""
         candidates = [*self._restarts(u), *self.found[-_FOUND:]]
         for start in self._ranked(u, candidates)[:1]:
             candidate, found, *_ = self.problem.lm(

@@ -305,8 +305,8 @@ class CreepModel:
         return history_with_error(self.loading, self.root, z, ceiling, shift, self.edges)
 
     def edges_at(self, values):
-        """A staircase's edges [s] at the slot ``values``: the record's, moved by (e, d) and
-        the nuisance, and the continued ones (empty for a ramp)."""
+        """A staircase's edges [s] at the slot ``values``: the record's, moved by (e, d), and
+        the continued ones (as many as the nuisance's history asks; empty for a ramp)."""
         if not self.staircase:
             return np.zeros(0)
         slots = self.unpack(values)

@@ -85,7 +85,8 @@ class Estimate:
     others : tuple of numpy.ndarray
         The other minima of the likelihood within reach of the best (chi-square less than
         12 above it): a record early in its loading can be fitted nearly as well by a far
-        other failure, and a profile must reach that valley too (:func:`scan`).
+        other failure, and a profile must reach that valley too (:func:`scan`). A fit
+        made again (:func:`recentred`) keeps the first fit's.
     """
 
     problem: object
@@ -398,7 +399,7 @@ def scan(
     ends are found to ``precision`` of the signed root (default 1e-4, so that a scan
     warm-started from a previous one's ends reaches the same ends as one from nothing).
     ``thorough`` solves every point near the ends from the best-ranked of ``starts`` and of
-    the points before it as well (for likelihoods whose branches the warm starts miss
+    the last points found as well (for likelihoods whose branches the warm starts miss
     short of a jump).
 
     ``others`` (default the fit's :attr:`Estimate.others`, in ``problem``'s slots): the
@@ -487,14 +488,15 @@ def lowest_point(problem, points, chisqr):
 def recentred(fit, build, values):
     """``fit`` made again from ``values`` (slot values of ``build``'s problem below its best
     fit, :func:`lowest_point`): Levenberg-Marquardt from there, polished, at the fit's
-    noise; ``fit`` itself where that ends no lower. The noise estimate and the other minima
-    stay."""
+    noise; ``fit`` itself where that ends no lower (by 0.01 in chi-square: the same minimum
+    found again differs by rounding). The noise estimate and the other minima stay."""
     problem = build(fit.sigma, values)
     found, chisqr, _, steps = _solve_at(problem, values, _POLISH)
-    if not (math.isfinite(chisqr) and chisqr < fit.chisqr and np.all(np.isfinite(found))):
+    lower = fit.chisqr - _LOWER
+    if not (math.isfinite(chisqr) and chisqr < lower and np.all(np.isfinite(found))):
         return fit
     problem, found, chisqr, hessian = _polished(build, fit.sigma, found, chisqr)
-    if not chisqr < fit.chisqr:
+    if not chisqr < lower:
         return fit
     return dataclasses.replace(
         fit,
