@@ -14,14 +14,7 @@ import numpy as np
 from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
 from granflow.forecast.creep_model import EDGE_BOUND, CreepModel, creep_problem
-from granflow.forecast.inference import (
-    distribution_of,
-    estimate,
-    lowest_point,
-    recentred,
-    scan,
-    with_points,
-)
+from granflow.forecast.inference import distribution_of, estimate, scan, with_points
 from granflow.forecast.quasistatic import (
     NO_TREND,
     loading_error,
@@ -43,7 +36,6 @@ _PROFILE_PEAKS = (0.5, 0.7, 1.0, 1.5, 3.0)  # F_peak over the best fit's, in the
 _PROFILE_AMPLITUDE = 0.01  # A over F_peak, beside the best fit's, in the restarts
 _PROFILE_EDGES = (-5.0, 0.0, 5.0)  # the edges' offset and stretch slots in the time's restarts
 _PRECISION = 2e-3  # of the profiles' ends' signed roots (not followed live: no need of 1e-4)
-_RECENTRES = 3  # at most this many fits made again from a profile's lower point
 
 
 def _starts(model, quasi_static, floor):
@@ -132,20 +124,6 @@ def _profile_starts(model, best, peak_force):
     return starts
 
 
-def _untimed(model, timed, values):
-    """The strength's slot values (the lag) of the time variant's ``values`` (the gap to
-    failure): the same curve, v_ref the rate that puts the failure there; None where no
-    rate does."""
-    slots = timed.unpack(values)
-    curve = timed.unit_curve(slots["peak_force"], slots["ratio"], slots["s0"], slots["amplitude"])
-    found = None if curve is None else timed.targets(values, curve)
-    if found is None:
-        return None
-    rate = found[1]
-    slots["lag"] = slots["amplitude"] * math.log(model.reference_rate / rate)
-    return np.array([slots[name] for name in model.names])
-
-
 def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, observed, message):
     """The forecast with the direct effect of a checked record cut at ``until``: see
     :func:`granflow.forecast_failure`."""
@@ -167,12 +145,8 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         text = "the creep model has no curve for this record: no sign of approaching failure"
         return no_date(until, level, loading, time.size, text, prior, observed)
     fitted = len(model.names) - 2 + 1  # the slots but the nuisance, and x_peak
-
-    def build(noise, values):
-        return creep_problem(model, noise, values, prior)
-
     fit = estimate(
-        build,
+        lambda noise, values: creep_problem(model, noise, values, prior),
         starts,
         size=time.size - fitted + 4,
         within=0.0,
@@ -180,69 +154,48 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         rough=_inputs.rough_noise(slip),
         nuisance=model.first_nuisance,
     )
-    for attempt in range(_RECENTRES + 1):
-        final = attempt == _RECENTRES
-        _, state = model.evaluate(fit.values)
-        if state is None:
-            text = "the creep model fits no curve to this record: no sign of approaching failure"
-            return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
-        best = dict(zip(model.names, fit.values, strict=True))
-        if model.fixed is not None:
-            best["amplitude"] = model.fixed
-        force_profile, strength = scan(
-            fit,
-            0,
-            level,
-            precision=_PRECISION,
-            starts=_profile_starts(model, best, state.peak_force),
-        )
-        lower = lowest_point(fit.problem, force_profile.points, fit.chisqr)
-        if lower is not None and not final:
-            moved = recentred(fit, build, lower)
-            if moved is not fit:
-                fit = moved
-                continue
-            final = True  # made again from there it ends no lower: no more tries
-        if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
-            # no date, but the lower end the record gives of the strength (its one-sided
-            # quantile); not of the time: a creeping layer can fail before the force
-            # reaches F_peak (static fatigue), so the time's lower end is the cut's
-            text = "the fitted creep shows no failure in sight: no sign of approaching failure"
-            bound = max(strength.quantile(1.0 - level), held)
-            forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=bound)
-            return dataclasses.replace(forecast, time_interval=(until, math.inf))
-        # the time: the same data with t_f for v_ref
-        timed = CreepModel(
-            time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True
-        )
-        values = dict(best)
-        values["gap"] = max(state.failure_time - until, 1e-9)
-        timed_values = np.array([values[name] for name in timed.names])
-        time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
-        # thorough under a staircase: near a step's edge the conditional minima with t_f
-        # pinned lie on other branches (the edges' offset and stretch, the shape) than the
-        # warm starts follow, at heights short of a jump; each point near the ends is also
-        # solved from the restarts (a ramp has no edges: there it would cost half again the
-        # CPU for nothing measured)
-        time_profile, timing = scan(
-            fit,
-            timed.profiled,
-            level,
-            offset=until,
-            problem=time_problem,
-            values=timed_values,
-            precision=_PRECISION,
-            starts=_profile_starts(timed, values, state.peak_force),
-            thorough=timed.staircase,
-        )
-        lower = lowest_point(time_problem, time_profile.points, fit.chisqr)
-        if lower is not None and not final:
-            untimed = _untimed(model, timed, lower)
-            moved = fit if untimed is None else recentred(fit, build, untimed)
-            if moved is not fit:
-                fit = moved
-                continue
-        break
+    _, state = model.evaluate(fit.values)
+    if state is None:
+        text = "the creep model fits no curve to this record: no sign of approaching failure"
+        return no_date(until, level, loading, time.size, text, prior, observed, bound=held)
+    best = dict(zip(model.names, fit.values, strict=True))
+    if model.fixed is not None:
+        best["amplitude"] = model.fixed
+    force_profile, strength = scan(
+        fit, 0, level, precision=_PRECISION, starts=_profile_starts(model, best, state.peak_force)
+    )
+    if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
+        # no date, but the lower end the record gives of the strength (its one-sided
+        # quantile); not of the time: a creeping layer can fail before the force reaches
+        # F_peak (static fatigue), so the time's lower end is the cut's
+        text = "the fitted creep shows no failure in sight: no sign of approaching failure"
+        bound = max(strength.quantile(1.0 - level), held)
+        forecast = no_date(until, level, loading, time.size, text, prior, observed, bound=bound)
+        return dataclasses.replace(forecast, time_interval=(until, math.inf))
+    # the time: the same data with t_f for v_ref
+    timed = CreepModel(
+        time, slip, loading, root, amplitude, until, model.reference_rate, state.peak_slip, True
+    )
+    values = dict(best)
+    values["gap"] = max(state.failure_time - until, 1e-9)
+    timed_values = np.array([values[name] for name in timed.names])
+    time_problem = creep_problem(timed, fit.sigma, timed_values, prior)
+    # thorough under a staircase: near a step's edge the conditional minima with t_f pinned
+    # lie on other branches (the edges' offset and stretch, the shape) than the warm starts
+    # follow, at heights short of a jump; each point near the ends is also solved from the
+    # restarts (a ramp has no edges: there it would cost half again the CPU for nothing
+    # measured)
+    time_profile, timing = scan(
+        fit,
+        timed.profiled,
+        level,
+        offset=until,
+        problem=time_problem,
+        values=timed_values,
+        precision=_PRECISION,
+        starts=_profile_starts(timed, values, state.peak_force),
+        thorough=timed.staircase,
+    )
     # one likelihood, two profiles: the time's takes the strength's points that undercut it
     # (the same curve with v_ref set by the failure time it gives: the same chi-square)
     lent = []

@@ -24,16 +24,7 @@ from granflow.fitting.profile import ProfilePoint, profile_scan
 from granflow.forecast.discrepancy import Check, check_fit
 from granflow.forecast.distribution import Distribution
 
-__all__ = [
-    "Estimate",
-    "distribution_of",
-    "estimate",
-    "heights",
-    "lowest_point",
-    "recentred",
-    "scan",
-    "with_points",
-]
+__all__ = ["Estimate", "distribution_of", "estimate", "heights", "scan", "with_points"]
 
 _SHAPE = 4  # the peak coordinates
 _PRECISION = 1e-3  # of chi-square, for the fit's stopping rule
@@ -51,10 +42,6 @@ _APART = 1e-3
 #: How much lower than a profile's own a lent point must lie to join it [chi-square]: above
 #: the conditional minima's own imprecision (their Gauss-Newton stops at a gain of 0.02).
 _LOWER = 0.01
-#: How far below the best fit a profile's conditional minimum must lie for the fit to be
-#: made again from it [variance units]: well beyond the conditional minima's own
-#: imprecision (their Gauss-Newton stops at a gain of 0.02) and the polish's.
-_BELOW = 0.05
 
 
 @dataclass(frozen=True)
@@ -85,8 +72,7 @@ class Estimate:
     others : tuple of numpy.ndarray
         The other minima of the likelihood within reach of the best (chi-square less than
         12 above it): a record early in its loading can be fitted nearly as well by a far
-        other failure, and a profile must reach that valley too (:func:`scan`). A fit
-        made again (:func:`recentred`) keeps the first fit's.
+        other failure, and a profile must reach that valley too (:func:`scan`).
     """
 
     problem: object
@@ -465,47 +451,6 @@ def scan(
             continue
         profile = _joined(profile, other_profile, problem.chisqr(other) - fit.chisqr)
     return profile, distribution_of(profile, parameter, offset, fit.dof)
-
-
-def lowest_point(problem, points, chisqr):
-    """The slot values of the profile ``points`` (of ``problem``'s likelihood) lowest in
-    chi-square where it lies more than 0.05 (variance units) below the best fit's
-    ``chisqr``, else None. A profile reads chi-square above the best fit and holds a point
-    that undercuts it at 0 (flat): a fit that stopped short of the likelihood's minimum (a
-    long, nearly flat valley: a record early in its creep that bounds the strength barely
-    or not at all) makes the profile flat wherever the valley runs below it, and its
-    distribution puts no probability there."""
-    found, cost = None, chisqr - _BELOW
-    for point in points:
-        if point.delta > 0.0:
-            continue  # above the best fit: not lower
-        value = problem.chisqr(np.asarray(point.values, dtype=float))
-        if math.isfinite(value) and value < cost:
-            found, cost = np.asarray(point.values, dtype=float), value
-    return found
-
-
-def recentred(fit, build, values):
-    """``fit`` made again from ``values`` (slot values of ``build``'s problem below its best
-    fit, :func:`lowest_point`): Levenberg-Marquardt from there, polished, at the fit's
-    noise; ``fit`` itself where that ends no lower (by 0.01 in chi-square: the same minimum
-    found again differs by rounding). The noise estimate and the other minima stay."""
-    problem = build(fit.sigma, values)
-    found, chisqr, _, steps = _solve_at(problem, values, _POLISH)
-    lower = fit.chisqr - _LOWER
-    if not (math.isfinite(chisqr) and chisqr < lower and np.all(np.isfinite(found))):
-        return fit
-    problem, found, chisqr, hessian = _polished(build, fit.sigma, found, chisqr)
-    if not chisqr < lower:
-        return fit
-    return dataclasses.replace(
-        fit,
-        problem=problem,
-        values=found,
-        chisqr=float(chisqr),
-        hessian=hessian,
-        nfev=fit.nfev + steps,
-    )
 
 
 def distribution_of(profile, parameter, offset, dof):
