@@ -206,8 +206,9 @@ class Problem:
 
     ``model`` is the :class:`Model` every curve follows (default :data:`EQ3`).
 
-    ``rough`` marks a likelihood with faces and cliffs (a creeping layer's: its best curve
-    often lies on its box's face, and a staircase's edge crossing a sample is a cliff):
+    ``rough`` marks a likelihood with faces and cliffs (a creeping staircase's: its best
+    curve often lies on its box's face, Fd = 0, and its edges' fit moves a burst of creep
+    across the samples):
     Levenberg-Marquardt then keeps the coordinates a bound holds still (:meth:`lm`), and a
     profile's end search keeps the crossing it has bracketed
     (:func:`~granflow.fitting.profile_search.search_side`).

@@ -569,4 +569,4 @@ def creep_problem(model, sigma, values, prior=None):
         w=np.full(model.time.size, 1.0 / sigma),
         links=tuple((k, 1.0) for k in range(len(values))),
     )
-    return Problem([data], parameters, model=engine_model, penalty=penalty, rough=True)
+    return Problem([data], parameters, model=engine_model, penalty=penalty, rough=model.staircase)
