@@ -206,6 +206,13 @@ class Problem:
 
     ``model`` is the :class:`Model` every curve follows (default :data:`EQ3`).
 
+    ``rough`` marks a likelihood with faces and cliffs (a creeping staircase's: its best
+    curve often lies on its box's face, Fd = 0, and its edges' fit moves a burst of creep
+    across the samples):
+    Levenberg-Marquardt then keeps the coordinates a bound holds still (:meth:`lm`), and a
+    profile's end search keeps the crossing it has bracketed
+    (:func:`~granflow.fitting.profile_search.search_side`).
+
     ``penalty`` (optional) adds standardised residuals that are not data: Gaussian priors on
     parameters or on quantities derived from them, and standard-normal nuisance coordinates.
     It is ``penalty(values) -> (residuals, jacobian)`` over all global values (natural
@@ -215,9 +222,10 @@ class Problem:
     log-likelihood.
     """
 
-    def __init__(self, curves, parameters, model=None, penalty=None):
+    def __init__(self, curves, parameters, model=None, penalty=None, rough=False):
         self.model = EQ3 if model is None else model
         self.penalty = penalty
+        self.rough = rough
         self.curves = curves
         self.parameters = parameters
         self.free = [i for i, p in enumerate(parameters) if not p.fixed]
@@ -480,10 +488,13 @@ class Problem:
             steps += 1
             diagonal = np.diag(H).copy()
             diagonal[~(diagonal > 0)] = 1.0
+            moving = self._moving(u, g, bounds)
             accepted = False
             for _ in range(12):
                 try:
-                    step = np.linalg.solve(H + damping * np.diag(diagonal), -g)
+                    step = np.zeros(u.size)
+                    system = (H + damping * np.diag(diagonal))[np.ix_(moving, moving)]
+                    step[moving] = np.linalg.solve(system, -g[moving])
                 except np.linalg.LinAlgError:
                     damping *= 10.0
                     continue
@@ -508,6 +519,16 @@ class Problem:
                 converged = True
                 break
         return u, float(cost), converged, steps, H
+
+    def _moving(self, u, g, bounds):
+        """The coordinates a Levenberg-Marquardt step moves: all of them, or with
+        ``rough`` those not held at a bound by a gradient pointing out of the box
+        (a step solved with them in is clipped back to a crawl along the bound: a likelihood
+        whose best curve lies on its box's face, such as Fd = 0, never converges)."""
+        if not self.rough:
+            return np.ones(u.size, dtype=bool)
+        held = ((u <= bounds[0]) & (g > 0)) | ((u >= bounds[1]) & (g < 0))
+        return ~held
 
     def best_fit(self, values):
         """The model of each curve at its points, for the global values ``values``."""

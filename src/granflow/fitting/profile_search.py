@@ -297,6 +297,9 @@ def _newton_step(points, slopes):
     return move, 0.5 * curvature * move * move
 
 
+_ROUGH_STEPS = 24  # a rough likelihood's end search: bracketing a cliff takes more steps
+
+
 def search_side(
     conditional,
     direction,
@@ -362,7 +365,11 @@ def search_side(
                     u_others, u_last = start, u_hat
         height = target**2 if check else math.inf
         end = None
-        for _ in range(12):
+        # a rough likelihood's bracket: the last points below and past the target, and
+        # whether the last two points fell on the same side of it
+        rough = conditional.problem.rough
+        below, past, moved, again = None, None, None, False
+        for _ in range(_ROUGH_STEPS if rough else 12):
             if (direction > 0 and u >= limit) or (direction < 0 and u <= limit):
                 u = limit
                 delta, u_others = conditional(u, u_others, u_last, height)
@@ -378,6 +385,14 @@ def search_side(
                 record.append(conditional.point(u, delta, u_others))
             value = math.sqrt(delta) - target
             points.append((u, value))
+            if rough and math.isfinite(value):
+                side = value > 0
+                again = side == moved
+                if side:
+                    past = (u, value)
+                else:
+                    below = (u, value)
+                moved = side
             here = math.nan
             if conditional.last is not None and delta > 0:
                 here = conditional.last[0] / (2.0 * math.sqrt(delta))
@@ -415,6 +430,19 @@ def search_side(
                 # a small fraction of the tolerance of the true root, no evaluation needed
                 end = u2 - g2 / slope
                 break
+            if below is not None and past is not None:
+                # a crossing bracketed on a rough likelihood: regula falsi inside it, halved
+                # where the last two points fell on one side (the secant through the last
+                # two points stalls on the flat side of a cliff), and the end where the
+                # bracket is a thousandth of its distance from the optimum (at a cliff the
+                # signed root's precision is no measure)
+                (ua, ga), (ub, gb) = below, past
+                falsi = ub - gb * (ub - ua) / (gb - ga)
+                if abs(ub - ua) <= 1e-3 * abs(falsi - u_hat) + 1e-12:
+                    end = falsi
+                    break
+                u = 0.5 * (ua + ub) if again else falsi
+                continue
             proposal = u + direction * step if slope * direction <= 0 else u2 - g2 / slope
             if expand and g2 < 0 and abs(g2 - g1) < 0.05 * target:
                 step *= 4.0  # a flat stretch: cross it in a few evaluations, not dozens

@@ -57,3 +57,33 @@ def rough_noise(values):
     second = np.diff(values, 2)
     level = 1.4826 * float(np.median(np.abs(second))) / math.sqrt(6.0) if second.size else 0.0
     return max(level, 1e-9 * float(np.ptp(values)), 1e-300)
+
+
+def creep_amplitude(direct_effect):
+    """The amplitude A [N] a forecast holds fixed, or None where it is fitted.
+
+    ``True`` fits A; a positive float, or a :class:`granflow.DirectEffect` without a
+    velocity, fixes it. v_ref is always fitted (the failure time is profiled through it).
+    """
+    from granflow.simulation.options import DirectEffect
+
+    if direct_effect is True:
+        return None
+    if isinstance(direct_effect, DirectEffect):
+        if direct_effect.velocity is not None:
+            raise InvalidDataError(
+                "direct_effect: the forecast fits the reference velocity v_ref (it profiles "
+                "the failure time through it); give DirectEffect(amplitude=A) without a "
+                f"velocity, got velocity={direct_effect.velocity:g} m/s"
+            )
+        return direct_effect.amplitude
+    if isinstance(direct_effect, bool) or not isinstance(direct_effect, int | float):
+        raise InvalidDataError(
+            "direct_effect must be None (quasi-static), True (amplitude fitted), an amplitude "
+            f"A [N] or a granflow.DirectEffect, got {direct_effect!r}"
+        )
+    if not (math.isfinite(direct_effect) and direct_effect > 0):
+        raise InvalidDataError(
+            f"direct_effect amplitude must be positive and finite, got {direct_effect!r} N"
+        )
+    return float(direct_effect)

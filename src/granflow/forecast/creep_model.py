@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from granflow.errors import InvalidDataError
 from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
 from granflow.forecast.coordinates import natural
 from granflow.forecast.creep import (
@@ -59,14 +58,13 @@ __all__ = [
     "STEP",
     "CreepModel",
     "CreepState",
-    "creep_amplitude",
     "creep_problem",
     "history_with_error",
     "staircase_edges",
 ]
 
-_EDGE_SCALE = 0.1  # steps: the edges move by 0.1 e sampling intervals
-_PERIOD_SCALE = 0.02  # steps: and each step lasts 0.02 d sampling intervals longer
+_EDGE_SCALE, _PERIOD_SCALE = 0.1, 0.02  # the edges move by 0.1 e sampling intervals, and
+# each step lasts 0.02 d sampling intervals longer
 _CONTINUED_STEPS = 400
 _PEAK = FIT_RISING.size - 1  # the unit curve's node at its peak (x = 1)
 STEP = 1e-7  # forward differences: relative in log slots, absolute in linear ones
@@ -101,36 +99,6 @@ class CreepState:
     failure_time: float
 
 
-def creep_amplitude(direct_effect):
-    """The amplitude A [N] a forecast holds fixed, or None where it is fitted.
-
-    ``True`` fits A; a positive float, or a :class:`granflow.DirectEffect` without a
-    velocity, fixes it. v_ref is always fitted (the failure time is profiled through it).
-    """
-    from granflow.simulation.options import DirectEffect
-
-    if direct_effect is True:
-        return None
-    if isinstance(direct_effect, DirectEffect):
-        if direct_effect.velocity is not None:
-            raise InvalidDataError(
-                "direct_effect: the forecast fits the reference velocity v_ref (it profiles "
-                "the failure time through it); give DirectEffect(amplitude=A) without a "
-                f"velocity, got velocity={direct_effect.velocity:g} m/s"
-            )
-        return direct_effect.amplitude
-    if isinstance(direct_effect, bool) or not isinstance(direct_effect, int | float):
-        raise InvalidDataError(
-            "direct_effect must be None (quasi-static), True (amplitude fitted), an amplitude "
-            f"A [N] or a granflow.DirectEffect, got {direct_effect!r}"
-        )
-    if not (math.isfinite(direct_effect) and direct_effect > 0):
-        raise InvalidDataError(
-            f"direct_effect amplitude must be positive and finite, got {direct_effect!r} N"
-        )
-    return float(direct_effect)
-
-
 def staircase_edges(loading):
     """The edges of a staircase's steps [s] in the record, and when its first continued
     step begins [s]; (None, 0) for a ramp. Computed once per record.
@@ -163,7 +131,10 @@ def history_with_error(loading, root, z, ceiling, shift=(0.0, 0.0), edges=None):
     A staircase's edges (:func:`staircase_edges`, or ``edges``: its result) are known to
     within their sampling windows only, and a creeping layer slips fastest just after each
     edge, so they move: ``shift`` = (offset [s], stretch [s]) puts edge k (1 the first,
-    n the record's last) ``offset + (k - n) stretch`` later (both fitted)."""
+    n the record's last) ``offset + (k - n) stretch`` later (both fitted), the record's
+    edges no further than their windows' ends (an edge past the sample before it would
+    have that sample see the burst of creep after the edge: a cliff in chi-square that
+    the force record rules out)."""
     c0, c1 = root @ z if z.size else (0.0, 0.0)
     if loading.kind == "ramp":
         origin = loading.error[3]
@@ -182,6 +153,8 @@ def history_with_error(loading, root, z, ceiling, shift=(0.0, 0.0), edges=None):
     edges = np.concatenate([known, begin + loading.duration * np.arange(count)])
     offset, stretch = shift
     edges = edges + offset + stretch * (np.arange(1, edges.size + 1) - known.size)
+    if len(loading.windows) == known.size:
+        edges[: known.size] = np.clip(edges[: known.size], *np.transpose(loading.windows))
     starts = np.concatenate([[0.0], edges])
     values = np.concatenate([levels, continued])
     return History(starts, values, np.zeros(values.size))
@@ -596,4 +569,4 @@ def creep_problem(model, sigma, values, prior=None):
         w=np.full(model.time.size, 1.0 / sigma),
         links=tuple((k, 1.0) for k in range(len(values))),
     )
-    return Problem([data], parameters, model=engine_model, penalty=penalty)
+    return Problem([data], parameters, model=engine_model, penalty=penalty, rough=model.staircase)

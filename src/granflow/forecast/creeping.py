@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from granflow.fitting.multistart import multistart
 from granflow.fitting.results import FrozenMap
 from granflow.forecast import _inputs
 from granflow.forecast.creep_model import EDGE_BOUND, CreepModel, creep_problem
@@ -35,6 +36,7 @@ _PROFILE_RATIOS = (0.1, 0.3, 0.5, 0.8)  # the profiles' restarts' shapes (see _p
 _PROFILE_PEAKS = (0.5, 0.7, 1.0, 1.5, 3.0)  # F_peak over the best fit's, in the time's restarts
 _PROFILE_AMPLITUDE = 0.01  # A over F_peak, beside the best fit's, in the restarts
 _PROFILE_EDGES = (-5.0, 0.0, 5.0)  # the edges' offset and stretch slots in the time's restarts
+_EDGE_GAIN = 0.01  # chi-square a fit made again from other edges must gain to replace it
 _PRECISION = 2e-3  # of the profiles' ends' signed roots (not followed live: no need of 1e-4)
 
 
@@ -85,8 +87,8 @@ def _profile_starts(model, best, peak_force):
     fractions = (None,) if model.fixed is not None else (fraction, _PROFILE_AMPLITUDE)
     forces = (None,) if not model.timed else tuple(peak_force * f for f in _PROFILE_PEAKS)
     pinned = names[model.profiled]
-    edged = model.timed and model.staircase
-    if edged:
+    edged = model.staircase
+    if edged and model.timed:
         edges = model.edges_at(np.array([best[name] for name in names]))
         failure = model.until + best[pinned]
         after = edges[edges <= failure]
@@ -109,7 +111,7 @@ def _profile_starts(model, best, peak_force):
                     out.append([slots[name] for name in names])
         if edged:
             shifts = [(e, d) for e in _PROFILE_EDGES for d in _PROFILE_EDGES]
-            if edges.size:
+            if model.timed and edges.size:
                 # the smallest move of the edges that puts one ``phase`` before the failure
                 lateness = model.until + value - phase - edges
                 shift = float(lateness[np.argmin(np.abs(lateness))])
@@ -122,6 +124,30 @@ def _profile_starts(model, best, peak_force):
         return out
 
     return starts
+
+
+def _edges_polished(fit, model):
+    """``fit`` solved again (the engine's multistart) from itself and from a grid of a
+    staircase's edges' offset and stretch (e, d), the other slots where the fit has them; the
+    lowest kept where it gains :data:`_EDGE_GAIN`. Chi-square over (e, d) has many minima
+    (each edge moves the burst of creep after it across the record's samples), and the
+    fit's descent ends in the one nearest its starts (all at e = d = 0); the profiles search
+    the same grid (:func:`_profile_starts`), and a fit that is not the lowest of it would
+    have them read the points below it at its own height."""
+    problem = fit.problem
+    slots = [model.names.index("e"), model.names.index("d")]
+    starts = [np.array(fit.values, dtype=float)]
+    for shift in [(e, d) for e in _PROFILE_EDGES for d in _PROFILE_EDGES]:
+        start = np.array(fit.values, dtype=float)
+        start[slots] = shift
+        starts.append(start)
+    rtol = 1e-3 / max(problem.ndata, 1)
+    solution = multistart(problem, starts, 0.0, rtol=rtol, least=len(starts))
+    chisqr, _, hessian = problem.state(solution.x, problem.free)
+    if not chisqr < fit.chisqr - _EDGE_GAIN:
+        return fit
+    values = problem.values(solution.x)
+    return dataclasses.replace(fit, values=values, chisqr=float(chisqr), hessian=hessian)
 
 
 def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, observed, message):
@@ -154,6 +180,8 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
         rough=_inputs.rough_noise(slip),
         nuisance=model.first_nuisance,
     )
+    if model.staircase:
+        fit = _edges_polished(fit, model)
     _, state = model.evaluate(fit.values)
     if state is None:
         text = "the creep model fits no curve to this record: no sign of approaching failure"
@@ -162,7 +190,12 @@ def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, o
     if model.fixed is not None:
         best["amplitude"] = model.fixed
     force_profile, strength = scan(
-        fit, 0, level, precision=_PRECISION, starts=_profile_starts(model, best, state.peak_force)
+        fit,
+        0,
+        level,
+        precision=_PRECISION,
+        starts=_profile_starts(model, best, state.peak_force),
+        thorough=model.staircase,
     )
     if state.peak_force > _NO_FAILURE * held or not math.isfinite(state.failure_time):
         # no date, but the lower end the record gives of the strength (its one-sided

@@ -158,7 +158,7 @@ def forecast_failure(
     >>> bool(ff.time_interval[0] <= truth <= ff.time_interval[1])
     True
     """
-    from granflow.forecast.creep_model import creep_amplitude
+    from granflow.forecast._inputs import creep_amplitude
 
     amplitude = None if direct_effect is None else creep_amplitude(direct_effect)
     level = check_level(level)
