@@ -378,6 +378,8 @@ def _run(params, protocol, method, aging, drive, effect, numerics):
             break
     if state.origin is None:  # nothing loaded the layer: rests only
         state.loaded()
+    if not state.chunks["t"]:  # aborted before its first sample: where it stood
+        state.record_now()
     return SimulationResult(
         **state.arrays(),
         events=tuple(state.events),

@@ -241,6 +241,16 @@ class QuasiStaticStepper(Stepper):
         )
         if sol.status == -1:
             raise IntegrationError(sol.message)
+        finite = np.all(np.isfinite(sol.y), axis=0)
+        if not finite.all():
+            # v = v_ref exp((sigma - F) / A) past float range: the state follows it there
+            # (a force step far above the friction on a small A), and no failure event can
+            # be read from it
+            raise IntegrationError(
+                f"the creep velocity left float range near t = {t_a + sol.t[~finite][0]:.6g} s "
+                f"(the force {sigma_a + rate * sol.t[~finite][0]:.6g} N against the friction, "
+                f"A = {effect.amplitude:.4g} N)"
+            )
         end = float(sol.t[-1])
         u = np.union1d(offsets(end, state.points), [end]) if end > 0 else np.array([0.0])
         x, F = sol.sol(u)
