@@ -92,16 +92,18 @@ class _Cliff:
         def internal_bounds(self):
             return -50.0, 50.0
 
-    def __init__(self, rough, edge=1.0, flat=0.01, steep=1e4):
+    def __init__(self, rough, edge=1.0, flat=0.01, steep=1e4, wall=math.inf):
         self.problem = type("P", (), {"rough": rough})()
         self.parameter = self._Parameter()
         self.u_hat, self.u_others_hat, self.others = 0.0, np.zeros(0), []
         self.curvature, self.newton, self.last = flat, False, None
-        self.edge, self.flat, self.steep = edge, flat, steep
+        self.edge, self.flat, self.steep, self.wall = edge, flat, steep, wall
 
     def delta(self, u):
         if u <= self.edge:
             return self.flat * u * u
+        if u >= self.wall:
+            return math.inf  # no curve there (a conditional fit that found none)
         return self.flat * self.edge**2 + self.steep * (u - self.edge)
 
     def __call__(self, u, u_others, u_last, height=math.inf):
@@ -131,3 +133,17 @@ def test_a_rough_profile_finds_the_end_at_a_cliff():
     assert ends[0] >= cliff.edge  # never read on the flat side
     stalled, reached, _ = search_side(_Cliff(rough=False), 1, (target,), 0.3, [])
     assert stalled[0] < cliff.edge - 0.01 and reached == [False]  # what the bracket is for
+
+
+@pytest.mark.parametrize("step", [0.015, 0.3, 2.0])
+@pytest.mark.parametrize("wall", [math.inf, 1.001, 1.5])
+def test_a_rough_profile_ends_inside_its_bracket(step, wall):
+    """From any first step, small (the 24 steps run out before the bracket is a thousandth
+    wide) or large (past an infinite wall beyond the cliff), the end lies in the bracket
+    around the crossing, on the cliff and not on its flat side, and the target is reached."""
+    target = 1.6448536269514722
+    cliff = _Cliff(rough=True, wall=wall)
+    crossing = cliff.edge + (target**2 - cliff.flat * cliff.edge**2) / cliff.steep
+    ends, reached, _ = search_side(cliff, 1, (target,), step, [], precision=2e-3)
+    assert reached == [True]
+    assert cliff.edge <= ends[0] <= min(wall, crossing + 0.05)

@@ -295,8 +295,9 @@ def test_a_creeping_staircase_fit_on_an_edge_cliff_is_profiled_across_it(monkeyp
     interval (0.0151, 0.0166) N left out the truth 0.0223 N, though with F_peak pinned
     there SciPy's least_squares from the fit's other values finds chi-square below the
     fit's. Now the edges stay between their samples: the profile at the truth is no higher
-    than SciPy's conditional minimum there, from the fit and from a grid of the edges'
-    offset and stretch, and the interval holds the truth."""
+    than SciPy's conditional minimum there, from the fit, from the grid of the edges' offset
+    and stretch the forecast searches and from six drawn at random, and the interval holds
+    the truth."""
     import granflow.forecast.creeping as creeping
     from granflow.forecast.calibration import draw
 
@@ -323,7 +324,10 @@ def test_a_creeping_staircase_fit_on_an_edge_cliff_is_profiled_across_it(monkeyp
     others = [i for i in problem.free if i != 0]
     pinned = {0: problem.parameters[0].to_internal(case.strength)}
     lowest = math.inf
-    for e, d in [(None, None)] + [(e, d) for e in (-5.0, 0.0, 5.0) for d in (-5.0, 0.0, 5.0)]:
+    grid = [(e, d) for e in (-5.0, 0.0, 5.0) for d in (-5.0, 0.0, 5.0)]
+    # and starts the forecast's own search does not use: (e, d) drawn across their box
+    drawn = [tuple(pair) for pair in np.random.default_rng(7).uniform(-10.0, 10.0, (6, 2))]
+    for e, d in [(None, None), *grid, *drawn]:
         start = np.array(fit.values, dtype=float)
         if e is not None:
             start[names.index("e")], start[names.index("d")] = e, d

@@ -211,7 +211,8 @@ class Problem:
     across the samples):
     Levenberg-Marquardt then keeps the coordinates a bound holds still (:meth:`lm`), and a
     profile's end search keeps the crossing it has bracketed
-    (:func:`~granflow.fitting.profile_search.search_side`).
+    (:func:`~granflow.fitting.profile_search.search_side`). The compiled solver of a single
+    Eq. 3 curve has no such likelihood and ignores it.
 
     ``penalty`` (optional) adds standardised residuals that are not data: Gaussian priors on
     parameters or on quantities derived from them, and standard-normal nuisance coordinates.

@@ -300,6 +300,35 @@ def _newton_step(points, slopes):
 _ROUGH_STEPS = 24  # a rough likelihood's end search: bracketing a cliff takes more steps
 
 
+def _bracket(below, past, point, direction, moved):
+    """A rough end search's bracket after ``point`` ``(u, sqrt(delta) - target)``:
+    ``(below, past, again)``, the outermost point below the target inside the first one
+    past it, that point, and whether ``point`` fell on the side the last one did. A point
+    below the target beyond the one past it drops that one (the profile fell back: its
+    lower envelope crosses further out); a point past the target beyond a bracket leaves it
+    as it is; an infinite delta is past."""
+    u, value = point
+    side = value > 0
+    if side:
+        if past is None or (past[0] - u) * direction > 0:
+            past = point
+    else:
+        if past is not None and (u - past[0]) * direction > 0:
+            past = None
+        if below is None or (u - below[0]) * direction > 0:
+            below = point
+    return below, past, side == moved
+
+
+def _falsi(below, past):
+    """Regula falsi's point inside a bracket ``(u, g)`` below and past the target (its
+    middle where the point past it is infinite)."""
+    (ua, ga), (ub, gb) = below, past
+    if not math.isfinite(gb):
+        return 0.5 * (ua + ub)
+    return ub - gb * (ub - ua) / (gb - ga)
+
+
 def search_side(
     conditional,
     direction,
@@ -313,7 +342,8 @@ def search_side(
     hint_offsets=(),
 ):
     """Secant searches, one after the other, for the coordinates where sqrt(delta) reaches
-    each of ``targets`` (increasing) on one side, to ``precision`` of sqrt(delta). With
+    each of ``targets`` (increasing) on one side, to ``precision`` of sqrt(delta) (a rough
+    problem's, once bracketed, to a thousandth of the end's distance from the optimum). With
     ``check``, a point past a target is solved from more starts (see :class:`Conditional`);
     ``hints`` (one internal coordinate per target, or NaN) are where each search looks
     first (a previous scan's ends), and ``hint_offsets`` (per target, or None: a previous
@@ -368,7 +398,8 @@ def search_side(
         # a rough likelihood's bracket: the last points below and past the target, and
         # whether the last two points fell on the same side of it
         rough = conditional.problem.rough
-        below, past, moved, again = None, None, None, False
+        below = (origin[0], origin[1] - target) if rough else None
+        past, moved, again = None, None, False
         for _ in range(_ROUGH_STEPS if rough else 12):
             if (direction > 0 and u >= limit) or (direction < 0 and u <= limit):
                 u = limit
@@ -385,14 +416,9 @@ def search_side(
                 record.append(conditional.point(u, delta, u_others))
             value = math.sqrt(delta) - target
             points.append((u, value))
-            if rough and math.isfinite(value):
-                side = value > 0
-                again = side == moved
-                if side:
-                    past = (u, value)
-                else:
-                    below = (u, value)
-                moved = side
+            if rough and not math.isnan(value):
+                below, past, again = _bracket(below, past, (u, value), direction, moved)
+                moved = value > 0
             here = math.nan
             if conditional.last is not None and delta > 0:
                 here = conditional.last[0] / (2.0 * math.sqrt(delta))
@@ -429,19 +455,20 @@ def search_side(
                 # sqrt(delta chi-square) is nearly linear in u: the secant root is within
                 # a small fraction of the tolerance of the true root, no evaluation needed
                 end = u2 - g2 / slope
+                if past is not None:  # a rough search's end stays inside its bracket
+                    end = min(max(end, min(below[0], past[0])), max(below[0], past[0]))
                 break
-            if below is not None and past is not None:
+            if past is not None:
                 # a crossing bracketed on a rough likelihood: regula falsi inside it, halved
                 # where the last two points fell on one side (the secant through the last
                 # two points stalls on the flat side of a cliff), and the end where the
                 # bracket is a thousandth of its distance from the optimum (at a cliff the
                 # signed root's precision is no measure)
-                (ua, ga), (ub, gb) = below, past
-                falsi = ub - gb * (ub - ua) / (gb - ga)
-                if abs(ub - ua) <= 1e-3 * abs(falsi - u_hat) + 1e-12:
+                falsi = _falsi(below, past)
+                if abs(past[0] - below[0]) <= 1e-3 * abs(falsi - u_hat) + 1e-12:
                     end = falsi
                     break
-                u = 0.5 * (ua + ub) if again else falsi
+                u = 0.5 * (below[0] + past[0]) if again else falsi
                 continue
             proposal = u + direction * step if slope * direction <= 0 else u2 - g2 / slope
             if expand and g2 < 0 and abs(g2 - g1) < 0.05 * target:
@@ -451,6 +478,10 @@ def search_side(
             if (proposal - origin[0]) * direction <= 0:
                 proposal = origin[0] + 0.5 * (u - origin[0])
             u = proposal
+        if end is None and past is not None:
+            # a rough search's steps ran out inside its bracket: its outer end, where the
+            # profile is known past the target (the interval errs wide, not short)
+            end = past[0]
         if end is None:
             # no crossing within the search's steps: the profile is too flat to say; the
             # higher targets are not sought

@@ -35,7 +35,7 @@ _NO_FAILURE = 20.0  # a strength this many times the largest force held: no fail
 _PROFILE_RATIOS = (0.1, 0.3, 0.5, 0.8)  # the profiles' restarts' shapes (see _profile_starts)
 _PROFILE_PEAKS = (0.5, 0.7, 1.0, 1.5, 3.0)  # F_peak over the best fit's, in the time's restarts
 _PROFILE_AMPLITUDE = 0.01  # A over F_peak, beside the best fit's, in the restarts
-_PROFILE_EDGES = (-5.0, 0.0, 5.0)  # the edges' offset and stretch slots in the time's restarts
+_PROFILE_EDGES = (-5.0, 0.0, 5.0)  # the edges' offset and stretch (e, d): a staircase's grid
 _EDGE_GAIN = 0.01  # chi-square a fit made again from other edges must gain to replace it
 _PRECISION = 2e-3  # of the profiles' ends' signed roots (not followed live: no need of 1e-4)
 
@@ -75,11 +75,12 @@ def _profile_starts(model, best, peak_force):
     does not yet bound: the profile flat far above the best fit), so that the profile
     would read a wall where there is none.
 
-    A staircase's timed variant also starts the best fit from a grid of the edges' offset
-    and stretch (e, d), and from the offset that keeps the failure where the best fit has
-    it relative to the edge it fails after: a creeping layer slips fastest just after each
-    edge, so that a failure time pinned across an edge from the best fit's calls for
-    other edges (and shape), which a warm start carrying the best fit's does not reach."""
+    A staircase's profiles also start the best fit from a grid of the edges' offset and
+    stretch (e, d) (chi-square over them has many minima), and the timed variant's from
+    the offset that keeps the failure where the best fit has it relative to the edge it
+    fails after: a creeping layer slips fastest just after each edge, so that a failure
+    time pinned across an edge from the best fit's calls for other edges (and shape), which
+    a warm start carrying the best fit's does not reach."""
     names = model.names
     fraction = best["amplitude"] / best["peak_force"]
     shapes = [(best["ratio"], best["s0"])]
@@ -146,8 +147,15 @@ def _edges_polished(fit, model):
     chisqr, _, hessian = problem.state(solution.x, problem.free)
     if not chisqr < fit.chisqr - _EDGE_GAIN:
         return fit
-    values = problem.values(solution.x)
-    return dataclasses.replace(fit, values=values, chisqr=float(chisqr), hessian=hessian)
+    # the fit it replaces is a minimum a hair above: its valley is profiled too
+    return dataclasses.replace(
+        fit,
+        values=problem.values(solution.x),
+        chisqr=float(chisqr),
+        hessian=hessian,
+        nfev=fit.nfev + solution.nfev,
+        others=(np.array(fit.values, dtype=float), *fit.others),
+    )
 
 
 def forecast_creep(time, slip, loading, until, level, amplitude, prior, sigma, observed, message):

@@ -216,7 +216,11 @@ def _nuisance_held(problem, nuisance):
         problem.parameters[index].fixed = True
     if held:
         problem = type(problem)(
-            problem.curves, problem.parameters, model=problem.model, penalty=problem.penalty
+            problem.curves,
+            problem.parameters,
+            model=problem.model,
+            penalty=problem.penalty,
+            rough=problem.rough,
         )
     return problem
 
