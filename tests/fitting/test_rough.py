@@ -14,18 +14,17 @@ from granflow.fitting.engine import Curve, GlobalParameter, Model, Problem
 from granflow.fitting.profile_search import search_side
 
 
-def _decay(x, amplitude, rate, offset):
-    return amplitude * np.exp(-rate * x) + offset
-
-
-def _decay_jacobian(x, amplitude, rate, offset):
+def _decay_and_slopes(x, amplitude, rate, offset):
+    """amplitude exp(-rate x) + offset and its derivatives by the three."""
     e = np.exp(-rate * x)
-    return _decay(x, amplitude, rate, offset), np.column_stack(
-        [e, -amplitude * x * e, np.ones_like(x)]
-    )
+    return amplitude * e + offset, np.column_stack([e, -amplitude * x * e, np.ones_like(x)])
 
 
-DECAY = Model(("amplitude", "rate", "offset"), _decay, _decay_jacobian, log=(False, True, False))
+def _decay(x, amplitude, rate, offset):
+    return _decay_and_slopes(x, amplitude, rate, offset)[0]
+
+
+DECAY = Model(("amplitude", "rate", "offset"), _decay, _decay_and_slopes, log=(False, True, False))
 
 
 def _problem(seed, floor, rough):
